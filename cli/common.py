@@ -1,0 +1,93 @@
+"""Shared option parsing, output and error handling for the click commands."""
+
+from __future__ import annotations
+
+import functools
+import json
+import math
+import sys
+from pathlib import Path
+
+import click
+
+
+class InputError(click.UsageError):
+    """Bad input: click prints ``Error: ...`` and exits with code 2."""
+
+
+def parse_floats(text: str, option: str, positive=False, nonnegative=False, count=None) -> list[float]:
+    """``"0,0.1,0.2"`` -> ``[0.0, 0.1, 0.2]``, or an :class:`InputError` naming ``option``."""
+    try:
+        values = [float(x) for x in str(text).replace(" ", "").split(",") if x != ""]
+    except ValueError:
+        raise InputError(f"{option}: expected comma-separated numbers, got {text!r}") from None
+    if not values:
+        raise InputError(f"{option}: expected at least one number")
+    if any(not math.isfinite(v) for v in values):
+        raise InputError(f"{option}: values must be finite, got {text!r}")
+    if positive and any(v <= 0 for v in values):
+        raise InputError(f"{option}: values must be positive, got {text!r}")
+    if nonnegative and any(v < 0 for v in values):
+        raise InputError(f"{option}: values must not be negative, got {text!r}")
+    if count is not None and len(values) not in count:
+        raise InputError(f"{option}: expected {' or '.join(map(str, count))} numbers, got {len(values)}")
+    return values
+
+
+def accuracy_option(f):
+    """``--accuracy`` (draft/default/high or a tolerance) and ``--rtol``, shared by all commands."""
+    f = click.option("--rtol", type=float, default=None,
+                     help="Relative tolerance of the solver (overrides --accuracy), e.g. 1e-8.")(f)
+    f = click.option("--accuracy", default="default", show_default=True,
+                     help="draft (1e-6), default (1e-10), high (1e-12), or a relative tolerance.")(f)
+    return f
+
+
+def settings_from(accuracy, rtol):
+    from coexist.errors import SceneError
+    from coexist.settings import SolverSettings
+
+    try:
+        return SolverSettings(rtol=rtol) if rtol is not None else SolverSettings.from_accuracy(accuracy)
+    except SceneError as exc:
+        raise InputError(f"--{exc.field or 'accuracy'}: {exc.message}") from None
+
+
+def library_errors(func):
+    """Turn library errors into clean exits: bad input -> exit 2, solver/physics failure -> exit 1."""
+
+    @functools.wraps(func)
+    def wrapper(*args, **kwargs):
+        from coexist.errors import CoexistError, SceneError
+
+        try:
+            return func(*args, **kwargs)
+        except SceneError as exc:
+            raise InputError(str(exc)) from None
+        except CoexistError as exc:
+            click.echo(f"Error: {exc}", err=True)
+            sys.exit(1)
+
+    return wrapper
+
+
+def write_json(data: dict) -> None:
+    click.echo(json.dumps(data, indent=1, sort_keys=True, allow_nan=False))
+
+
+def check_output_path(path: str | None, overwrite: bool, option: str) -> Path | None:
+    if path is None:
+        return None
+    p = Path(path)
+    if p.exists() and not overwrite:
+        raise InputError(f"{option}: {p} exists; pass --overwrite to replace it")
+    if p.suffix.lower() not in (".png", ".svg", ".pdf", ".csv", ".json"):
+        raise InputError(f"{option}: unsupported file type {p.suffix!r} (use .png, .svg, .pdf, .csv)")
+    if not p.parent.exists():
+        raise InputError(f"{option}: folder {p.parent} does not exist")
+    return p
+
+
+def info(message: str) -> None:
+    """Progress and notes go to stderr, data to stdout."""
+    click.echo(message, err=True)

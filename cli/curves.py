@@ -1,0 +1,117 @@
+"""``coexist curves``: the p̂–V̂ and Φ̂–Q̂ families of one clamped zone."""
+
+from __future__ import annotations
+
+import click
+
+from .common import (InputError, accuracy_option, check_output_path, info, library_errors, parse_floats,
+                     settings_from, write_json)
+
+
+@click.command()
+@click.option("--material", default="neo-hookean", show_default=True, help="neo-hookean or gent.")
+@click.option("--jlim", type=float, default=None, help="Gent limiting stretch invariant Jlim (gent only), e.g. 97.")
+@click.option("--prestretch", type=float, default=1.0, show_default=True, help="Equibiaxial prestretch λpre ≥ 1.")
+@click.option("--phi-hat", "phi_hat", default="0,0.05,0.1,0.15,0.2", show_default=True,
+              help="Voltages Φ̂ of the pressure–volume curves, comma-separated.")
+@click.option("--p-hat", "p_hat", default="1.2,1.5,1.7", show_default=True,
+              help="Pressures p̂ of the voltage–charge curves, comma-separated ('none' to skip).")
+@click.option("--pole-stretch", "pole_stretch", default="1.01,4", show_default=True,
+              help="Pole-stretch range 'start,stop' of every curve.")
+@click.option("--points", type=click.IntRange(3, 5000), default=200, show_default=True,
+              help="States per curve.")
+@click.option("-o", "--plot", "plot", default=None, help="Write the figure here (.png, .svg or .pdf).")
+@click.option("--json", "as_json", is_flag=True, help="Print the curves as JSON on stdout.")
+@click.option("--csv", "csv_path", default=None, help="Write the curves as CSV to this file ('-' for stdout).")
+@click.option("--overwrite", is_flag=True, help="Replace existing output files.")
+@accuracy_option
+@library_errors
+def curves(material, jlim, prestretch, phi_hat, p_hat, pole_stretch, points, plot, as_json, csv_path, overwrite,
+           accuracy, rtol):
+    """Pressure–volume curves at fixed voltage and voltage–charge curves at fixed pressure.
+
+    All quantities are normalised (PHYSICS.md): p̂ = pA/(μH), V̂ = V/A³, Φ̂ = (Φ/H)√(ε/μ),
+    Q̂ = Q/(A²√(εμ)). Limit points (pressure, voltage and volume extrema) are located to the solver
+    tolerance and marked.
+    """
+    import numpy as np
+
+    from coexist.curves import pressure_volume_curve, voltage_charge_curve
+    from coexist.errors import SceneError
+    from coexist.model import build_model
+
+    settings = settings_from(accuracy, rtol)
+    phis = parse_floats(phi_hat, "--phi-hat", nonnegative=True)
+    pressures = [] if p_hat.strip().lower() == "none" else parse_floats(p_hat, "--p-hat", positive=True)
+    lo, hi = parse_floats(pole_stretch, "--pole-stretch", positive=True, count=(2,))
+    if hi <= lo:
+        raise InputError(f"--pole-stretch: the range must increase, got {pole_stretch!r}")
+    if jlim is not None and not jlim > 0:
+        raise InputError(f"--jlim: must be positive, got {jlim:g}")
+    if material.strip().lower() != "gent" and jlim is not None:
+        raise InputError("--jlim: only the gent material takes jlim")
+    try:
+        model = build_model(material, jlim=jlim, voltage=True, prestretch=prestretch)
+    except SceneError as exc:
+        raise InputError(f"--{(exc.field or 'material').replace('_', '-')}: {exc.message}") from None
+    if lo <= model.prestretch:
+        raise InputError(f"--pole-stretch: must start above the prestretch {model.prestretch:g}, got {lo:g}")
+    plot_path = check_output_path(plot, overwrite, "--plot")
+    csv_file = None if csv_path in (None, "-") else check_output_path(csv_path, overwrite, "--csv")
+    grid = np.linspace(lo, hi, points)
+    pv, vq = [], []
+    for phi in phis:
+        pv.append(pressure_volume_curve(model, phi, grid, settings))
+        _note(pv[-1])
+    for p in pressures:
+        vq.append(voltage_charge_curve(model, p, grid, settings))
+        _note(vq[-1])
+    data = {
+        "model": model.describe(),
+        "settings": {"relative_tolerance": settings.rtol, "points": points, "pole_stretch_range": [lo, hi]},
+        "curves": [c.to_dict() for c in pv + vq],
+    }
+    if plot_path is not None:
+        from coexist.plotting import plot_curves
+
+        plot_curves(pv, vq, plot_path, title=_title(model))
+        info(f"wrote {plot_path}")
+    if csv_path is not None:
+        from coexist.results import curves_csv
+
+        text = curves_csv(pv + vq)
+        if csv_file is None:
+            click.echo(text, nl=False)
+        else:
+            csv_file.write_text(text)
+            info(f"wrote {csv_file}")
+    if as_json:
+        write_json(data)
+    if not as_json and csv_path != "-":
+        _summary(pv, vq, settings)
+
+
+def _title(model):
+    d = model.describe()
+    s = d["material"] + (f", Jlim = {d['jlim']:g}" if "jlim" in d else "")
+    return s + (f", λpre = {model.prestretch:g}" if model.prestretch != 1 else "")
+
+
+def _note(curve):
+    name = "Φ̂" if curve.family == "pressure_volume" else "p̂"
+    if curve.starts_because:
+        info(f"note: curve at {name} = {curve.fixed:g} starts late: {curve.starts_because}")
+    if curve.stopped_because:
+        info(f"note: curve at {name} = {curve.fixed:g} stops early: {curve.stopped_because}")
+
+
+def _summary(pv, vq, settings):
+    click.echo(f"limit points (relative tolerance {settings.rtol:.0e}):")
+    for c in pv:
+        for lp in c.limit_points:
+            click.echo(f"  Φ̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  p̂ = {lp.p_hat:.10f}"
+                       f"  V̂ = {lp.v_hat:.8f}")
+    for c in vq:
+        for lp in c.limit_points:
+            click.echo(f"  p̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  Φ̂ = {lp.phi_hat:.10f}"
+                       f"  Q̂ = {lp.q_hat:.8f}")

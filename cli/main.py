@@ -1,0 +1,26 @@
+"""The ``coexist`` command group. Each subcommand parses options, calls the library, prints."""
+
+from __future__ import annotations
+
+import click
+
+from coexist import __version__
+
+from .curves import curves
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="coexist")
+def cli():
+    """Inflated dielectric elastomer membranes: inflation curves, voltage actuation, phase coexistence.
+
+    Data go to stdout (--json, --csv), progress and notes to stderr. Exit code 0 on success,
+    2 for bad input, 1 when the physics or a solver fails (the message says why).
+    """
+
+
+cli.add_command(curves)
+
+
+def main():
+    cli(prog_name="coexist")

@@ -1,0 +1,118 @@
+"""Physical effects a membrane model is built from: one class each, "off" included.
+
+A model is assembled from one elasticity effect and one electrostatics effect; each contributes
+its own symbolic terms to the free energy at fixed voltage, so turning an effect off removes its
+terms from the equations instead of multiplying them by zero. All energies are per unit reference
+volume and normalised by the shear modulus ``μ``; the voltage enters as ``Φ̂ = (Φ/H)√(ε/μ)``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import casadi as ca
+
+from .errors import SceneError
+
+
+def first_invariant(l1, l2):
+    """``I1 - 3 = λ1² + λ2² + λ1⁻²λ2⁻² - 3`` of an incompressible membrane (zero when unstretched)."""
+    return l1**2 + l2**2 + 1 / (l1**2 * l2**2) - 3
+
+
+@dataclass(frozen=True)
+class NeoHookean:
+    """Neo-Hookean elasticity, ``Ws/μ = (λ1² + λ2² + λ1⁻²λ2⁻² − 3)/2`` (seed eq. 2, PHYSICS.md)."""
+
+    name = "neo-hookean"
+
+    def strain_energy(self, l1, l2):
+        return 0.5 * first_invariant(l1, l2)
+
+    def locking_margin(self, l1, l2):
+        """Always positive: a neo-Hookean membrane never locks."""
+        return None
+
+    def describe(self) -> dict:
+        return {"material": self.name}
+
+
+@dataclass(frozen=True)
+class Gent:
+    """Gent elasticity, ``Ws/μ = −(Jlim/2) ln(1 − (λ1² + λ2² + λ1⁻²λ2⁻² − 3)/Jlim)``.
+
+    Parameters
+    ----------
+    jlim : float
+        Limiting value of ``I1 − 3``; VHB is often given ``Jlim ≈ 97–120``. ``Jlim → ∞`` recovers
+        :class:`NeoHookean`.
+    """
+
+    jlim: float
+    name = "gent"
+
+    def __post_init__(self):
+        if not (isinstance(self.jlim, (int, float)) and math.isfinite(self.jlim) and self.jlim > 0):
+            raise SceneError(f"Jlim must be a positive number, got {self.jlim!r}", "jlim")
+
+    def strain_energy(self, l1, l2):
+        return -0.5 * self.jlim * ca.log(1 - first_invariant(l1, l2) / self.jlim)
+
+    def locking_margin(self, l1, l2):
+        """``1 − (I1 − 3)/Jlim``: the chains lock where it reaches zero."""
+        return 1 - first_invariant(l1, l2) / self.jlim
+
+    def describe(self) -> dict:
+        return {"material": self.name, "jlim": self.jlim}
+
+
+@dataclass(frozen=True)
+class IdealDielectric:
+    """An ideal dielectric between compliant electrodes at fixed voltage.
+
+    Free energy at fixed voltage per reference volume, normalised by ``μ``:
+    ``−(ε/2)(Φ λ1 λ2 / H)²/μ = −Φ̂² λ1² λ2² / 2``; nominal charge per reference area
+    ``D λ1 λ2 / ... → q̂ = Φ̂ λ1² λ2²`` (so ``Q̂ = ∫ q̂ 2π R̂ dR̂``); true field ``Ê = Φ̂ λ1 λ2``.
+    """
+
+    name = "ideal-dielectric"
+    enabled = True
+
+    def energy(self, l1, l2, phi):
+        return -0.5 * phi**2 * l1**2 * l2**2
+
+    def charge_density(self, l1, l2, phi):
+        return phi * l1**2 * l2**2
+
+    def field(self, l1, l2, phi):
+        return phi * l1 * l2
+
+
+@dataclass(frozen=True)
+class NoElectrostatics:
+    """Electrostatics switched off: no voltage, no charge, no field terms are built at all."""
+
+    name = "none"
+    enabled = False
+
+    def energy(self, l1, l2, phi):
+        return None
+
+    def charge_density(self, l1, l2, phi):
+        return None
+
+    def field(self, l1, l2, phi):
+        return None
+
+
+def material_from_name(name: str, jlim: float | None = None):
+    """The elasticity effect for a material name (``neo-hookean`` or ``gent``)."""
+    key = name.strip().lower().replace("_", "-")
+    if key in ("neo-hookean", "neohookean", "nh"):
+        return NeoHookean()
+    if key == "gent":
+        if jlim is None:
+            raise SceneError("the Gent material needs jlim (e.g. 97 for VHB)", "jlim")
+        return Gent(float(jlim))
+    raise SceneError(f"unknown material {name!r}; use 'neo-hookean' or 'gent'", "material")

@@ -1,0 +1,45 @@
+"""One error hierarchy for the whole library.
+
+Every failure that leaves :mod:`coexist` is a :class:`CoexistError` that names its cause and the
+input that caused it; the command line turns :class:`SceneError` (bad input) into exit code 2 and
+every other :class:`CoexistError` (a solver or physical failure) into exit code 1.
+"""
+
+from __future__ import annotations
+
+
+class CoexistError(Exception):
+    """Base class of every error raised by :mod:`coexist`."""
+
+
+class SceneError(CoexistError, ValueError):
+    """Bad input: a scene field, a command-line option or a function argument out of range.
+
+    Parameters
+    ----------
+    message : str
+        What is wrong and what would be right.
+    field : str, optional
+        The field or option that holds the bad value, e.g. ``"[chamber].volume"`` or ``"--jlim"``.
+    """
+
+    def __init__(self, message: str, field: str | None = None):
+        self.field = field
+        self.message = message
+        super().__init__(f"{field}: {message}" if field else message)
+
+
+class SolverError(CoexistError, RuntimeError):
+    """A numerical solve did not converge or could not be verified; the message says why."""
+
+
+class ModelRangeError(CoexistError):
+    """The request lies outside the range where the membrane model holds.
+
+    Raised for wrinkling (a tension turns negative), Gent locking, breakdown, or a voltage at
+    which no pressurised equilibrium exists. ``reason`` is a short machine-readable tag.
+    """
+
+    def __init__(self, message: str, reason: str = "out_of_range"):
+        self.reason = reason
+        super().__init__(message)

@@ -1,0 +1,170 @@
+"""A vectorised adaptive Dormand-Prince 8(5,3) integrator for many trajectories at once.
+
+Every trajectory (one column of the state matrix) has its own independent variable, step size
+and step control, exactly as if it were integrated alone with :class:`scipy.integrate.DOP853`
+(whose Butcher tableau and error estimator this module reuses); the columns are only advanced
+together so that one numpy operation serves all of them. This is what makes a 200-point curve
+cost a few milliseconds instead of a second.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import DOP853 as _DOP853
+
+_A = _DOP853.A
+_B = _DOP853.B
+_C = _DOP853.C
+_E3 = _DOP853.E3
+_E5 = _DOP853.E5
+_NS = _DOP853.n_stages
+_SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
+_ERROR_EXPONENT = -1.0 / 8.0
+
+#: event codes returned by ``event(t_new, y_new)``: keep going
+CONTINUE = 0
+#: the trial step crossed the target: discard it and stop at the previous state
+CROSSED = 1
+#: codes >= FAILED accept the step and stop the trajectory with that failure code
+FAILED = 2
+#: the trajectory reached ``t_end``
+REACHED_END = -1
+#: the trajectory used up its steps
+STEP_LIMIT = -2
+
+
+@dataclass
+class IntegrationResult:
+    """Where each trajectory stopped, and why (one entry per column)."""
+
+    t: np.ndarray
+    y: np.ndarray
+    status: np.ndarray
+    steps: np.ndarray
+    t_previous: np.ndarray
+    y_previous: np.ndarray
+
+
+def _error_norm(K, h, scale):
+    """DOP853's blended 5th/3rd-order error estimate, one norm per column (Hairer II.10)."""
+    m, k = scale.shape
+    flat = K.reshape(K.shape[0], -1)
+    err5 = (_E5 @ flat).reshape(m, k) / scale
+    err3 = (_E3 @ flat).reshape(m, k) / scale
+    e5 = np.einsum("ij,ij->j", err5, err5)
+    e3 = np.einsum("ij,ij->j", err3, err3)
+    denom = e5 + 0.01 * e3
+    denom = np.where(denom > 0, denom, 1.0)
+    return np.abs(h) * e5 / np.sqrt(denom * m)
+
+
+def initial_step(fun, t, y, f, direction, rtol, atol):
+    """Hairer's starting step size, per column (as :func:`scipy.integrate._ivp.common.select_initial_step`)."""
+    m = y.shape[0]
+    scale = atol + np.abs(y) * rtol
+    d0 = np.sqrt(np.sum((y / scale) ** 2, axis=0) / m)
+    d1 = np.sqrt(np.sum((f / scale) ** 2, axis=0) / m)
+    h0 = np.where((d0 < 1e-5) | (d1 < 1e-5), 1e-6, 0.01 * d0 / np.where(d1 > 0, d1, 1.0))
+    y1 = y + h0 * direction * f
+    f1 = fun(t + h0 * direction, y1)
+    d2 = np.sqrt(np.sum(((f1 - f) / scale) ** 2, axis=0) / m) / h0
+    big = np.maximum(d1, d2)
+    h1 = np.where(big <= 1e-15, np.maximum(1e-6, h0 * 1e-3), (0.01 / np.where(big > 0, big, 1.0)) ** (1 / 8))
+    return np.minimum(100 * h0, h1)
+
+
+def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
+    """Integrate ``dy/dt = fun(t, y)`` for all columns of ``y0`` until each stops.
+
+    Parameters
+    ----------
+    fun : callable
+        ``fun(t, y)`` with ``t`` of shape ``(n,)`` and ``y`` of shape ``(m, n)``; returns ``(m, n)``.
+    t0, t_end : ndarray, shape (n,)
+        Start and end of each trajectory (``t_end < t0`` integrates backwards).
+    y0 : ndarray, shape (m, n)
+    rtol, atol : float
+        Tolerances of the local error per step, as in :func:`scipy.integrate.solve_ivp`.
+    max_steps : int
+        Attempted steps per trajectory before it stops with ``STEP_LIMIT``.
+    event : callable, optional
+        ``event(t_new, y_new, columns)`` returns an int code per column after each accepted trial
+        step: ``CONTINUE``, ``CROSSED`` (discard the step, stop at the previous state) or a code
+        ``>= FAILED`` (keep the step, stop with that code).
+    h0 : ndarray, optional
+        Initial step sizes (positive); chosen automatically when omitted.
+
+    Returns
+    -------
+    IntegrationResult
+    """
+    t = np.array(t0, dtype=float, copy=True)
+    y = np.array(y0, dtype=float, copy=True)
+    t_end = np.broadcast_to(np.asarray(t_end, dtype=float), t.shape).copy()
+    m, n = y.shape
+    direction = np.where(t_end >= t, 1.0, -1.0)
+    status = np.zeros(n, dtype=int)
+    steps = np.zeros(n, dtype=int)
+    t_prev = t.copy()
+    y_prev = y.copy()
+    f = fun(t, y)
+    if h0 is None:
+        h = initial_step(fun, t, y, f, direction, rtol, atol)
+    else:
+        h = np.broadcast_to(np.asarray(h0, dtype=float), t.shape).copy()
+    active = np.arange(n)
+    while active.size:
+        ta, ya, fa, ha, da, tea = t[active], y[:, active], f[:, active], h[active], direction[active], t_end[active]
+        span = np.abs(tea - ta)
+        last = ha >= span
+        ha = np.where(last, span, ha)
+        hs = ha * da
+        k = active.size
+        Ka = np.empty((_NS + 1, m, k))
+        Ka[0] = fa
+        for s in range(1, _NS):
+            dy = (_A[s, :s] @ Ka[:s].reshape(s, -1)).reshape(m, k) * hs
+            Ka[s] = fun(ta + _C[s] * hs, ya + dy)
+        y_new = ya + (_B @ Ka[:_NS].reshape(_NS, -1)).reshape(m, k) * hs
+        t_new = np.where(last, tea, ta + hs)
+        f_new = fun(t_new, y_new)
+        Ka[_NS] = f_new
+        scale = atol + np.maximum(np.abs(ya), np.abs(y_new)) * rtol
+        err = _error_norm(Ka, hs, scale)
+        finite = np.all(np.isfinite(y_new), axis=0) & np.all(np.isfinite(f_new), axis=0)
+        accepted = (err <= 1.0) & finite
+        factor = np.where(
+            err == 0, _MAX_FACTOR, np.clip(_SAFETY * np.where(err > 0, err, 1.0) ** _ERROR_EXPONENT, _MIN_FACTOR, _MAX_FACTOR)
+        )
+        factor = np.where(accepted, factor, np.minimum(1.0, factor))
+        factor = np.where(finite, factor, 0.25)
+        steps[active] += 1
+        h[active] = ha * factor
+        code = np.zeros(k, dtype=int)
+        if event is not None and np.any(accepted):
+            acc = np.flatnonzero(accepted)
+            code[acc] = event(t_new[acc], y_new[:, acc], active[acc])
+        move = accepted & (code != CROSSED)
+        idx = active[move]
+        t_prev[idx] = ta[move]
+        y_prev[:, idx] = ya[:, move]
+        t[idx] = t_new[move]
+        y[:, idx] = y_new[:, move]
+        f[:, idx] = f_new[:, move]
+        done = np.zeros(k, dtype=bool)
+        crossed = accepted & (code == CROSSED)
+        status[active[crossed]] = CROSSED
+        done |= crossed
+        failed = accepted & (code >= FAILED)
+        status[active[failed]] = code[failed]
+        done |= failed
+        ended = move & last & ~failed
+        status[active[ended]] = REACHED_END
+        done |= ended
+        out_of_steps = ~done & (steps[active] >= max_steps)
+        status[active[out_of_steps]] = STEP_LIMIT
+        done |= out_of_steps
+        active = active[~done]
+    return IntegrationResult(t=t, y=y, status=status, steps=steps, t_previous=t_prev, y_previous=y_prev)

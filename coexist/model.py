@@ -1,0 +1,159 @@
+"""The membrane model: free energy at fixed voltage, tensions, and the shooting equations.
+
+Built once, symbolically with CasADi, from the effects it is given (:mod:`coexist.effects`);
+then translated into numpy (:mod:`coexist.symbolic`) for the vectorised integrator.
+
+Equations (PHYSICS.md, normalised with ``μ``, ``H`` and the zone radius ``A``; ``' = d/dR̂``):
+
+- ``W*(λ1, λ2; Φ̂) = Ws(λ1, λ2)/μ − Φ̂² λ1² λ2² / 2``
+- ``T̂1 = ∂W*/∂λ1``, ``T̂2 = ∂W*/∂λ2`` (nominal tensions over ``μH``)
+- ``λ2' = (λ1 cos θ − λ2)/R̂``
+- ``(R̂ T̂1)' = T̂2 cos θ``, expanded into
+  ``λ1' = (T̂2 cos θ − T̂1 − R̂ ∂T̂1/∂λ2 λ2') / (R̂ ∂T̂1/∂λ1)``
+- ``θ' = (p̂ λ1 λ2 R̂ − T̂2 sin θ) / (R̂ T̂1)``
+- quadratures ``V̂' = π r̂² λ1 sin θ``, ``Q̂' = 2π Φ̂ λ1² λ2² R̂``, ``Ψ̂' = 2π W* R̂``,
+  ``ẑ' = λ1 sin θ`` (height of the pole above the clamp plane).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import casadi as ca
+
+from .effects import IdealDielectric, NeoHookean, NoElectrostatics
+from .errors import SceneError
+from .symbolic import numpy_function
+
+#: rows of the integrated state (the last two are constant parameters carried per column)
+STATE_ROWS = ("stretch_meridional", "stretch_hoop", "angle", "volume", "charge", "potential", "height",
+              "pressure", "voltage")
+
+
+@dataclass(frozen=True)
+class MembraneModel:
+    """A clamped circular dielectric elastomer membrane, built from its effects.
+
+    Parameters
+    ----------
+    elasticity : NeoHookean or Gent
+        Strain energy of the elastomer.
+    electrostatics : IdealDielectric or NoElectrostatics
+        Whether the membrane carries a voltage at all.
+    prestretch : float
+        Equibiaxial prestretch ``λpre ≥ 1`` of the clamped membrane; the rim condition is
+        ``λ2(1) = λpre``, lengths stay normalised by the unstretched radius ``A``.
+    """
+
+    elasticity: object = field(default_factory=NeoHookean)
+    electrostatics: object = field(default_factory=IdealDielectric)
+    prestretch: float = 1.0
+
+    def __post_init__(self):
+        if not (isinstance(self.prestretch, (int, float)) and math.isfinite(self.prestretch)
+                and self.prestretch >= 1.0):
+            raise SceneError(f"prestretch must be a number >= 1, got {self.prestretch!r}", "prestretch")
+        object.__setattr__(self, "_built", _build(self))
+
+    # --- description -------------------------------------------------------------------------
+    @property
+    def effects(self) -> list[str]:
+        """Names of the effects this model simulates."""
+        names = [f"elasticity:{self.elasticity.name}"]
+        if self.electrostatics.enabled:
+            names.append(f"electrostatics:{self.electrostatics.name}")
+        if self.prestretch != 1.0:
+            names.append("prestretch")
+        return names
+
+    @property
+    def has_voltage(self) -> bool:
+        return bool(self.electrostatics.enabled)
+
+    def describe(self) -> dict:
+        """Plain-dict description (material, Jlim, prestretch, effects)."""
+        out = dict(self.elasticity.describe())
+        out["prestretch"] = self.prestretch
+        out["effects"] = self.effects
+        return out
+
+    # --- symbolic access (tests and the coexistence solver use these) --------------------------
+    @property
+    def symbols(self) -> dict:
+        """CasADi symbols and expressions: ``l1, l2, phi, W, T1, T2, T11, T12`` and the RHS."""
+        return self._built["symbols"]
+
+    # --- numeric functions (numpy, vectorised) -------------------------------------------------
+    def free_energy(self, l1, l2, phi=0.0):
+        """``W*(λ1, λ2; Φ̂)``, the free energy density at fixed voltage over ``μ``."""
+        return self._built["energy"](l1, l2, phi)[0]
+
+    def tensions(self, l1, l2, phi=0.0):
+        """``(T̂1, T̂2, ∂T̂1/∂λ1, ∂T̂1/∂λ2, locking margin, Ê)`` at given stretches and voltage."""
+        return self._built["aux"](l1, l2, phi)
+
+    def rhs(self, R, l1, l2, theta, p, phi):
+        """Right-hand side ``(λ1', λ2', θ', V̂', Q̂', Ψ̂', ẑ')`` of the membrane equations."""
+        return self._built["rhs"](R, l1, l2, theta, p, phi)
+
+    def pole(self, l0, phi=0.0):
+        """Pole quantities ``(T0, α, β, W0, q0)``: tension, its stretch derivatives, energy, charge density."""
+        return self._built["pole"](l0, phi)
+
+
+def _build(model: MembraneModel) -> dict:
+    l1, l2, th, R, p, phi = (ca.SX.sym(n) for n in ("l1", "l2", "theta", "R", "p", "phi"))
+    W = model.elasticity.strain_energy(l1, l2)
+    elec = model.electrostatics.energy(l1, l2, phi)
+    if elec is not None:
+        W = W + elec
+    T1 = ca.gradient(W, l1)
+    T2 = ca.gradient(W, l2)
+    T11 = ca.gradient(T1, l1)
+    T12 = ca.gradient(T1, l2)
+    margin = model.elasticity.locking_margin(l1, l2)
+    margin = ca.SX(1.0) if margin is None else margin
+    q = model.electrostatics.charge_density(l1, l2, phi)
+    q = ca.SX(0.0) if q is None else q
+    E = model.electrostatics.field(l1, l2, phi)
+    E = ca.SX(0.0) if E is None else E
+    c, s = ca.cos(th), ca.sin(th)
+    dl2 = (l1 * c - l2) / R
+    dl1 = (T2 * c - T1 - R * T12 * dl2) / (R * T11)
+    dth = (p * l1 * l2 * R - T2 * s) / (R * T1)
+    dV = math.pi * (l2 * R) ** 2 * l1 * s
+    dQ = 2 * math.pi * q * R
+    dPsi = 2 * math.pi * W * R
+    dz = l1 * s
+    l0 = ca.SX.sym("l0")
+
+    def sub(expr):
+        return ca.substitute(expr, ca.vertcat(l1, l2), ca.vertcat(l0, l0))
+
+    rhs = ca.Function("membrane_rhs", [R, l1, l2, th, p, phi], [dl1, dl2, dth, dV, dQ, dPsi, dz])
+    aux = ca.Function("membrane_aux", [l1, l2, phi], [T1, T2, T11, T12, margin, E])
+    energy = ca.Function("membrane_energy", [l1, l2, phi], [W])
+    pole = ca.Function("membrane_pole", [l0, phi], [sub(T1), sub(T11), sub(T12), sub(W), sub(q)])
+    return {
+        "symbols": {"l1": l1, "l2": l2, "theta": th, "R": R, "p": p, "phi": phi, "W": W, "T1": T1,
+                    "T2": T2, "T11": T11, "T12": T12, "q": q, "E": E,
+                    "rhs": ca.vertcat(dl1, dl2, dth, dV, dQ, dPsi, dz)},
+        "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole},
+        "rhs": numpy_function(rhs),
+        "aux": numpy_function(aux),
+        "energy": numpy_function(energy),
+        "pole": numpy_function(pole),
+    }
+
+
+def build_model(material: str = "neo-hookean", jlim: float | None = None, voltage: bool = True,
+                prestretch: float = 1.0) -> MembraneModel:
+    """Convenience constructor from plain values (what the command line uses)."""
+    from .effects import material_from_name
+
+    return MembraneModel(
+        elasticity=material_from_name(material, jlim),
+        electrostatics=IdealDielectric() if voltage else NoElectrostatics(),
+        prestretch=float(prestretch),
+    )

@@ -1,0 +1,137 @@
+"""Turn a CasADi SX function into plain numpy code.
+
+The physics is written once, symbolically, with CasADi (exact derivatives, common subexpressions
+eliminated by CasADi). Evaluating a CasADi function on arrays of a few hundred states costs more in
+call overhead than the arithmetic itself, so the hot path uses numpy code generated from the same
+expression graph: :func:`numpy_function` walks the SX algorithm instruction by instruction and
+emits one numpy statement per instruction. The generated function is tested against CasADi's own
+evaluation (``tests/test_model.py``).
+"""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+
+_BINARY = {
+    ca.OP_ADD: "{0} + {1}",
+    ca.OP_SUB: "{0} - {1}",
+    ca.OP_MUL: "{0} * {1}",
+    ca.OP_DIV: "{0} / {1}",
+    ca.OP_POW: "{0} ** {1}",
+    ca.OP_CONSTPOW: "{0} ** {1}",
+    ca.OP_FMIN: "_np.minimum({0}, {1})",
+    ca.OP_FMAX: "_np.maximum({0}, {1})",
+    ca.OP_ATAN2: "_np.arctan2({0}, {1})",
+    ca.OP_LT: "({0} < {1})",
+    ca.OP_LE: "({0} <= {1})",
+    ca.OP_EQ: "({0} == {1})",
+    ca.OP_NE: "({0} != {1})",
+    ca.OP_COPYSIGN: "_np.copysign({0}, {1})",
+    ca.OP_HYPOT: "_np.hypot({0}, {1})",
+    ca.OP_IF_ELSE_ZERO: "_np.where({0}, {1}, 0.0)",
+}
+_UNARY = {
+    ca.OP_NEG: "-{0}",
+    ca.OP_SQ: "{0} * {0}",
+    ca.OP_TWICE: "2.0 * {0}",
+    ca.OP_INV: "1.0 / {0}",
+    ca.OP_SQRT: "_np.sqrt({0})",
+    ca.OP_EXP: "_np.exp({0})",
+    ca.OP_LOG: "_np.log({0})",
+    ca.OP_LOG1P: "_np.log1p({0})",
+    ca.OP_EXPM1: "_np.expm1({0})",
+    ca.OP_SIN: "_np.sin({0})",
+    ca.OP_COS: "_np.cos({0})",
+    ca.OP_TAN: "_np.tan({0})",
+    ca.OP_FABS: "_np.abs({0})",
+    ca.OP_TANH: "_np.tanh({0})",
+    ca.OP_ASSIGN: "{0}",
+}
+
+
+def numpy_source(fun: ca.Function, name: str = "generated") -> str:
+    """Python source of a numpy function equivalent to a scalar-input CasADi SX function.
+
+    Every input and output of ``fun`` must be a scalar (1x1); the generated function takes one
+    array (or float) per input, broadcasts them, and returns a tuple with one array per output.
+    """
+    if not fun.is_a("SXFunction"):
+        fun = fun.expand()
+    fun = _eliminate_common_subexpressions(fun)
+    for i in range(fun.n_in()):
+        if fun.nnz_in(i) != 1:
+            raise ValueError(f"input {fun.name_in(i)} of {fun.name()} is not scalar")
+    for i in range(fun.n_out()):
+        if fun.nnz_out(i) != 1:
+            raise ValueError(f"output {fun.name_out(i)} of {fun.name()} is not scalar")
+    args = [f"i{i}" for i in range(fun.n_in())]
+    body = []
+    slot = {}  # CasADi work slot -> ("const", value) or ("var", name)
+    outputs = ["0.0"] * fun.n_out()
+
+    def ref(k):
+        kind, value = slot[k]
+        return repr(value) if kind == "const" else value
+
+    for k in range(fun.n_instructions()):
+        op = fun.instruction_id(k)
+        ins = fun.instruction_input(k)
+        outs = fun.instruction_output(k)
+        if op == ca.OP_INPUT:
+            slot[outs[0]] = ("var", f"i{ins[0]}")
+            continue
+        if op == ca.OP_OUTPUT:
+            outputs[outs[0]] = ref(ins[0])
+            continue
+        if op == ca.OP_CONST:
+            slot[outs[0]] = ("const", float(fun.instruction_constant(k)))
+            continue
+        if op == ca.OP_ASSIGN:
+            slot[outs[0]] = slot[ins[0]]
+            continue
+        operands = [slot[i] for i in ins[: 2 if op in _BINARY else 1]]
+        if all(kind == "const" for kind, _ in operands):
+            # fold constants at generation time with CasADi's own arithmetic
+            slot[outs[0]] = ("const", _fold(op, [v for _, v in operands]))
+            continue
+        if op in (ca.OP_MUL,) and ("const", 1.0) in operands:
+            slot[outs[0]] = operands[1] if operands[0] == ("const", 1.0) else operands[0]
+            continue
+        if op in (ca.OP_ADD,) and ("const", 0.0) in operands:
+            slot[outs[0]] = operands[1] if operands[0] == ("const", 0.0) else operands[0]
+            continue
+        var = f"v{k}"
+        template = _BINARY[op] if op in _BINARY else _UNARY.get(op)
+        if template is None:
+            raise NotImplementedError(f"CasADi operation {op} has no numpy translation")
+        body.append(f"    {var} = " + template.format(*[ref(i) for i in ins[: 2 if op in _BINARY else 1]]))
+        slot[outs[0]] = ("var", var)
+    lines = [f"def {name}({', '.join(args)}):"] + body
+    lines.append("    return (" + "".join(f"{o}, " for o in outputs) + ")")
+    return "\n".join(lines) + "\n"
+
+
+def _fold(op, values):
+    """Evaluate one CasADi operation on constants, with CasADi itself (no re-typed formulas)."""
+    x = [ca.SX.sym(f"c{i}") for i in range(len(values))]
+    expr = ca.SX.binary(op, x[0], x[1]) if len(values) == 2 else ca.SX.unary(op, x[0])
+    return float(ca.Function("fold", x, [expr])(*values))
+
+
+def _eliminate_common_subexpressions(fun: ca.Function) -> ca.Function:
+    """The same function with CasADi's common-subexpression elimination applied to its outputs."""
+    ins = fun.sx_in()
+    outs = fun.call(ins)
+    outs = ca.cse(ca.vertcat(*outs))
+    return ca.Function(fun.name(), ins, ca.vertsplit(outs), fun.name_in(), fun.name_out())
+
+
+def numpy_function(fun: ca.Function):
+    """Compile :func:`numpy_source` of ``fun`` into a callable."""
+    name = "_" + "".join(c if c.isalnum() else "_" for c in fun.name())
+    namespace = {"_np": np}
+    exec(compile(numpy_source(fun, name), f"<coexist generated {fun.name()}>", "exec"), namespace)
+    generated = namespace[name]
+    generated.__doc__ = f"numpy translation of CasADi function {fun.name()!r}"
+    return generated
