@@ -4,8 +4,16 @@ from __future__ import annotations
 
 import click
 
-from .common import (InputError, accuracy_option, check_output_path, info, library_errors, parse_floats,
-                     settings_from, write_json)
+from .common import (
+    InputError,
+    accuracy_option,
+    check_output_path,
+    info,
+    library_errors,
+    parse_floats,
+    settings_from,
+    write_json,
+)
 
 
 @click.command()

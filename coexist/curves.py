@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import ModelRangeError, SceneError
+from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
 from .settings import SolverSettings
 from .shooting import OK, MembraneStates, reason_tag, reason_text, solve_states
@@ -68,12 +68,14 @@ class Curve:
         raise AttributeError(name)
 
     def to_dict(self) -> dict:
+        """JSON-ready dict. A ``pressure_volume`` curve carries its fixed ``phi_hat`` and the arrays
+        ``p_hat``, ``v_hat``, ``q_hat``, ``psi_hat``; a ``voltage_charge`` curve its fixed ``p_hat``
+        and the array ``phi_hat`` instead of ``p_hat`` (whose largest deviation from the fixed value
+        is ``p_hat_residual_max``)."""
         s = self.states
         out = {
             "family": self.family,
-            ("phi_hat" if self.family == "pressure_volume" else "p_hat"): self.fixed,
             "pole_stretch": s.pole_stretch.tolist(),
-            "p_hat": s.p_hat.tolist(),
             "v_hat": s.v_hat.tolist(),
             "q_hat": s.q_hat.tolist(),
             "psi_hat": s.psi_hat.tolist(),
@@ -83,8 +85,13 @@ class Curve:
             "limit_points": [lp.to_dict() for lp in self.limit_points],
             "relative_tolerance": self.rtol,
         }
-        if self.family == "voltage_charge":
-            out["phi_hat_values"] = s.phi_hat.tolist()
+        if self.family == "pressure_volume":
+            out["phi_hat"] = self.fixed
+            out["p_hat"] = s.p_hat.tolist()
+        else:
+            out["p_hat"] = self.fixed
+            out["phi_hat"] = s.phi_hat.tolist()
+            out["p_hat_residual_max"] = float(np.max(np.abs(s.p_hat - self.fixed))) if s.p_hat.size else 0.0
         if self.starts_because:
             out["starts_because"] = self.starts_because
         if self.stopped_because:
@@ -141,41 +148,65 @@ def _valid_run(states: MembraneStates, pole_stretch):
     return slice(first, last + 1), starts, stopped
 
 
-def refine_extremum(evaluate, a: float, b: float, maximum: bool, settings: SolverSettings, nodes: int = 9):
-    """Locate the extremum of ``g(λ0)`` in ``[a, b]`` by Chebyshev interpolation on shrinking brackets.
+def refine_extrema(evaluate, brackets, settings: SolverSettings, nodes: int = 9):
+    """Locate extrema of ``g(λ0)``, one per bracket, by Chebyshev interpolation on shrinking brackets.
 
-    ``evaluate(l0_array)`` returns ``(g_values, MembraneStates)``. The interpolant of degree
-    ``nodes - 1`` is differentiated and its stationary point taken; the bracket is shrunk around it
-    until it is narrower than ``settings.limit_point_xtol`` (relative) or the value stops changing.
-    Returns the states at the extremum (one entry).
+    Parameters
+    ----------
+    evaluate : callable
+        ``evaluate(l0_array) -> (g_values, MembraneStates)``; called once per round for all brackets.
+    brackets : list of (a, b, maximum)
+        Pole-stretch intervals that each hold one interior extremum (a maximum if ``maximum``).
+    settings : SolverSettings
+    nodes : int
+        Chebyshev nodes per bracket; the interpolant of degree ``nodes − 1`` is differentiated and
+        its stationary point taken, then the bracket shrinks 16-fold around it. A bracket is done
+        when the interpolated extremum changes by less than ``rtol`` between rounds (the value is
+        quadratic in the location error, so this holds the value to the solver tolerance).
+
+    Returns
+    -------
+    list of MembraneStates
+        The state at each extremum (one entry each), evaluated afresh at the located pole stretch.
     """
-    sign = 1.0 if maximum else -1.0
-    best = None
-    for _ in range(8):
-        k = np.arange(nodes)
-        x = 0.5 * (a + b) + 0.5 * (b - a) * np.cos(np.pi * (k + 0.5) / nodes)[::-1]
-        g, st = evaluate(x)
-        if not np.all(np.isfinite(g)):
-            raise ModelRangeError(f"no valid state near the limit point in pole stretch {a:.6g}..{b:.6g}",
-                                  "no_equilibrium")
-        cheb = np.polynomial.Chebyshev.fit(x, sign * g, nodes - 1, domain=[a, b])
-        roots = cheb.deriv().roots()
-        roots = roots[np.isreal(roots)].real
-        roots = roots[(roots >= a) & (roots <= b)]
-        cand = np.concatenate([roots, x])
-        x_star = cand[np.argmax(cheb(cand))]
-        g_star, s_star = evaluate(np.array([x_star]))
-        width = b - a
-        if best is not None and abs(g_star[0] - best[0]) <= 0.1 * settings.rtol * max(1.0, abs(g_star[0])) \
-                and width < 1e-3 * x_star:
-            best = (g_star[0], s_star)
+    if not brackets:
+        return []
+    a = np.array([b[0] for b in brackets], dtype=float)
+    b = np.array([b[1] for b in brackets], dtype=float)
+    sign = np.array([1.0 if br[2] else -1.0 for br in brackets])
+    m = len(brackets)
+    x_star = 0.5 * (a + b)
+    g_prev = np.full(m, np.nan)
+    open_ = np.ones(m, dtype=bool)
+    k = np.arange(nodes)
+    unit = np.cos(np.pi * (k + 0.5) / nodes)[::-1]
+    for _ in range(6):
+        idx = np.flatnonzero(open_)
+        if idx.size == 0:
             break
-        best = (g_star[0], s_star)
-        if width <= settings.limit_point_xtol * x_star:
-            break
-        half = max(width / 16, 2 * settings.limit_point_xtol * x_star)
-        a, b = max(a, x_star - half), min(b, x_star + half)
-    return best[1]
+        x = (0.5 * (a[idx] + b[idx])[:, None] + 0.5 * (b[idx] - a[idx])[:, None] * unit[None, :])
+        g, _ = evaluate(x.ravel())
+        g = np.asarray(g).reshape(idx.size, nodes)
+        for j, i in enumerate(idx):
+            if not np.all(np.isfinite(g[j])):
+                raise SolverError(f"no valid state near the limit point in pole stretch {a[i]:.8g}..{b[i]:.8g}")
+            cheb = np.polynomial.Chebyshev.fit(x[j], sign[i] * g[j], nodes - 1, domain=[a[i], b[i]])
+            roots = cheb.deriv().roots()
+            roots = roots[np.abs(roots.imag) < 1e-9 * (b[i] - a[i])].real
+            roots = roots[(roots >= a[i]) & (roots <= b[i])]
+            cand = np.concatenate([roots, x[j]])
+            values = cheb(cand)
+            x_star[i] = cand[np.argmax(values)]
+            g_star = sign[i] * values.max()
+            width = b[i] - a[i]
+            if abs(g_star - g_prev[i]) <= 0.5 * settings.rtol * max(1.0, abs(g_star)) \
+                    or width <= settings.limit_point_xtol * x_star[i]:
+                open_[i] = False
+            g_prev[i] = g_star
+            half = max(width / 16, settings.limit_point_xtol * x_star[i])
+            a[i], b[i] = max(a[i], x_star[i] - half), min(b[i], x_star[i] + half)
+    _, states = evaluate(x_star)
+    return [_take(states, slice(i, i + 1)) for i in range(m)]
 
 
 def _limit_point(kind: str, s: MembraneStates) -> LimitPoint:
@@ -184,20 +215,43 @@ def _limit_point(kind: str, s: MembraneStates) -> LimitPoint:
                       psi_hat=float(s.psi_hat[0]))
 
 
-def _find_extrema(values, pole_stretch, evaluate, names, settings):
-    """Refine every interior discrete extremum of ``values`` along the grid."""
-    found = []
-    d = np.diff(values)
-    for i in range(1, values.size - 1):
-        if d[i - 1] > 0 and d[i] <= 0:
-            kind, maximum = names[0], True
-        elif d[i - 1] < 0 and d[i] >= 0:
-            kind, maximum = names[1], False
-        else:
-            continue
-        s = refine_extremum(evaluate, pole_stretch[i - 1], pole_stretch[i + 1], maximum, settings)
-        found.append((kind, s))
-    return found
+def _find_limit_points(states, quantities, evaluate_states, settings):
+    """Refine every interior discrete extremum of the named quantities along the grid.
+
+    ``quantities`` maps an attribute (``p_hat``) to its pair of kinds
+    (``("pressure_max", "pressure_min")``); all brackets are refined together.
+    """
+    grid = states.pole_stretch
+    brackets, kinds, attrs = [], [], []
+    for attr, names in quantities.items():
+        values = getattr(states, attr)
+        d = np.diff(values)
+        for i in range(1, values.size - 1):
+            if d[i - 1] > 0 and d[i] <= 0:
+                brackets.append((grid[i - 1], grid[i + 1], True))
+                kinds.append(names[0])
+            elif d[i - 1] < 0 and d[i] >= 0:
+                brackets.append((grid[i - 1], grid[i + 1], False))
+                kinds.append(names[1])
+            else:
+                continue
+            attrs.append(attr)
+    if not brackets:
+        return []
+    per_attr = {}
+    for j, attr in enumerate(attrs):
+        per_attr.setdefault(attr, []).append(j)
+
+    found = [None] * len(brackets)
+    for attr, sel in per_attr.items():
+        def g_of(x, attr=attr):
+            st = evaluate_states(x)
+            return np.where(st.ok, getattr(st, attr), np.nan), st
+
+        res = refine_extrema(g_of, [brackets[j] for j in sel], settings)
+        for j, s in zip(sel, res):
+            found[j] = _limit_point(kinds[j], s)
+    return sorted(found, key=lambda lp: lp.pole_stretch)
 
 
 def _check_range(pole_stretch, model):
@@ -244,21 +298,10 @@ def pressure_volume_curve(model: MembraneModel, phi_hat: float = 0.0, pole_stret
     states = solve_states(model, l0, phi_hat, settings)
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
-    grid = states.pole_stretch
 
-    def by_pressure(x):
-        s = solve_states(model, x, phi_hat, settings)
-        return np.where(s.ok, s.p_hat, np.nan), s
-
-    def by_volume(x):
-        s = solve_states(model, x, phi_hat, settings)
-        return np.where(s.ok, s.v_hat, np.nan), s
-
-    limits = [_limit_point(k, s) for k, s in _find_extrema(states.p_hat, grid, by_pressure,
-                                                         ("pressure_max", "pressure_min"), settings)]
-    limits += [_limit_point(k, s) for k, s in _find_extrema(states.v_hat, grid, by_volume,
-                                                          ("volume_max", "volume_min"), settings)]
-    limits.sort(key=lambda lp: lp.pole_stretch)
+    limits = _find_limit_points(
+        states, {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
+        lambda x: solve_states(model, x, phi_hat, settings), settings)
     return Curve("pressure_volume", float(phi_hat), states, limits, starts, stopped, settings.rtol)
 
 
@@ -272,7 +315,7 @@ def voltage_at_pressure(model: MembraneModel, pole_stretch, p_hat: float, settin
     reaches the pressure and are flagged ``no_equilibrium``; voltages at which the state fails
     (wrinkling at the clamp, ...) shrink the bracket from above.
     """
-    from .shooting import NO_CLAMP
+    from .shooting import NO_VOLTAGE
 
     settings = settings or SolverSettings()
     if not model.has_voltage:
@@ -294,45 +337,51 @@ def voltage_at_pressure(model: MembraneModel, pole_stretch, p_hat: float, settin
         a, b = np.where(pos, mid, a), np.where(pos, b, mid)
     hi_s = a
     s0 = solve_states(model, l0, 0.0, settings)
-    f_lo = np.where(s0.ok, s0.p_hat - p_hat, -np.inf)
-    feasible = f_lo >= 0
-    lo, hi = lo_s, hi_s
+    f0 = np.where(s0.ok, s0.p_hat - p_hat, -np.inf)
+    feasible = f0 >= 0
+    lo, hi = np.zeros(n), hi_s
+    f_lo = np.where(feasible, f0, np.nan)
     f_hi = np.full(n, -p_hat)  # towards the pole-wrinkling voltage the pressure falls to zero
-    side = np.zeros(n)
-    done = ~feasible | (f_lo == 0)
+    # secant iterates (x_a, f_a) -> (x_b, f_b), safeguarded by the bracket [lo, hi]
+    x_a, f_a = lo.copy(), f_lo.copy()
+    with np.errstate(all="ignore"):
+        x_b = np.where(feasible, hi * f0 / (f0 + p_hat), 0.0)
+    done = ~feasible | (f0 == 0)
     result = s0
     for _ in range(iterations):
         idx = np.flatnonzero(~done)
         if idx.size == 0:
             break
-        width = hi[idx] - lo[idx]
-        denom = f_lo[idx] - f_hi[idx]
-        with np.errstate(all="ignore"):
-            x_new = lo[idx] + f_lo[idx] * width / denom
-        x_new = np.where(np.isfinite(x_new), x_new, lo[idx] + 0.5 * width)
-        x_new = np.clip(x_new, lo[idx] + 1e-3 * width, hi[idx] - 1e-3 * width)
+        x_new = x_b[idx]
         st = solve_states(model, l0[idx], np.sqrt(x_new), settings)
         f = np.where(st.ok, st.p_hat - p_hat, -np.inf)
         up = f > 0
-        # Illinois: halve the retained end's value when the same end is kept twice in a row
-        keep_hi = up & (side[idx] == 1)
-        keep_lo = ~up & (side[idx] == -1)
-        f_hi[idx[keep_hi]] *= 0.5
-        f_lo[idx[keep_lo]] *= 0.5
         lo[idx[up]], f_lo[idx[up]] = x_new[up], f[up]
-        down = ~up
-        hi[idx[down]] = x_new[down]
-        f_hi[idx[down]] = np.where(np.isfinite(f[down]), f[down], f_hi[idx[down]])
-        side[idx] = np.where(up, 1, -1)
-        conv = st.ok & (np.abs(f) <= 0.1 * settings.rtol * p_hat)
+        hi[idx[~up]] = x_new[~up]
+        f_hi[idx[~up]] = np.where(np.isfinite(f[~up]), f[~up], f_hi[idx[~up]])
+        conv = st.ok & ((np.abs(f) <= 0.5 * settings.rtol * p_hat)
+                        | (np.abs(x_new - x_a[idx]) <= 1e-14 * np.abs(x_new)))
         if np.any(conv):
             result = _merge(result, _take(st, conv), idx[conv])
             done[idx[conv]] = True
         stuck = ~conv & (hi[idx] - lo[idx] <= 1e-15 * hi[idx])
         done[idx[stuck]] = True
-    converged = feasible & done & (result.phi_hat > 0) | (feasible & (f_lo == 0))
+        # next iterate: secant through the last two points if finite and inside the bracket,
+        # else regula falsi on the bracket, else bisection
+        fa, xa = f_a[idx], x_a[idx]
+        with np.errstate(all="ignore"):
+            sec = x_new - f * (x_new - xa) / (f - fa)
+            rf = lo[idx] + f_lo[idx] * (hi[idx] - lo[idx]) / (f_lo[idx] - f_hi[idx])
+        lo_i, hi_i = lo[idx], hi[idx]
+        sec_ok = np.isfinite(sec) & (sec > lo_i) & (sec < hi_i) & np.isfinite(f)
+        rf_ok = np.isfinite(rf) & (rf > lo_i) & (rf < hi_i)
+        nxt = np.where(sec_ok, sec, np.where(rf_ok, rf, 0.5 * (lo_i + hi_i)))
+        x_a[idx], f_a[idx] = x_new, f
+        x_b[idx] = nxt
+    converged = done & feasible
     status = result.status.copy()
-    status[~converged & (status == OK)] = NO_CLAMP
+    status[~converged & (status == OK)] = NO_VOLTAGE
+    status[~feasible] = np.where(s0.ok[~feasible], NO_VOLTAGE, s0.status[~feasible])
     result.status = status
     for name in ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension"):
         getattr(result, name)[status != OK] = np.nan
@@ -364,17 +413,7 @@ def voltage_charge_curve(model: MembraneModel, p_hat: float, pole_stretch=None,
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
 
-    def by_voltage(x):
-        s = voltage_at_pressure(model, x, p_hat, settings)
-        return np.where(s.ok, s.phi_hat, np.nan), s
-
-    def by_charge(x):
-        s = voltage_at_pressure(model, x, p_hat, settings)
-        return np.where(s.ok, s.q_hat, np.nan), s
-
-    limits = [_limit_point(k, s) for k, s in _find_extrema(states.phi_hat, states.pole_stretch, by_voltage,
-                                                         ("voltage_max", "voltage_min"), settings)]
-    limits += [_limit_point(k, s) for k, s in _find_extrema(states.q_hat, states.pole_stretch, by_charge,
-                                                          ("charge_max", "charge_min"), settings)]
-    limits.sort(key=lambda lp: lp.pole_stretch)
+    limits = _find_limit_points(
+        states, {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("charge_max", "charge_min")},
+        lambda x: voltage_at_pressure(model, x, p_hat, settings), settings)
     return Curve("voltage_charge", float(p_hat), states, limits, starts, stopped, settings.rtol)

@@ -135,9 +135,8 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
         err = _error_norm(Ka, hs, scale)
         finite = np.all(np.isfinite(y_new), axis=0) & np.all(np.isfinite(f_new), axis=0)
         accepted = (err <= 1.0) & finite
-        factor = np.where(
-            err == 0, _MAX_FACTOR, np.clip(_SAFETY * np.where(err > 0, err, 1.0) ** _ERROR_EXPONENT, _MIN_FACTOR, _MAX_FACTOR)
-        )
+        grow = _SAFETY * np.where(err > 0, err, 1.0) ** _ERROR_EXPONENT
+        factor = np.where(err == 0, _MAX_FACTOR, np.clip(grow, _MIN_FACTOR, _MAX_FACTOR))
         factor = np.where(accepted, factor, np.minimum(1.0, factor))
         factor = np.where(finite, factor, 0.25)
         steps[active] += 1

@@ -55,12 +55,12 @@ class SolverSettings:
         """Absolute tolerance ``atol_factor * rtol``."""
         return self.atol_factor * self.rtol
 
-    def with_rtol(self, rtol: float) -> "SolverSettings":
+    def with_rtol(self, rtol: float) -> SolverSettings:
         """A copy with another relative tolerance."""
         return replace(self, rtol=float(rtol))
 
     @classmethod
-    def from_accuracy(cls, accuracy: str | float | None) -> "SolverSettings":
+    def from_accuracy(cls, accuracy: str | float | None) -> SolverSettings:
         """Settings for a named accuracy level (``draft``, ``default``, ``high``) or a tolerance."""
         if accuracy is None:
             return cls()

@@ -35,6 +35,7 @@ NO_CLAMP = 14
 STEP_LIMIT = 15
 NOT_FINITE = 16
 FOLDED_BACK = 17
+NO_VOLTAGE = 18
 
 #: a short tag and a sentence for every way a state can fail
 REASONS = {
@@ -50,6 +51,7 @@ REASONS = {
     STEP_LIMIT: ("no_equilibrium", "the integration used up its step budget"),
     NOT_FINITE: ("no_equilibrium", "the integration produced non-finite values"),
     FOLDED_BACK: ("no_equilibrium", "the meridian turns back on itself (θ > π)"),
+    NO_VOLTAGE: ("no_equilibrium", "no voltage Φ̂ ≥ 0 holds this pole stretch at the requested pressure"),
 }
 
 
@@ -108,7 +110,7 @@ class MembraneStates:
     def ok(self) -> np.ndarray:
         return self.status == OK
 
-    def require_ok(self) -> "MembraneStates":
+    def require_ok(self) -> MembraneStates:
         """Raise :class:`ModelRangeError` naming the first failed input, else return self."""
         bad = np.flatnonzero(~self.ok)
         if bad.size:

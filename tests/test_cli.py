@@ -1,0 +1,93 @@
+"""The command line as a user runs it: exit codes, JSON structure, files, and no tracebacks."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+from click.testing import CliRunner
+
+from coexist import __version__
+from coexist.cli.main import cli
+
+
+def run(*args):
+    return CliRunner().invoke(cli, list(args))
+
+
+def no_traceback(result):
+    return result.exception is None or isinstance(result.exception, SystemExit)
+
+
+def test_help_and_version():
+    assert run("--help").exit_code == 0
+    r = run("--version")
+    assert r.exit_code == 0 and __version__ in r.output
+
+
+def test_python_dash_m():
+    r = subprocess.run([sys.executable, "-m", "coexist", "--version"], capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0 and __version__ in r.stdout
+
+
+def test_curves_json(tmp_path):
+    png = tmp_path / "c.png"
+    r = run("curves", "--phi-hat", "0,0.1", "--p-hat", "1.5", "--points", "40", "--accuracy", "draft", "--json",
+            "-o", str(png))
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    assert data["settings"]["relative_tolerance"] == 1e-6
+    fixed = [c["phi_hat"] if c["family"] == "pressure_volume" else c["p_hat"] for c in data["curves"]]
+    assert fixed == [0.0, 0.1, 1.5]
+    pv = data["curves"][0]
+    for key in ("pole_stretch", "p_hat", "v_hat", "q_hat", "psi_hat", "limit_points"):
+        assert key in pv
+    assert len(pv["p_hat"]) == 40
+    lp = pv["limit_points"][0]
+    assert set(lp) >= {"pole_stretch", "p_hat", "v_hat", "phi_hat", "q_hat"}
+    assert lp["p_hat"] == pytest.approx(1.8792, abs=1e-3)
+    vq = data["curves"][2]
+    assert vq["family"] == "voltage_charge" and "starts_because" in vq
+    assert vq["p_hat_residual_max"] < 1e-5 and len(vq["phi_hat"]) == len(vq["q_hat"])
+    assert png.stat().st_size > 10_000
+
+
+def test_curves_csv_to_stdout():
+    r = run("curves", "--phi-hat", "0.1", "--p-hat", "none", "--points", "10", "--csv", "-")
+    assert r.exit_code == 0
+    lines = r.stdout.strip().splitlines()
+    assert lines[0].startswith("family,") and len(lines) == 11
+
+
+def test_curves_refuses_to_overwrite(tmp_path):
+    out = tmp_path / "c.png"
+    out.write_text("keep me")
+    r = run("curves", "--p-hat", "none", "--points", "10", "-o", str(out))
+    assert r.exit_code == 2 and "--overwrite" in r.output
+    assert out.read_text() == "keep me"
+
+
+@pytest.mark.parametrize("args, option", [
+    (["--pole-stretch", "0,4"], "--pole-stretch"),
+    (["--pole-stretch", "-1,4"], "--pole-stretch"),
+    (["--pole-stretch", "3,2"], "--pole-stretch"),
+    (["--pole-stretch", "1,4"], "--pole-stretch"),
+    (["--pole-stretch", "abc"], "--pole-stretch"),
+    (["--material", "gent", "--jlim", "0"], "--jlim"),
+    (["--material", "gent", "--jlim", "-5"], "--jlim"),
+    (["--material", "gent"], "--jlim"),
+    (["--material", "rubber"], "--material"),
+    (["--phi-hat", "-0.1"], "--phi-hat"),
+    (["--phi-hat", "nan"], "--phi-hat"),
+    (["--p-hat", "0"], "--p-hat"),
+    (["--prestretch", "0.5"], "--prestretch"),
+    (["--accuracy", "extreme"], "--accuracy"),
+    (["--rtol", "1"], "--rtol"),
+    (["--points", "1"], "--points"),
+])
+def test_bad_input_is_exit_2_naming_the_option(args, option):
+    r = run("curves", "--p-hat", "none", *args) if "--p-hat" not in args else run("curves", *args)
+    assert r.exit_code == 2, r.output
+    assert option in r.output
+    assert no_traceback(r)
+    assert "Traceback" not in r.output

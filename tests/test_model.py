@@ -1,0 +1,71 @@
+"""The symbolic model: generated numpy code equals CasADi, tensions are the energy's derivatives,
+and effects that are off contribute no terms."""
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from coexist.effects import Gent, NeoHookean, NoElectrostatics
+from coexist.errors import SceneError
+from coexist.model import MembraneModel
+
+
+@pytest.mark.parametrize("elasticity", [NeoHookean(), Gent(20.0), Gent(97.0)])
+def test_generated_numpy_matches_casadi(elasticity):
+    model = MembraneModel(elasticity)
+    rng = np.random.default_rng(1)
+    l1, l2 = rng.uniform(1.0, 2.2, 50), rng.uniform(1.0, 2.2, 50)
+    R, th, p, phi = rng.uniform(0.05, 1, 50), rng.uniform(0, 2, 50), rng.uniform(0, 2, 50), rng.uniform(0, .3, 50)
+    ours = np.array(model.rhs(R, l1, l2, th, p, phi))
+    theirs = np.array([np.array(model._built["casadi"]["rhs"](R[i], l1[i], l2[i], th[i], p[i], phi[i])).ravel()
+                       for i in range(50)]).T
+    np.testing.assert_allclose(ours, theirs, rtol=1e-13, atol=1e-13)
+
+
+def test_tensions_are_derivatives_of_the_energy():
+    """T1 = ∂W*/∂λ1 checked against a central difference of W* (error O(h²) ≈ 1e-10)."""
+    model = MembraneModel(Gent(50.0))
+    l1, l2, phi, h = 1.7, 1.3, 0.15, 1e-5
+    T1, T2, T11, T12 = model.tensions(l1, l2, phi)[:4]
+    W = model.free_energy
+    assert T1 == pytest.approx((W(l1 + h, l2, phi) - W(l1 - h, l2, phi)) / (2 * h), rel=1e-8)
+    assert T2 == pytest.approx((W(l1, l2 + h, phi) - W(l1, l2 - h, phi)) / (2 * h), rel=1e-8)
+    d = 1e-4
+    assert T11 == pytest.approx((model.tensions(l1 + d, l2, phi)[0] - model.tensions(l1 - d, l2, phi)[0]) / (2 * d),
+                                rel=1e-6)
+    assert T12 == pytest.approx((model.tensions(l1, l2 + d, phi)[0] - model.tensions(l1, l2 - d, phi)[0]) / (2 * d),
+                                rel=1e-6)
+
+
+def test_neo_hookean_tension_closed_form():
+    """T̂1 = λ1 − λ1⁻³λ2⁻² − Φ̂²λ1λ2² (hand-derived from W* of PHYSICS.md)."""
+    l1, l2, phi = 1.9, 1.4, 0.2
+    T1 = MembraneModel().tensions(l1, l2, phi)[0]
+    assert T1 == pytest.approx(l1 - l1**-3 * l2**-2 - phi**2 * l1 * l2**2, rel=1e-14)
+
+
+def test_no_electrostatics_builds_no_field_terms():
+    model = MembraneModel(NeoHookean(), NoElectrostatics())
+    sym = model.symbols
+    for name in ("W", "T1", "T2", "rhs"):
+        assert not ca.depends_on(sym[name], sym["phi"]), name
+    assert "electrostatics:ideal-dielectric" not in model.effects
+    with_voltage = MembraneModel()
+    assert ca.depends_on(with_voltage.symbols["W"], with_voltage.symbols["phi"])
+
+
+def test_neo_hookean_builds_no_gent_terms():
+    nh, gent = MembraneModel(NeoHookean()), MembraneModel(Gent(97.0))
+    assert "log" not in str(nh.symbols["W"]) and "log" in str(gent.symbols["W"])
+
+
+@pytest.mark.parametrize("bad", [0.5, -1.0, float("nan")])
+def test_bad_prestretch(bad):
+    with pytest.raises(SceneError, match="prestretch"):
+        MembraneModel(prestretch=bad)
+
+
+@pytest.mark.parametrize("bad", [0.0, -3.0, float("inf")])
+def test_bad_jlim(bad):
+    with pytest.raises(SceneError, match="Jlim"):
+        Gent(bad)
