@@ -1,0 +1,267 @@
+"""A smooth representation of one zone's curve at fixed voltage, and its branches.
+
+The shooting solver gives exact states at chosen pole stretches; the coexistence and N-zone
+solvers need ``p̂, V̂, Ψ̂, Q̂`` as smooth functions of the pole stretch with derivatives. A
+:class:`ZoneCurve` holds cubic splines (not-a-knot) through states on a pole-stretch grid. Its
+interpolation error is measured against fresh shooting at the grid mid-points
+(:meth:`ZoneCurve.interpolation_error`), so every number derived from it can carry that error.
+
+Branches: the curve is cut into pieces on which ``p̂`` is monotone in ``λ0``; pieces past a volume
+fold (``dV̂/dλ0 < 0``) are unstable even under volume control and are marked unusable.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.interpolate import CubicSpline
+from scipy.optimize import brentq
+
+from .errors import ModelRangeError
+from .model import MembraneModel
+from .settings import SolverSettings
+from .shooting import reason_tag, reason_text, solve_states
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A piece of the curve on which ``p̂(λ0)`` is monotone.
+
+    ``rising`` means ``dp̂/dV̂ > 0`` (stable under pressure control); ``usable`` is False past a
+    volume fold, where a zone is unstable even when its volume is held.
+    """
+
+    index: int
+    start: float
+    stop: float
+    rising: bool
+    usable: bool
+    p_range: tuple
+
+
+class ZoneCurve:
+    """``p̂, V̂, Ψ̂, Q̂`` of one clamped zone at fixed ``Φ̂`` as splines in the pole stretch.
+
+    The splines are in ``u = √(λ0 − λpre)``, in which the states are smooth down to the flat
+    membrane (the apex deflection ``δ ∝ u``, so ``V̂ ∝ u`` and ``p̂ ∝ u³`` there), whereas in ``λ0``
+    they have a square-root singularity at ``λ0 = λpre``. All methods take and return ``u``;
+    :meth:`to_u` and :meth:`to_stretch` convert.
+
+    Parameters
+    ----------
+    pole_stretch : ndarray
+        Increasing grid on which the states are valid.
+    p_hat, v_hat, psi_hat, q_hat : ndarray
+        States on the grid.
+    phi_hat : float
+    stopped_because : str, optional
+        Why the valid range ends before the requested one.
+    """
+
+    def __init__(self, pole_stretch, p_hat, v_hat, psi_hat, q_hat, phi_hat, stopped_because=None, prestretch=1.0):
+        self.prestretch = float(prestretch)
+        l0 = np.asarray(pole_stretch, dtype=float)
+        x = self.to_u(l0)
+        if x.size < 5:
+            raise ModelRangeError(f"fewer than 5 valid states at Φ̂ = {phi_hat:.6g}: no usable curve",
+                                  "no_equilibrium")
+        self.phi_hat = float(phi_hat)
+        self.grid = x
+        self.pole_stretch = l0
+        self.p = CubicSpline(x, p_hat)
+        self.v = CubicSpline(x, v_hat)
+        self.psi = CubicSpline(x, psi_hat)
+        self.q = CubicSpline(x, q_hat)
+        self.dp = self.p.derivative()
+        self.dv = self.v.derivative()
+        self.stopped_because = stopped_because
+        self.branches = self._branches()
+
+    def to_u(self, pole_stretch):
+        """``u = √(λ0 − λpre)``."""
+        return np.sqrt(np.asarray(pole_stretch, dtype=float) - self.prestretch)
+
+    def to_stretch(self, u):
+        """``λ0 = λpre + u²``."""
+        return self.prestretch + np.asarray(u, dtype=float) ** 2
+
+    @classmethod
+    def from_states(cls, states, phi_hat, prestretch=1.0):
+        """The first contiguous valid run of ``states`` (a :class:`MembraneStates` on a grid)."""
+        ok = states.ok
+        if not ok.any():
+            code = states.status[0]
+            raise ModelRangeError(f"no valid state at Φ̂ = {phi_hat:.6g}: {reason_text(code)}", reason_tag(code))
+        first = int(np.argmax(ok))
+        last = first
+        while last + 1 < ok.size and ok[last + 1]:
+            last += 1
+        stopped = None
+        if last + 1 < ok.size:
+            code = states.status[last + 1]
+            stopped = f"{reason_tag(code)} beyond pole stretch {states.pole_stretch[last]:.6g}"
+        sl = slice(first, last + 1)
+        return cls(states.pole_stretch[sl], states.p_hat[sl], states.v_hat[sl], states.psi_hat[sl],
+                   states.q_hat[sl], phi_hat, stopped, prestretch)
+
+    @classmethod
+    def compute(cls, model: MembraneModel, phi_hat: float, pole_stretch, settings: SolverSettings | None = None):
+        """Shoot the states on ``pole_stretch`` and build the curve."""
+        states = solve_states(model, pole_stretch, phi_hat, settings)
+        return cls.from_states(states, phi_hat, model.prestretch)
+
+    @property
+    def span(self):
+        return float(self.grid[0]), float(self.grid[-1])
+
+    def dp_dv(self, l0):
+        """``dp̂/dV̂`` along the curve (zone stiffness under pressure control)."""
+        return self.dp(l0) / self.dv(l0)
+
+    def _critical(self, spline):
+        """Interior roots of a spline's derivative (sorted)."""
+        roots = spline.derivative().roots(extrapolate=False)
+        lo, hi = self.span
+        return np.sort(roots[(roots > lo) & (roots < hi)])
+
+    def _branches(self):
+        lo, hi = self.span
+        p_turn = self._critical(self.p)
+        v_turn = self._critical(self.v)
+        cuts = np.unique(np.concatenate([[lo], p_turn, v_turn, [hi]]))
+        out = []
+        for i, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
+            mid = 0.5 * (a + b)
+            rising_p = self.dp(mid) > 0
+            vol_ok = self.dv(mid) > 0
+            pa, pb = float(self.p(a)), float(self.p(b))
+            out.append(Branch(i, float(a), float(b), bool(rising_p == vol_ok), bool(vol_ok),
+                              (min(pa, pb), max(pa, pb))))
+        return out
+
+    def pressure_extrema(self):
+        """Pole stretches of the pressure maxima and minima (spline roots of ``dp̂/dλ0``)."""
+        return self._critical(self.p)
+
+    def stretch_at_pressure(self, branch: Branch, p_hat: float) -> float:
+        """The ``u`` on ``branch`` where ``p̂(u) = p_hat`` (spline inverse by Brent's method)."""
+        f = lambda x: float(self.p(x)) - p_hat  # noqa: E731
+        fa, fb = f(branch.start), f(branch.stop)
+        if fa == 0:
+            return branch.start
+        if fb == 0:
+            return branch.stop
+        if fa * fb > 0:
+            raise ValueError("pressure outside the branch")
+        return brentq(f, branch.start, branch.stop, xtol=1e-14, rtol=1e-15, maxiter=200)
+
+    def interpolation_error(self, model: MembraneModel, settings: SolverSettings | None = None) -> dict:
+        """Largest error of the splines at the grid mid-points against fresh shooting, relative to
+        the largest magnitude of each quantity along the curve."""
+        mids = 0.5 * (self.grid[1:] + self.grid[:-1])
+        s = solve_states(model, self.to_stretch(mids), self.phi_hat, settings)
+        ok = s.ok
+        err = {}
+        for name, spline, exact in (("p_hat", self.p, s.p_hat), ("v_hat", self.v, s.v_hat),
+                                    ("psi_hat", self.psi, s.psi_hat)):
+            e = np.abs(spline(mids[ok]) - exact[ok]) / max(float(np.max(np.abs(exact[ok]), initial=0.0)), 1e-300)
+            err[name] = float(e.max()) if e.size else float("nan")
+        return err
+
+
+class ZoneFamily:
+    """Zone curves at any voltage in ``[0, Φ̂max]``, from one vectorised shooting run.
+
+    States are shot once on a grid of ``u = √(λ0 − λpre)`` (``n_u`` points) times ``s = Φ̂²``
+    (``n_s`` equally spaced nodes; the free energy depends on the voltage through ``Φ̂²``). The
+    curve at a voltage is the local cubic Lagrange interpolation in ``s`` of the four nearest
+    nodes, at every ``u`` where those four states are valid, then splined in ``u``
+    (:class:`ZoneCurve`). :meth:`interpolation_error` measures the error against direct shooting.
+
+    Parameters
+    ----------
+    model : MembraneModel
+    phi_max : float
+        Largest voltage that will be asked for (0 for a scene without voltage).
+    pole_stretch_max : float
+        Upper end of the pole-stretch grid.
+    settings : SolverSettings, optional
+    n_u, n_s : int
+        Grid sizes (the defaults give a spline error near 1e-6 for neo-Hookean curves, see
+        ``coexist accuracy``).
+    """
+
+    def __init__(self, model: MembraneModel, phi_max: float, pole_stretch_max: float,
+                 settings: SolverSettings | None = None, n_u: int = 128, n_s: int = 33):
+        self.model = model
+        self.settings = settings or SolverSettings()
+        pre = model.prestretch
+        self.u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), n_u)
+        self.phi_max = float(phi_max)
+        self.s = np.linspace(0.0, phi_max**2, n_s) if phi_max > 0 else np.zeros(1)
+        l0 = np.tile(pre + self.u**2, self.s.size)
+        phi = np.repeat(np.sqrt(self.s), self.u.size)
+        st = solve_states(model, l0, phi, self.settings)
+        shape = (self.s.size, self.u.size)
+        self.states = st
+        self.table = {k: getattr(st, k).reshape(shape) for k in ("p_hat", "v_hat", "psi_hat", "q_hat")}
+        self.status = st.status.reshape(shape)
+        self._cache = {}
+
+    def _weights(self, s):
+        """Stencil indices and cubic Lagrange weights in ``s``."""
+        if self.s.size == 1:
+            return np.array([0]), np.array([1.0])
+        if self.s.size < 4:
+            raise ValueError("need at least 4 voltage nodes")
+        h = self.s[1] - self.s[0]
+        i = int(np.clip(np.floor(s / h) - 1, 0, self.s.size - 4))
+        idx = np.arange(i, i + 4)
+        x = self.s[idx]
+        w = np.ones(4)
+        for j in range(4):
+            for m in range(4):
+                if m != j:
+                    w[j] *= (s - x[m]) / (x[j] - x[m])
+        return idx, w
+
+    def curve(self, phi_hat: float) -> ZoneCurve:
+        """The zone curve at ``Φ̂`` (cached)."""
+        phi_hat = float(phi_hat)
+        if phi_hat < 0 or phi_hat > self.phi_max * (1 + 1e-12) + 1e-15:
+            raise ModelRangeError(f"Φ̂ = {phi_hat:.6g} is outside the precomputed range [0, {self.phi_max:.6g}]",
+                                  "out_of_range")
+        key = round(phi_hat, 14)
+        if key in self._cache:
+            return self._cache[key]
+        idx, w = self._weights(phi_hat**2)
+        valid = np.all(self.status[idx] == 0, axis=0)
+        values = {k: np.tensordot(w, np.where(valid, v[idx], 0.0), axes=1) for k, v in self.table.items()}
+        if not valid.any():
+            code = self.status[idx[0], 0]
+            raise ModelRangeError(f"no valid state at Φ̂ = {phi_hat:.6g}: {reason_text(code)}", reason_tag(code))
+        first = int(np.argmax(valid))
+        last = first
+        while last + 1 < valid.size and valid[last + 1]:
+            last += 1
+        stopped = None
+        if last + 1 < valid.size:
+            bad = self.status[idx, last + 1]
+            code = bad[bad != 0][0]
+            stopped = f"{reason_tag(code)} beyond pole stretch {self.model.prestretch + self.u[last] ** 2:.6g}"
+        sl = slice(first, last + 1)
+        curve = ZoneCurve(self.model.prestretch + self.u[sl] ** 2, values["p_hat"][sl], values["v_hat"][sl],
+                          values["psi_hat"][sl], values["q_hat"][sl], phi_hat, stopped, self.model.prestretch)
+        if len(self._cache) < 4096:
+            self._cache[key] = curve
+        return curve
+
+    def interpolation_error(self, phi_hat: float | None = None) -> dict:
+        """Largest error (relative to the curve's largest magnitude) of the family's curve at ``Φ̂``
+        (default: midway between the two top voltage nodes), at grid and mid-grid points, against
+        direct shooting: the error of the voltage interpolation and the spline together."""
+        if phi_hat is None:
+            phi_hat = float(np.sqrt(0.5 * (self.s[-1] + self.s[-2]))) if self.s.size > 1 else 0.0
+        c = self.curve(phi_hat)
+        return c.interpolation_error(self.model, self.settings)

@@ -1,0 +1,226 @@
+"""A slow voltage ramp up and back down: which configuration the zones are in at each voltage.
+
+A slow experiment stays on the stable equilibrium it is in until that equilibrium loses stability
+or ceases to exist (a spinodal), then jumps to a stable equilibrium (the nearest one in zone-volume
+space, the one the unstable mode leads to); the path therefore shows hysteresis. Beside the
+path, the voltages where each configuration's total free energy equals the homogeneous one's are
+reported: where an ideal, fluctuating system would switch (the equal-free-energy or Maxwell
+voltage of that configuration).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .branches import ZoneFamily
+from .errors import ModelRangeError
+from .zones import Equilibrium, equilibria
+
+
+@dataclass
+class RampStep:
+    """One voltage of the path: the state the zones are in and every equilibrium at that voltage."""
+
+    phi_hat: float
+    state: Equilibrium | None
+    equilibria: list
+    direction: str
+    note: str | None = None
+
+
+@dataclass
+class Transition:
+    """A change of configuration along the path (``spinodal``) or an equal-free-energy voltage."""
+
+    phi_hat: float
+    kind: str
+    from_label: str
+    to_label: str
+    direction: str
+    phi_hat_bracket: tuple = ()
+
+
+@dataclass
+class RampResult:
+    """The path, its transitions and the equal-free-energy voltages."""
+
+    steps: list
+    transitions: list
+    equal_free_energy: list
+    zones: int
+    notes: list = field(default_factory=list)
+
+
+#: largest relative jump of any zone volume between two path voltages that still counts as the
+#: same state continued (a larger change is a jump to another state)
+CONTINUATION_TOLERANCE = 0.05
+
+
+def _continue(state: Equilibrium, candidates: list, stable_only=True):
+    """The equilibrium at the next voltage that continues ``state``: same number of bulged zones,
+    nearest in zone-volume space, and within :data:`CONTINUATION_TOLERANCE` of it. Branch indices
+    are not compared: the curve's branch structure can change with the voltage."""
+    scale = max(max(state.zone_volumes), 1e-12)
+    same = [e for e in candidates if e.k == state.k and (e.stable or not stable_only)
+            and e.distance(state) <= CONTINUATION_TOLERANCE * scale]
+    if not same:
+        return None
+    return min(same, key=lambda e: e.distance(state))
+
+
+def _initial_state(eqs: list):
+    """The homogeneous stable state on the first rising branch (the state when the valves close)."""
+    start = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0 and e.stable]
+    if not start:
+        start = [e for e in eqs if e.stable]
+    return min(start, key=lambda e: e.v_unbulged) if start else None
+
+
+def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True, progress=None) -> RampResult:
+    """Follow the zones along a voltage path.
+
+    Parameters
+    ----------
+    family : ZoneFamily
+        Zone curves for every voltage of the path.
+    gas : GasChamber or PressureReservoir
+    zones : int
+    phi_path : sequence of float
+        Normalised voltages in the order applied (up and back down for a ramp).
+    refine : bool
+        Locate each transition between its two path voltages by bisection (to 1e-10 in Φ̂).
+    progress : callable, optional
+        Called with the step index after each step.
+
+    Returns
+    -------
+    RampResult
+    """
+    phi_path = [float(p) for p in phi_path]
+    if not phi_path:
+        raise ModelRangeError("empty voltage path", "out_of_range")
+    cache = {}
+
+    def eqs_at(phi):
+        key = round(phi, 14)
+        if key not in cache:
+            cache[key] = equilibria(family.curve(phi), gas, zones)
+        return cache[key]
+
+    steps, transitions, notes = [], [], []
+    state = _initial_state(eqs_at(phi_path[0]))
+    if state is None:
+        raise ModelRangeError(f"no stable equilibrium at the start of the path (Φ̂ = {phi_path[0]:.6g})",
+                              "no_equilibrium")
+    for i, phi in enumerate(phi_path):
+        direction = "up" if i == 0 or phi >= phi_path[i - 1] else "down"
+        eqs = eqs_at(phi)
+        note = None
+        if i > 0 and state is None:
+            stable = [e for e in eqs if e.stable]
+            if stable:
+                # back inside the model's range: the zones that left it were the most bulged
+                state = max(stable, key=lambda e: (e.k, max(e.zone_volumes)))
+                note = f"a stable state exists again: {state.label} (re-entering the model's range)"
+                transitions.append(Transition(phi, "re_entry", "none", state.label, direction,
+                                              (phi_path[i - 1], phi)))
+                notes.append(note)
+        elif i > 0:
+            nxt = _continue(state, eqs)
+            if nxt is None:
+                stable = [e for e in eqs if e.stable]
+                target = min(stable, key=lambda e: e.distance(state)) if stable else None
+                lo, hi = phi_path[i - 1], phi
+                if refine:
+                    lo, hi = _bisect_loss(eqs_at_exact(family, gas, zones), state, lo, hi)
+                curve = family.curve(phi)
+                kind = "spinodal"
+                why = "loses stability" if _continue(state, eqs, stable_only=False) else "ceases to exist"
+                if target is None:
+                    kind = "no_stable_state"
+                    reason = curve.stopped_because or "no stable equilibrium in the model's range"
+                    note = (f"{state.label} {why} and no stable state remains: a zone bulges without bound "
+                            f"or leaves the model's range ({reason})")
+                    notes.append(note)
+                transitions.append(Transition(0.5 * (lo + hi), kind, state.label,
+                                              target.label if target else "none", direction, (lo, hi)))
+                nxt = target
+            state = nxt
+        steps.append(RampStep(phi, state, eqs, direction, note))
+        if progress is not None:
+            progress(i)
+    equal = _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine)
+    return RampResult(steps, transitions, equal, zones, notes)
+
+
+def eqs_at_exact(family, gas, zones):
+    """Equilibria at any voltage (not cached: used by the bisections)."""
+    return lambda phi: equilibria(family.curve(phi), gas, zones)
+
+
+def _bisect_loss(eqs_of, state, lo, hi, tol=1e-10):
+    """Shrink [lo, hi] around the voltage where ``state``'s configuration stops being stable."""
+    ref = state
+    for _ in range(60):
+        if abs(hi - lo) <= tol:
+            break
+        mid = 0.5 * (lo + hi)
+        nxt = _continue(ref, eqs_of(mid))
+        if nxt is not None:
+            lo, ref = mid, nxt
+        else:
+            hi = mid
+    return lo, hi
+
+
+def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
+    """Voltages where a stable mixed configuration has the same total free energy as the homogeneous one."""
+    grid = sorted(set(round(p, 14) for p in phi_path))
+    found = []
+    prev = None
+    for phi in grid:
+        eqs = eqs_at(phi)
+        hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
+        diffs = {}
+        if hom:
+            h = min(hom, key=lambda e: e.v_unbulged)
+            for e in eqs:
+                if e.k > 0 and e.stable:
+                    key = (e.k, e.branch_unbulged, e.branch_bulged)
+                    diffs[key] = min(diffs.get(key, np.inf), e.free_energy - h.free_energy)
+        if prev is not None:
+            for key, d in diffs.items():
+                if key in prev[1] and np.sign(d) != np.sign(prev[1][key]):
+                    lo, hi = prev[0], phi
+                    if refine:
+                        lo, hi = _bisect_sign(family, gas, zones, key, lo, hi, prev[1][key])
+                    found.append(Transition(0.5 * (lo + hi), "equal_free_energy", "homogeneous",
+                                            f"{key[0]} of {zones} bulged", "either", (lo, hi)))
+        prev = (phi, diffs)
+    return found
+
+
+def _bisect_sign(family, gas, zones, key, lo, hi, d_lo, tol=1e-10):
+    def delta(phi):
+        eqs = equilibria(family.curve(phi), gas, zones)
+        hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
+        mix = [e for e in eqs if (e.k, e.branch_unbulged, e.branch_bulged) == key and e.stable]
+        if not hom or not mix:
+            return None
+        h = min(hom, key=lambda e: e.v_unbulged)
+        return min(m.free_energy for m in mix) - h.free_energy
+
+    for _ in range(60):
+        if hi - lo <= tol:
+            break
+        mid = 0.5 * (lo + hi)
+        d = delta(mid)
+        if d is None:
+            break
+        if np.sign(d) == np.sign(d_lo):
+            lo = mid
+        else:
+            hi = mid
+    return lo, hi

@@ -1,0 +1,253 @@
+"""N identical zones sharing one pressure and one voltage, on a chamber of gas or a pressure reservoir.
+
+Potential of the whole system at fixed voltage (PHYSICS.md, normalised by ``μHA²``):
+
+``G(V̂1..V̂N) = Σ Ψ̂(V̂i) + G_gas(Σ V̂i)``
+
+with ``G_gas = −n̂ ln(V̂c + ΣV̂i) + p̂atm ΣV̂i`` for an isothermal ideal gas of amount
+``n̂ = NkT/(μHA²)`` in a rigid chamber ``V̂c`` (seed eq. 1), or ``G_gas = −p̂ ΣV̂i`` for a pressure
+reservoir. Its stationary points are the equilibria (every zone at the gauge pressure of the gas)
+and its Hessian ``diag(dp̂/dV̂(V̂i)) + n̂/(V̂c + ΣV̂i)²`` decides stability.
+
+An equilibrium *configuration* puts ``N − k`` zones in one state (on branch ``a`` of the zone's
+curve) and ``k`` in another (on a later branch ``b``); ``k = 0`` is the homogeneous state.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .branches import Branch, ZoneCurve
+from .errors import SceneError
+
+
+@dataclass(frozen=True)
+class GasChamber:
+    """Isothermal ideal gas, fixed amount, rigid chamber: ``(V̂c + ΣV̂)(p̂atm + p̂) = n̂``.
+
+    Parameters
+    ----------
+    chamber_volume : float
+        ``V̂c = Vc/A³``.
+    atmospheric_pressure : float
+        ``p̂atm = Patm A/(μH)``.
+    gas_amount : float
+        ``n̂ = NkT/(μHA²)``, fixed when the valves close.
+    """
+
+    chamber_volume: float
+    atmospheric_pressure: float
+    gas_amount: float
+    name = "isothermal-ideal-gas"
+
+    def __post_init__(self):
+        for key in ("chamber_volume", "atmospheric_pressure", "gas_amount"):
+            v = getattr(self, key)
+            if not (math.isfinite(v) and v > 0):
+                raise SceneError(f"must be a positive number, got {v!r}", key)
+
+    @classmethod
+    def closed_at(cls, chamber_volume, atmospheric_pressure, closing_pressure, zone_volumes_total):
+        """The gas that fills chamber and zones at gauge pressure ``p̂`` when the valves close."""
+        n = (chamber_volume + zone_volumes_total) * (atmospheric_pressure + closing_pressure)
+        return cls(float(chamber_volume), float(atmospheric_pressure), float(n))
+
+    def pressure(self, total_volume):
+        """Gauge pressure ``p̂ = n̂/(V̂c + ΣV̂) − p̂atm``."""
+        return self.gas_amount / (self.chamber_volume + total_volume) - self.atmospheric_pressure
+
+    def stiffness(self, total_volume):
+        """``−dp̂/dΣV̂ = n̂/(V̂c + ΣV̂)²`` (the gas resists a change of the total volume)."""
+        return self.gas_amount / (self.chamber_volume + total_volume) ** 2
+
+    def free_energy(self, total_volume):
+        """``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂``."""
+        return -self.gas_amount * np.log(self.chamber_volume + total_volume) + self.atmospheric_pressure * total_volume
+
+
+@dataclass(frozen=True)
+class PressureReservoir:
+    """Pressure control (no chamber in the scene): the gauge pressure is ``p̂`` whatever the volume."""
+
+    pressure_hat: float
+    name = "pressure-control"
+
+    def pressure(self, total_volume):
+        return self.pressure_hat + 0.0 * np.asarray(total_volume)
+
+    def stiffness(self, total_volume):
+        return 0.0 * np.asarray(total_volume)
+
+    def free_energy(self, total_volume):
+        return -self.pressure_hat * total_volume
+
+
+@dataclass
+class Equilibrium:
+    """One equilibrium configuration of N zones at one voltage.
+
+    ``k`` zones sit in the state ``bulged`` (pole-stretch variable ``u_bulged``) and ``N − k`` in
+    ``unbulged``; ``k = 0`` is homogeneous on ``branch_unbulged``. ``stable`` is True when the
+    Hessian of the total potential is positive definite (smallest eigenvalue ``min_eigenvalue``).
+    """
+
+    zones: int
+    k: int
+    branch_unbulged: int
+    branch_bulged: int | None
+    u_unbulged: float
+    u_bulged: float | None
+    pole_stretch_unbulged: float
+    pole_stretch_bulged: float | None
+    p_hat: float
+    v_unbulged: float
+    v_bulged: float | None
+    free_energy: float
+    min_eigenvalue: float
+    stable: bool
+    phi_hat: float = 0.0
+    notes: list = field(default_factory=list)
+
+    @property
+    def zone_volumes(self) -> list:
+        """Volumes of every zone, unbulged first."""
+        return [self.v_unbulged] * (self.zones - self.k) + [self.v_bulged] * self.k
+
+    @property
+    def label(self) -> str:
+        if self.k == 0:
+            return "homogeneous" if self.branch_unbulged == 0 else f"homogeneous (branch {self.branch_unbulged})"
+        return f"{self.k} of {self.zones} bulged"
+
+    def distance(self, other: Equilibrium) -> float:
+        """Distance in sorted zone-volume space (used to follow a state along a ramp)."""
+        a, b = np.sort(self.zone_volumes), np.sort(other.zone_volumes)
+        return float(np.max(np.abs(a - b)))
+
+
+def _hessian_min_eigenvalue(curve: ZoneCurve, gas, zones, k, uu, ub):
+    total = (zones - k) * float(curve.v(uu)) + (k * float(curve.v(ub)) if k else 0.0)
+    kappa = np.full(zones, float(curve.dp_dv(uu)))
+    if k:
+        kappa[zones - k:] = float(curve.dp_dv(ub))
+    H = np.diag(kappa) + float(gas.stiffness(total)) * np.ones((zones, zones))
+    return float(np.linalg.eigvalsh(H)[0])
+
+
+def _make(curve, gas, zones, k, a: Branch, b: Branch | None, uu, ub):
+    vu = float(curve.v(uu))
+    vb = float(curve.v(ub)) if k else None
+    total = (zones - k) * vu + (k * vb if k else 0.0)
+    G = (zones - k) * float(curve.psi(uu)) + (k * float(curve.psi(ub)) if k else 0.0) + float(gas.free_energy(total))
+    lam = curve.to_stretch
+    ev = _hessian_min_eigenvalue(curve, gas, zones, k, uu, ub)
+    return Equilibrium(
+        zones=zones, k=k, branch_unbulged=a.index, branch_bulged=(b.index if b is not None else None),
+        u_unbulged=float(uu), u_bulged=(float(ub) if k else None), pole_stretch_unbulged=float(lam(uu)),
+        pole_stretch_bulged=(float(lam(ub)) if k else None), p_hat=float(curve.p(uu)), v_unbulged=vu, v_bulged=vb,
+        free_energy=G, min_eigenvalue=ev, stable=bool(ev > 0), phi_hat=curve.phi_hat,
+    )
+
+
+def _sign_changes(y):
+    """Indices i with a sign change (or an exact zero) between y[..., i] and y[..., i + 1]."""
+    return np.nonzero((y[..., :-1] * y[..., 1:] < 0) | (y[..., :-1] == 0))
+
+
+class _BranchInverse:
+    """``u(P)`` on one monotone branch: linear interpolation of dense samples, polished by Newton."""
+
+    def __init__(self, curve: ZoneCurve, branch: Branch, samples: int):
+        self.curve, self.branch = curve, branch
+        u = np.linspace(branch.start, branch.stop, samples)
+        p = curve.p(u)
+        order = np.argsort(p)
+        self.p_sorted, self.u_sorted = p[order], u[order]
+
+    def __call__(self, P):
+        P = np.asarray(P, dtype=float)
+        u = np.interp(P, self.p_sorted, self.u_sorted)
+        lo, hi = self.branch.start, self.branch.stop
+        for _ in range(4):
+            dp = self.curve.dp(u)
+            step = np.where(dp != 0, (self.curve.p(u) - P) / np.where(dp != 0, dp, 1.0), 0.0)
+            u = np.clip(u - step, lo, hi)
+        return u
+
+
+def _refine(residual, lo, hi, iterations=40):
+    """Vectorised bracketed secant (Illinois) for roots of ``residual`` in [lo, hi] (arrays)."""
+    a, b = np.array(lo, dtype=float), np.array(hi, dtype=float)
+    fa, fb = residual(a), residual(b)
+    side = np.zeros_like(a)
+    for _ in range(iterations):
+        with np.errstate(all="ignore"):
+            c = np.where(fb != fa, b - fb * (b - a) / (fb - fa), 0.5 * (a + b))
+        c = np.where(np.isfinite(c) & (c > np.minimum(a, b)) & (c < np.maximum(a, b)), c, 0.5 * (a + b))
+        fc = residual(c)
+        left = np.sign(fc) == np.sign(fa)
+        # replace the end with the same sign; Illinois halving of the kept end's value
+        fb = np.where(left & (side == -1), 0.5 * fb, fb)
+        fa = np.where(~left & (side == 1), 0.5 * fa, fa)
+        a, fa = np.where(left, c, a), np.where(left, fc, fa)
+        b, fb = np.where(left, b, c), np.where(left, fb, fc)
+        side = np.where(left, -1, 1)
+        if np.all((np.abs(b - a) <= 1e-13 * np.maximum(1.0, np.abs(b))) | (fc == 0)):
+            break
+    return np.where(np.abs(fa) < np.abs(fb), a, b)
+
+
+def equilibria(curve: ZoneCurve, gas, zones: int, samples: int = 400) -> list[Equilibrium]:
+    """Every equilibrium configuration of ``zones`` zones at the voltage of ``curve``.
+
+    Homogeneous states: ``p̂(u) = p̂_gas(N V̂(u))`` on each usable branch. Mixed states: for each pair
+    of usable branches ``a < b`` with overlapping pressure ranges and each ``k = 1..N−1``, the
+    pressure ``P`` with ``P = p̂_gas((N−k)V̂(u_a(P)) + kV̂(u_b(P)))``, where ``u_a(P)``, ``u_b(P)`` invert
+    the curve on each branch. Roots are bracketed on a dense sample and refined on the spline.
+    """
+    if not (isinstance(zones, (int, np.integer)) and zones >= 1):
+        raise SceneError(f"zone count must be a positive integer, got {zones!r}", "zones")
+    zones = int(zones)
+    usable = [b for b in curve.branches if b.usable]
+    found = []
+    for a in usable:
+        u = np.linspace(a.start, a.stop, samples)
+
+        def hom(x):
+            return curve.p(x) - gas.pressure(zones * curve.v(x))
+
+        idx = _sign_changes(hom(u))[0]
+        if idx.size:
+            roots = _refine(hom, u[idx], u[idx + 1])
+            for r in roots:
+                found.append(_make(curve, gas, zones, 0, a, None, r, None))
+    if zones < 2:
+        return found
+    inverses = {b.index: _BranchInverse(curve, b, samples) for b in usable}
+    ks = np.arange(1, zones)[:, None]
+    for ia, a in enumerate(usable):
+        for b in usable[ia + 1:]:
+            lo = max(a.p_range[0], b.p_range[0])
+            hi = min(a.p_range[1], b.p_range[1])
+            if not hi > lo:
+                continue
+            ua_of, ub_of = inverses[a.index], inverses[b.index]
+            P = np.linspace(lo, hi, samples)
+            va, vb = curve.v(ua_of(P)), curve.v(ub_of(P))
+            R = P[None, :] - gas.pressure((zones - ks) * va[None, :] + ks * vb[None, :])
+            rows, cols = _sign_changes(R)
+            if rows.size == 0:
+                continue
+            kk = ks[rows, 0]
+
+            def mixed(Pv, kk=kk, ua_of=ua_of, ub_of=ub_of):
+                return Pv - gas.pressure((zones - kk) * curve.v(ua_of(Pv)) + kk * curve.v(ub_of(Pv)))
+
+            roots = _refine(mixed, P[cols], P[cols + 1])
+            for k, Pr in zip(kk, roots):
+                found.append(_make(curve, gas, zones, int(k), a, b, float(ua_of(Pr)), float(ub_of(Pr))))
+    return found
