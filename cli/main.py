@@ -7,6 +7,7 @@ import click
 from coexist import __version__
 
 from .curves import curves
+from .scenes import check, scenes
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -20,6 +21,8 @@ def cli():
 
 
 cli.add_command(curves)
+cli.add_command(scenes)
+cli.add_command(check)
 
 
 def main():

@@ -2,7 +2,9 @@
 
 A model is assembled from one elasticity effect and one electrostatics effect; each contributes
 its own symbolic terms to the free energy at fixed voltage, so turning an effect off removes its
-terms from the equations instead of multiplying them by zero. All energies are per unit reference
+terms from the equations instead of multiplying them by zero. Elasticity is written as a function of
+``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` and electrostatics of ``K = λ1²λ2²`` (both models of the
+project are of this form), which lets the model differentiate through the invariants. All energies are per unit reference
 volume and normalised by the shear modulus ``μ``; the voltage enters as ``Φ̂ = (Φ/H)√(ε/μ)``.
 """
 
@@ -21,14 +23,23 @@ def first_invariant(l1, l2):
     return l1**2 + l2**2 + 1 / (l1**2 * l2**2) - 3
 
 
+def area_invariant(l1, l2):
+    """``K = λ1² λ2²``, the squared areal stretch (the field scales with ``√K``)."""
+    return l1**2 * l2**2
+
+
 @dataclass(frozen=True)
 class NeoHookean:
     """Neo-Hookean elasticity, ``Ws/μ = (λ1² + λ2² + λ1⁻²λ2⁻² − 3)/2`` (seed eq. 2, PHYSICS.md)."""
 
     name = "neo-hookean"
 
+    def energy_of_invariant(self, i1):
+        """``Ws/μ`` as a function of ``I = I1 − 3``."""
+        return 0.5 * i1
+
     def strain_energy(self, l1, l2):
-        return 0.5 * first_invariant(l1, l2)
+        return self.energy_of_invariant(first_invariant(l1, l2))
 
     def locking_margin(self, l1, l2):
         """Always positive: a neo-Hookean membrane never locks."""
@@ -56,8 +67,12 @@ class Gent:
         if not (isinstance(self.jlim, (int, float)) and math.isfinite(self.jlim) and self.jlim > 0):
             raise SceneError(f"Jlim must be a positive number, got {self.jlim!r}", "jlim")
 
+    def energy_of_invariant(self, i1):
+        """``Ws/μ`` as a function of ``I = I1 − 3``."""
+        return -0.5 * self.jlim * ca.log(1 - i1 / self.jlim)
+
     def strain_energy(self, l1, l2):
-        return -0.5 * self.jlim * ca.log(1 - first_invariant(l1, l2) / self.jlim)
+        return self.energy_of_invariant(first_invariant(l1, l2))
 
     def locking_margin(self, l1, l2):
         """``1 − (I1 − 3)/Jlim``: the chains lock where it reaches zero."""
@@ -80,7 +95,11 @@ class IdealDielectric:
     enabled = True
 
     def energy(self, l1, l2, phi):
-        return -0.5 * phi**2 * l1**2 * l2**2
+        return self.energy_of_invariant(area_invariant(l1, l2), phi)
+
+    def energy_of_invariant(self, k, phi):
+        """``−Φ̂² K / 2`` with ``K = λ1² λ2²``."""
+        return -0.5 * phi**2 * k
 
     def charge_density(self, l1, l2, phi):
         return phi * l1**2 * l2**2
@@ -97,6 +116,9 @@ class NoElectrostatics:
     enabled = False
 
     def energy(self, l1, l2, phi):
+        return None
+
+    def energy_of_invariant(self, k, phi):
         return None
 
     def charge_density(self, l1, l2, phi):

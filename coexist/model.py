@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
-from .effects import IdealDielectric, NeoHookean, NoElectrostatics
+from .effects import IdealDielectric, NeoHookean, NoElectrostatics, area_invariant, first_invariant
 from .errors import SceneError
 from .symbolic import numpy_function
 
@@ -104,14 +104,33 @@ class MembraneModel:
 
 def _build(model: MembraneModel) -> dict:
     l1, l2, th, R, p, phi = (ca.SX.sym(n) for n in ("l1", "l2", "theta", "R", "p", "phi"))
-    W = model.elasticity.strain_energy(l1, l2)
-    elec = model.electrostatics.energy(l1, l2, phi)
-    if elec is not None:
-        W = W + elec
-    T1 = ca.gradient(W, l1)
-    T2 = ca.gradient(W, l2)
-    T11 = ca.gradient(T1, l1)
-    T12 = ca.gradient(T1, l2)
+    # W*(I, K): elasticity as a function of I = I1 − 3, electrostatics of K = λ1²λ2²; tensions by
+    # the chain rule through the invariants, every derivative taken symbolically by CasADi
+    I_s, K_s = ca.SX.sym("I"), ca.SX.sym("K")
+    I_expr, K_expr = first_invariant(l1, l2), area_invariant(l1, l2)
+    w = model.elasticity.energy_of_invariant(I_s)
+    e = model.electrostatics.energy_of_invariant(K_s, phi)
+    w_I = ca.gradient(w, I_s)
+    w_II = ca.gradient(w_I, I_s)
+    I_1, I_2 = ca.gradient(I_expr, l1), ca.gradient(I_expr, l2)
+    I_11, I_12 = ca.gradient(I_1, l1), ca.gradient(I_1, l2)
+    W_inv = w
+    T1_inv = w_I * I_1
+    T2_inv = w_I * I_2
+    T11_inv = w_II * I_1**2 + w_I * I_11
+    T12_inv = w_II * I_1 * I_2 + w_I * I_12
+    if e is not None:
+        e_K = ca.gradient(e, K_s)
+        e_KK = ca.gradient(e_K, K_s)
+        K_1, K_2 = ca.gradient(K_expr, l1), ca.gradient(K_expr, l2)
+        K_11, K_12 = ca.gradient(K_1, l1), ca.gradient(K_1, l2)
+        W_inv = W_inv + e
+        T1_inv = T1_inv + e_K * K_1
+        T2_inv = T2_inv + e_K * K_2
+        T11_inv = T11_inv + e_KK * K_1**2 + e_K * K_11
+        T12_inv = T12_inv + e_KK * K_1 * K_2 + e_K * K_12
+    W, T1, T2, T11, T12 = (ca.substitute(x, ca.vertcat(I_s, K_s), ca.vertcat(I_expr, K_expr))
+                           for x in (W_inv, T1_inv, T2_inv, T11_inv, T12_inv))
     margin = model.elasticity.locking_margin(l1, l2)
     margin = ca.SX(1.0) if margin is None else margin
     q = model.electrostatics.charge_density(l1, l2, phi)

@@ -107,6 +107,9 @@ def numpy_source(fun: ca.Function, name: str = "generated") -> str:
             raise NotImplementedError(f"CasADi operation {op} has no numpy translation")
         body.append(f"    {var} = " + template.format(*[ref(i) for i in ins[: 2 if op in _BINARY else 1]]))
         slot[outs[0]] = ("var", var)
+    # an output that is a constant (an effect switched off) still gets the broadcast shape of the inputs
+    zeros = f"_np.zeros_like({' + '.join(args)}, dtype=float)" if args else "0.0"
+    outputs = [o if o.startswith(("v", "i")) else f"{o} + {zeros}" for o in outputs]
     lines = [f"def {name}({', '.join(args)}):"] + body
     lines.append("    return (" + "".join(f"{o}, " for o in outputs) + ")")
     return "\n".join(lines) + "\n"

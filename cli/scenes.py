@@ -1,0 +1,93 @@
+"""``coexist scenes`` (list and show the built-in scenes) and ``coexist check`` (validate a scene)."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from .common import InputError, library_errors, write_json
+
+
+@click.group(invoke_without_command=True)
+@click.pass_context
+@library_errors
+def scenes(ctx):
+    """List the built-in scenes, one line each; 'coexist scenes show NAME' prints one."""
+    if ctx.invoked_subcommand is not None:
+        return
+    from coexist.scene import DEFAULT_SCENE, builtin_scenes
+
+    found = builtin_scenes()
+    width = max(map(len, found))
+    for name, description in found.items():
+        mark = " (default)" if name == DEFAULT_SCENE else ""
+        click.echo(f"{name:<{width}}  {description}{mark}")
+
+
+@scenes.command()
+@click.argument("name")
+@library_errors
+def show(name):
+    """Print the TOML text of the built-in scene NAME (a starting point for your own)."""
+    from coexist.scene import builtin_scene_text
+
+    click.echo(builtin_scene_text(name), nl=False)
+
+
+@click.command()
+@click.argument("scene", metavar="FILE_OR_NAME")
+@click.option("--json", "as_json", is_flag=True, help="Print the validated scene as JSON on stdout.")
+def check(scene, as_json):
+    """Validate a scene (a .toml file, a built-in name, or - for stdin) without solving anything.
+
+    Prints the effects the scene selects and its dimensionless groups (PHYSICS.md):
+    p̂ = pA/(μH), V̂ = V/A³, Φ̂ = (Φ/H)√(ε/μ), Q̂ = Q/(A²√(εμ)), Ψ̂ = Ψ/(μHA²).
+    Units are part of every key name: thickness_mm = 0.5, volume_ml = 300, stop_kV = 5.
+    Suffixes: length _m _mm _um; shear modulus _Pa _kPa _MPa; pressure _Pa _kPa _mbar _bar;
+    volume _m3 _l _ml; voltage _V _kV; field _V_per_m _MV_per_m.
+    """
+    from coexist.errors import SceneError
+    from coexist.scene import load_scene, parse_scene
+
+    try:
+        if scene == "-":
+            loaded = parse_scene(sys.stdin.read(), source="<stdin>")
+        else:
+            loaded = load_scene(scene)
+    except SceneError as exc:
+        raise InputError(f"{scene}: {exc}" if exc.field else str(exc)) from None
+    if as_json:
+        write_json(loaded.to_dict())
+        return
+    _print_scene(loaded)
+
+
+def _print_scene(scene):
+    click.echo(f"scene {scene.name}: {scene.description}" if scene.description else f"scene {scene.name}")
+    click.echo(f"source: {scene.source}")
+    jlim = f", Jlim = {scene.jlim:g}" if scene.jlim is not None else ""
+    click.echo(f"membrane: {scene.material}{jlim}, μ = {scene.shear_modulus / 1e3:g} kPa, "
+               f"εr = {scene.relative_permittivity:g}, H = {scene.thickness * 1e3:g} mm, "
+               f"A = {scene.zone_radius * 1e3:g} mm, prestretch {scene.prestretch:g}")
+    click.echo(f"zones: {scene.zone_count}")
+    if scene.chamber is not None:
+        c = scene.chamber
+        click.echo(f"chamber: {c.volume * 1e6:g} ml, closed at {c.closing_pressure / 100:g} mbar (gauge), "
+                   f"atmosphere {c.atmospheric_pressure / 1e3:g} kPa")
+    if scene.voltage is not None:
+        v = scene.voltage
+        path = (f"ramp {v.start / 1e3:g} -> {v.stop / 1e3:g} -> {v.start / 1e3:g} kV in {v.step / 1e3:g} kV steps"
+                if v.kind == "ramp" else f"{len(v.values)} values up to {v.peak / 1e3:g} kV")
+        click.echo(f"voltage: {path} ({len(v.values)} points)")
+    click.echo(f"solver: relative tolerance {scene.settings.rtol:g}")
+    click.echo(f"effects: {', '.join(scene.effects())}")
+    click.echo("dimensionless groups:")
+    groups = scene.dimensionless_groups()
+    width = max(map(len, groups))
+    for key, value in groups.items():
+        click.echo(f"  {key:<{width}}  {value:.6g}")
+    if scene.fitted:
+        click.echo("fitted:")
+        for key, value in scene.fitted.items():
+            click.echo(f"  {key} = {value}")

@@ -1,0 +1,287 @@
+"""Equal free energy: coexisting bulged and unbulged zones, solved with CasADi.
+
+Two zones at the same pressure ``p̂`` and voltage ``Φ̂`` coexist when they sit on two stable
+branches of the same curve with equal potential (the Maxwell condition, PHYSICS.md)::
+
+    p̂(u_b) = p̂(u_u),      Ψ̂(u_b) − Ψ̂(u_u) = p̂ (V̂(u_b) − V̂(u_u))
+
+i.e. equal areas on the ``p̂–V̂`` curve at fixed ``Φ̂``. The same two states satisfy the equal-area
+rule on the ``Φ̂–Q̂`` curve at fixed ``p̂`` (the potential at fixed ``p`` and ``Φ``, ``Ψ − pV``, is
+equal in both), so one solver serves both readings.
+
+The curve is the cubic spline of :class:`~coexist.branches.ZoneCurve`, rebuilt piece by piece as
+a CasADi expression so that the Newton solve has exact derivatives of exactly the function the
+rest of the project uses; its own error against shooting is measured by the curve
+(``interpolation_error``). A solution with the two states merged (the trivial one) is never
+returned: near the critical point where the two stable branches merge, :class:`ModelRangeError`
+says that coexistence ends there.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import casadi as ca
+import numpy as np
+
+from .branches import ZoneCurve
+from .errors import ModelRangeError, SolverError
+
+#: iterations allowed to every CasADi Newton solve
+MAX_NEWTON_ITERATIONS = 60
+
+
+def casadi_spline(spline, x, window=None):
+    """A scipy ``CubicSpline`` (piecewise polynomial) as a CasADi expression in ``x``.
+
+    Each piece ``Σ c_k (x − x_i)^(3−k)`` is selected with ``if_else``; the end pieces extend
+    beyond their interval. ``window = (first, last)`` keeps only those pieces (a Newton solve
+    started close to its solution needs only the pieces around it; the caller checks that the
+    solution stayed inside the window).
+    """
+    breaks = spline.x
+    coef = spline.c
+    expr = 0
+    first, last = (0, breaks.size - 2) if window is None else window
+    n = last + 1
+    for i in range(first, last + 1):
+        d = x - breaks[i]
+        piece = ((coef[0, i] * d + coef[1, i]) * d + coef[2, i]) * d + coef[3, i]
+        lo_ok = 1 if i == first else (x >= breaks[i])
+        hi_ok = 1 if i == n - 1 else (x < breaks[i + 1])
+        expr = expr + ca.if_else(ca.logic_and(lo_ok, hi_ok), piece, 0)
+    return expr
+
+
+@dataclass
+class Coexistence:
+    """Coexisting unbulged (``u``) and bulged (``b``) states of one zone at voltage ``phi_hat``."""
+
+    phi_hat: float
+    p_hat: float
+    pole_stretch_unbulged: float
+    pole_stretch_bulged: float
+    v_unbulged: float
+    v_bulged: float
+    q_unbulged: float
+    q_bulged: float
+    psi_unbulged: float
+    psi_bulged: float
+    residual: float
+    iterations: int
+
+    def to_dict(self) -> dict:
+        return dict(self.__dict__)
+
+
+class MaxwellSolver:
+    """Builds the CasADi equal-free-energy system for one :class:`ZoneCurve` and solves it."""
+
+    #: spline pieces kept on each side of the initial guess
+    WINDOW = 6
+
+    def __init__(self, curve: ZoneCurve):
+        self.curve = curve
+
+    def _build(self, guess):
+        """CasADi residual and Newton rootfinder on the spline pieces around ``guess``."""
+        c = self.curve
+        n = c.grid.size - 2
+        windows = []
+        for g in guess:
+            i = int(np.clip(np.searchsorted(c.grid, g) - 1, 0, n))
+            windows.append((max(0, i - self.WINDOW), min(n, i + self.WINDOW)))
+        uu, ub = ca.SX.sym("u_unbulged"), ca.SX.sym("u_bulged")
+        p_u, p_b = casadi_spline(c.p, uu, windows[0]), casadi_spline(c.p, ub, windows[1])
+        v_u, v_b = casadi_spline(c.v, uu, windows[0]), casadi_spline(c.v, ub, windows[1])
+        psi_u, psi_b = casadi_spline(c.psi, uu, windows[0]), casadi_spline(c.psi, ub, windows[1])
+        x = ca.vertcat(uu, ub)
+        # equal pressure; equal potential Ψ − p̂V with the mean pressure (symmetric in the two states)
+        g = ca.vertcat(p_b - p_u, (psi_b - psi_u) - 0.5 * (p_u + p_b) * (v_b - v_u))
+        residual = ca.Function("maxwell_residual", [x], [g])
+        rootfinder = ca.rootfinder("maxwell", "newton", residual,
+                                   {"max_iter": MAX_NEWTON_ITERATIONS, "abstol": 1e-13, "error_on_fail": False})
+        bounds = [(c.grid[w[0]], c.grid[w[1] + 1]) for w in windows]
+        return residual, rootfinder, bounds
+
+    def equal_area(self, P: float) -> float | None:
+        """Signed area ``Ψ̂(u_b) − Ψ̂(u_u) − P(V̂(u_b) − V̂(u_u))`` at pressure ``P`` between the first
+        stable branch and the next stable branch; None where ``P`` is outside either."""
+        a, b = self._stable_pair()
+        c = self.curve
+        try:
+            uu, ub = c.stretch_at_pressure(a, P), c.stretch_at_pressure(b, P)
+        except ValueError:
+            return None
+        return float(c.psi(ub) - c.psi(uu) - P * (c.v(ub) - c.v(uu)))
+
+    def _stable_pair(self):
+        rising = [b for b in self.curve.branches if b.rising and b.usable]
+        if len(rising) < 2:
+            raise ModelRangeError(
+                f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the curve has no second stable branch "
+                f"(no stiffening within the model's range{'; ' + self.curve.stopped_because if self.curve.stopped_because else ''})",
+                "no_coexistence")
+        return rising[0], rising[1]
+
+    def initial_guess(self, samples: int = 200):
+        """Bracket the Maxwell pressure on the overlap of the two stable branches (sign change of the area)."""
+        a, b = self._stable_pair()
+        lo, hi = max(a.p_range[0], b.p_range[0]), min(a.p_range[1], b.p_range[1])
+        if not hi > lo:
+            raise ModelRangeError(f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the two stable branches "
+                                  "share no pressure", "no_coexistence")
+        P = np.linspace(lo, hi, samples)[1:-1]
+        area = np.array([self.equal_area(x) for x in P])
+        sign = np.flatnonzero(area[:-1] * area[1:] < 0)
+        if sign.size == 0:
+            raise ModelRangeError(f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the equal-area pressure "
+                                  "lies outside the stable branches", "no_coexistence")
+        P0 = 0.5 * (P[sign[0]] + P[sign[0] + 1])
+        return self.curve.stretch_at_pressure(a, P0), self.curve.stretch_at_pressure(b, P0)
+
+    def solve(self) -> Coexistence:
+        """The coexisting pair (CasADi Newton on the exact spline), verified before it is returned."""
+        guess = self.initial_guess()
+        residual, rootfinder, bounds = self._build(guess)
+        x = np.array(rootfinder(ca.DM(guess))).ravel()
+        stats = rootfinder.stats()
+        res = float(np.max(np.abs(np.array(residual(x)).ravel())))
+        c = self.curve
+        if not all(lo <= xi <= hi for xi, (lo, hi) in zip(x, bounds)):
+            raise SolverError(f"equal-free-energy solve at Φ̂ = {c.phi_hat:.6g} left the spline pieces around "
+                              "its initial guess")
+        if not (stats.get("success", False) and np.all(np.isfinite(x)) and res < 1e-9):
+            raise SolverError(f"equal-free-energy solve failed at Φ̂ = {c.phi_hat:.6g}: "
+                              f"{stats.get('return_status', 'no convergence')} (residual {res:.2e})")
+        uu, ub = x
+        lo, hi = c.grid[0], c.grid[-1]
+        if not (lo <= uu <= hi and lo <= ub <= hi):
+            raise SolverError(f"equal-free-energy solve left the curve at Φ̂ = {c.phi_hat:.6g}")
+        if abs(ub - uu) <= 1e-6 * max(1.0, abs(ub)):
+            raise ModelRangeError(f"coexistence ends at Φ̂ = {c.phi_hat:.6g}: the bulged and unbulged states "
+                                  "merge (critical point)", "critical_point")
+        if c.dp(uu) <= 0 or c.dp(ub) <= 0:
+            raise SolverError(f"equal-free-energy solve converged onto an unstable branch at Φ̂ = {c.phi_hat:.6g}")
+        return Coexistence(
+            phi_hat=c.phi_hat, p_hat=float(c.p(uu)), pole_stretch_unbulged=float(c.to_stretch(uu)),
+            pole_stretch_bulged=float(c.to_stretch(ub)), v_unbulged=float(c.v(uu)), v_bulged=float(c.v(ub)),
+            q_unbulged=float(c.q(uu)), q_bulged=float(c.q(ub)), psi_unbulged=float(c.psi(uu)),
+            psi_bulged=float(c.psi(ub)), residual=res, iterations=int(stats.get("iter_count", -1)),
+        )
+
+
+def maxwell_coexistence(curve: ZoneCurve) -> Coexistence:
+    """Coexisting unbulged and bulged states of one zone curve at fixed voltage (equal areas)."""
+    return MaxwellSolver(curve).solve()
+
+
+@dataclass
+class PhaseDiagram:
+    """The ``(Φ̂, p̂)`` plane of one zone: spinodals, binodal and the critical point.
+
+    ``spinodal_max``/``spinodal_min`` hold ``(Φ̂, p̂)`` of the pressure maximum and the following
+    minimum of the curve (the limits of stability under pressure control); ``binodal`` the
+    Maxwell coexistence pressure; ``critical_point`` the ``(Φ̂, p̂, λ0)`` where the maximum and
+    minimum merge (None if it lies outside the range); ``notes`` where and why lines end.
+    """
+
+    phi_hat: np.ndarray
+    spinodal_max: np.ndarray
+    spinodal_min: np.ndarray
+    binodal: np.ndarray
+    coexistence: list
+    critical_point: tuple | None
+    notes: list
+
+    def to_dict(self) -> dict:
+        def clean(a):
+            return [None if not np.isfinite(x) else float(x) for x in a]
+
+        return {
+            "phi_hat": clean(self.phi_hat),
+            "spinodal_max_p_hat": clean(self.spinodal_max),
+            "spinodal_min_p_hat": clean(self.spinodal_min),
+            "binodal_p_hat": clean(self.binodal),
+            "coexisting_states": [c.to_dict() for c in self.coexistence],
+            "critical_point": (None if self.critical_point is None else
+                               dict(zip(("phi_hat", "p_hat", "pole_stretch"), map(float, self.critical_point)))),
+            "notes": self.notes,
+        }
+
+
+def _loop(curve: ZoneCurve):
+    """The pressure maximum and the next minimum (u values) of a curve, or None."""
+    ext = curve.pressure_extrema()
+    for i in range(ext.size - 1):
+        if curve.dp(ext[i] - 1e-9) > 0 and curve.dp(ext[i + 1] + 1e-9) > 0:
+            return ext[i], ext[i + 1]
+    return None
+
+
+def phase_diagram(model, phi_values, pole_stretch_max: float, settings=None, points: int = 128) -> PhaseDiagram:
+    """Spinodals, binodal and critical point of one zone over the voltages ``phi_values``.
+
+    Each voltage gets its own directly shot curve (``points`` states in ``u = √(λ0 − λpre)``);
+    the binodal is :func:`maxwell_coexistence` on it; the critical point, where the pressure
+    maximum and minimum merge, is found by bisection on ``Φ̂`` between a voltage with a loop and
+    one without (to 1e-8 in ``Φ̂``).
+    """
+    phi_values = np.asarray(phi_values, dtype=float)
+    pre = model.prestretch
+    u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), points)
+    smax, smin, bino = (np.full(phi_values.size, np.nan) for _ in range(3))
+    states, notes = [], []
+    has_loop = np.zeros(phi_values.size, dtype=bool)
+    curves = {}
+
+    def curve_at(phi):
+        return ZoneCurve.compute(model, phi, pre + u**2, settings)
+
+    for i, phi in enumerate(phi_values):
+        try:
+            c = curves[i] = curve_at(phi)
+        except ModelRangeError as exc:
+            notes.append(f"Φ̂ = {phi:.6g}: {exc}")
+            continue
+        loop = _loop(c)
+        if loop is None:
+            continue
+        has_loop[i] = True
+        smax[i], smin[i] = float(c.p(loop[0])), float(c.p(loop[1]))
+        try:
+            co = maxwell_coexistence(c)
+            bino[i] = co.p_hat
+            states.append(co)
+        except ModelRangeError as exc:
+            notes.append(f"Φ̂ = {phi:.6g}: {exc}")
+    critical = None
+    change = np.flatnonzero(has_loop[:-1] != has_loop[1:])
+    for j in change:
+        lo, hi = phi_values[j], phi_values[j + 1]
+        with_loop_hi = has_loop[j + 1]
+        for _ in range(40):
+            if hi - lo < 1e-8:
+                break
+            mid = 0.5 * (lo + hi)
+            try:
+                loop = _loop(curve_at(mid))
+            except ModelRangeError:
+                break
+            if (loop is not None) == with_loop_hi:
+                hi = mid
+            else:
+                lo = mid
+        edge = hi if with_loop_hi else lo
+        try:
+            c = curve_at(edge)
+            loop = _loop(c)
+        except ModelRangeError:
+            loop = None
+        if loop is not None:
+            um = 0.5 * (loop[0] + loop[1])
+            critical = (edge, float(c.p(um)), float(c.to_stretch(um)))
+            notes.append(f"critical point at Φ̂ = {edge:.8f}: the pressure maximum and minimum merge; "
+                         "coexistence ends there")
+        break
+    return PhaseDiagram(phi_values, smax, smin, bino, states, critical, notes)

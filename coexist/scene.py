@@ -1,0 +1,431 @@
+"""Scenes: a physical experiment described in TOML, validated up front, in SI units and normalised.
+
+A scene says what membrane is clamped over how many zones, on what gas chamber, along which voltage
+path, and how accurately to solve. Every dimensional value carries its unit in its key name::
+
+    [membrane]
+    thickness_mm = 0.5          # not `thickness = 0.5`
+    zone_radius_mm = 12
+
+    [chamber]
+    volume_ml = 300
+    closing_pressure_mbar = 20  # gauge pressure when the valves close, at zero voltage
+
+The sections, keys, unit suffixes and defaults are listed in :mod:`coexist.scene_format`.
+
+Normalisation (seed eqs. 3–4, PHYSICS.md), with ``μ`` the shear modulus, ``H`` the thickness, ``A``
+the zone radius and ``ε = εr ε0`` the permittivity, all of the unstretched membrane::
+
+    p̂ = p A/(μH)     V̂ = V/A³     Φ̂ = (Φ/H) √(ε/μ)     Q̂ = Q/(A² √(εμ))     Ψ̂ = Ψ/(μ H A²)
+
+so that ``dΨ̂ = p̂ dV̂ − Q̂ dΦ̂``; a true field normalises as ``Ê = E √(ε/μ)``.
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+from dataclasses import dataclass, field
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SceneError
+from .scene_format import DEFAULTS, did_you_mean, read_document
+from .settings import SolverSettings
+
+try:
+    import tomllib
+except ModuleNotFoundError:  # Python 3.10
+    import tomli as tomllib
+
+#: Vacuum permittivity ε0 in F/m (CODATA 2018).
+VACUUM_PERMITTIVITY = 8.8541878128e-12
+#: The scene ``load_scene(None)`` returns: the paper's experiment.
+DEFAULT_SCENE = "tricircle"
+
+
+# --- the scene -------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Chamber:
+    """A rigid gas chamber under the zones, closed at a known gauge pressure (seed eq. 1).
+
+    Attributes
+    ----------
+    volume : float
+        Chamber volume ``Vc`` in m³ (without the zones).
+    closing_pressure : float
+        Gauge pressure ``p`` in Pa when the valves close, at zero voltage.
+    atmospheric_pressure : float
+        ``Patm`` in Pa; the gas obeys ``(Vc + Σ Vi)(Patm + p) = NkT``.
+    """
+
+    volume: float
+    closing_pressure: float
+    atmospheric_pressure: float = DEFAULTS["atmospheric_pressure"]
+    closing_pressure_field: str = field(default="[chamber].closing_pressure_mbar", repr=False, compare=False)
+
+
+@dataclass(frozen=True, eq=False)
+class VoltagePath:
+    """The voltages applied to all zones, in order.
+
+    Attributes
+    ----------
+    kind : str
+        ``"ramp"`` (up from ``start`` to ``stop`` in steps of ``step``, then back down) or ``"list"``.
+    values : numpy.ndarray
+        The voltage path in volts (read-only).
+    start, stop, step : float or None
+        The ramp in volts; ``None`` for a list.
+    """
+
+    kind: str
+    values: np.ndarray
+    start: float | None = None
+    stop: float | None = None
+    step: float | None = None
+
+    @property
+    def peak(self) -> float:
+        """The highest voltage of the path, in volts."""
+        return float(np.max(self.values))
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated experiment in SI units; build it with :func:`load_scene` or :func:`parse_scene`.
+
+    Attributes
+    ----------
+    shear_modulus : float
+        ``μ`` in Pa.
+    relative_permittivity : float
+        ``εr``; the permittivity is ``ε = εr ε0`` (:attr:`permittivity`, F/m).
+    thickness, zone_radius : float
+        ``H`` and ``A`` of the unstretched membrane, in m.
+    prestretch : float
+        Equibiaxial prestretch ``λpre ≥ 1`` (1: none).
+    material : str
+        ``"neo-hookean"`` or ``"gent"``; ``jlim`` is ``None`` for neo-Hookean.
+    breakdown_field : float or None
+        Breakdown field in V/m; ``None``: no breakdown check.
+    zone_count : int
+        Number ``N`` of identical zones sharing one gas and one voltage.
+    chamber : Chamber or None
+        ``None``: the pressure is controlled directly.
+    voltage : VoltagePath or None
+        ``None``: no voltage, the electrostatic terms are not built at all.
+    settings : SolverSettings
+        Tolerances of the solvers.
+    name, description, source : str
+        ``source`` is the file path or the built-in scene name.
+    fitted : dict
+        Free-form notes of fitted parameters, carried through unchanged.
+    """
+
+    shear_modulus: float = DEFAULTS["shear_modulus"]
+    relative_permittivity: float = DEFAULTS["relative_permittivity"]
+    thickness: float = DEFAULTS["thickness"]
+    zone_radius: float = DEFAULTS["zone_radius"]
+    prestretch: float = DEFAULTS["prestretch"]
+    material: str = "neo-hookean"
+    jlim: float | None = None
+    breakdown_field: float | None = None
+    zone_count: int = DEFAULTS["count"]
+    chamber: Chamber | None = None
+    voltage: VoltagePath | None = None
+    settings: SolverSettings = field(default_factory=SolverSettings)
+    name: str = ""
+    description: str = ""
+    fitted: dict = field(default_factory=dict)
+    source: str = "<string>"
+
+    # --- scales (PHYSICS.md, seed eqs. 3-4) ------------------------------------------------------
+    @property
+    def permittivity(self) -> float:
+        """``ε = εr ε0`` in F/m."""
+        return self.relative_permittivity * VACUUM_PERMITTIVITY
+
+    @property
+    def pressure_scale(self) -> float:
+        """``μH/A`` in Pa: ``p̂ = p A/(μH)``."""
+        return self.shear_modulus * self.thickness / self.zone_radius
+
+    @property
+    def volume_scale(self) -> float:
+        """``A³`` in m³: ``V̂ = V/A³``."""
+        return self.zone_radius**3
+
+    @property
+    def voltage_scale(self) -> float:
+        """``H √(μ/ε)`` in V: ``Φ̂ = (Φ/H) √(ε/μ)``."""
+        return self.thickness * math.sqrt(self.shear_modulus / self.permittivity)
+
+    @property
+    def charge_scale(self) -> float:
+        """``A² √(εμ)`` in C: ``Q̂ = Q/(A² √(εμ))``."""
+        return self.zone_radius**2 * math.sqrt(self.permittivity * self.shear_modulus)
+
+    @property
+    def energy_scale(self) -> float:
+        """``μ H A²`` in J: ``Ψ̂ = Ψ/(μHA²)``; equal to pressure scale × volume scale."""
+        return self.shear_modulus * self.thickness * self.zone_radius**2
+
+    @property
+    def field_scale(self) -> float:
+        """``√(μ/ε)`` in V/m: a true field normalises as ``Ê = E √(ε/μ)``."""
+        return math.sqrt(self.shear_modulus / self.permittivity)
+
+    # --- physical <-> normalised -----------------------------------------------------------------
+    def p_hat(self, p):
+        """``p̂ = p A/(μH)`` of a gauge pressure ``p`` in Pa (scalar or array)."""
+        return _scaled(p, 1 / self.pressure_scale)
+
+    def pressure(self, p_hat):
+        """Gauge pressure in Pa of a normalised pressure, ``p = p̂ μH/A``."""
+        return _scaled(p_hat, self.pressure_scale)
+
+    def v_hat(self, volume):
+        """``V̂ = V/A³`` of a volume in m³."""
+        return _scaled(volume, 1 / self.volume_scale)
+
+    def volume(self, v_hat):
+        """Volume in m³ of a normalised volume, ``V = V̂ A³``."""
+        return _scaled(v_hat, self.volume_scale)
+
+    def phi_hat(self, volts):
+        """``Φ̂ = (Φ/H) √(ε/μ)`` of a voltage in V."""
+        return _scaled(volts, 1 / self.voltage_scale)
+
+    def voltage_of(self, phi_hat):
+        """Voltage in V of a normalised voltage, ``Φ = Φ̂ H √(μ/ε)``."""
+        return _scaled(phi_hat, self.voltage_scale)
+
+    @property
+    def voltage_hat_path(self) -> np.ndarray | None:
+        """``Φ̂`` of every voltage of the path, or ``None`` without a ``[voltage]`` section."""
+        return None if self.voltage is None else self.phi_hat(self.voltage.values)
+
+    @property
+    def chamber_volume_hat(self) -> float | None:
+        """``V̂c = Vc/A³``, or ``None`` without a chamber."""
+        return None if self.chamber is None else self.v_hat(self.chamber.volume)
+
+    @property
+    def closing_pressure_hat(self) -> float | None:
+        """Normalised gauge pressure when the valves close, or ``None`` without a chamber."""
+        return None if self.chamber is None else self.p_hat(self.chamber.closing_pressure)
+
+    @property
+    def atmospheric_pressure_hat(self) -> float | None:
+        """``P̂atm = Patm A/(μH)``, or ``None`` without a chamber."""
+        return None if self.chamber is None else self.p_hat(self.chamber.atmospheric_pressure)
+
+    def gas_amount_hat(self, v_zones_hat_total: float) -> float:
+        """The amount of gas ``NkT/(μHA²) = (V̂c + ΣV̂i)(P̂atm + p̂close)`` (seed eq. 1, normalised).
+
+        Parameters
+        ----------
+        v_zones_hat_total : float
+            ``ΣV̂i``, the zones' total normalised volume when the valves close (at the closing
+            pressure and zero voltage); it needs the solver, so the caller supplies it.
+        """
+        if self.chamber is None:
+            raise SceneError("the scene has no chamber, so no fixed amount of gas", "[chamber]")
+        return (self.chamber_volume_hat + v_zones_hat_total) * (
+            self.atmospheric_pressure_hat + self.closing_pressure_hat)
+
+    def dimensionless_groups(self) -> dict:
+        """The scales (units in the key names) and the scene's normalised parameters."""
+        groups = {
+            "pressure_scale_Pa": self.pressure_scale,
+            "volume_scale_m3": self.volume_scale,
+            "voltage_scale_V": self.voltage_scale,
+            "charge_scale_C": self.charge_scale,
+            "energy_scale_J": self.energy_scale,
+            "field_scale_V_per_m": self.field_scale,
+            "thickness_over_radius": self.thickness / self.zone_radius,
+        }
+        if self.chamber is not None:
+            groups["chamber_volume_hat"] = self.chamber_volume_hat
+            groups["atmospheric_pressure_hat"] = self.atmospheric_pressure_hat
+            groups["closing_pressure_hat"] = self.closing_pressure_hat
+        if self.voltage is not None:
+            groups["voltage_hat_max"] = self.phi_hat(self.voltage.peak)
+        if self.breakdown_field is not None:
+            groups["breakdown_field_hat"] = self.breakdown_field / self.field_scale
+        return groups
+
+    def check_closing_pressure(self, p_hat_max: float) -> None:
+        """Raise :class:`SceneError` if the zones cannot hold the closing pressure.
+
+        Parameters
+        ----------
+        p_hat_max : float
+            The largest normalised pressure one zone can hold at zero voltage (the snap-through
+            pressure of the zone's ``p̂–V̂`` curve, e.g. 1.879 for neo-Hookean without prestretch).
+        """
+        if self.chamber is None:
+            return
+        p_hat = self.closing_pressure_hat
+        if not p_hat < p_hat_max:
+            mbar = self.chamber.closing_pressure / 100
+            raise SceneError(
+                f"the zones cannot hold {mbar:.4g} mbar (p̂ = {p_hat:.4g}): it is at or above the "
+                f"snap-through pressure p̂max = {p_hat_max:.4g} ({self.pressure(p_hat_max) / 100:.4g} mbar); "
+                "close the valves at a lower pressure", self.chamber.closing_pressure_field)
+
+    # --- effects and model -----------------------------------------------------------------------
+    def effects(self) -> list[str]:
+        """Names of the effects this scene calls for; nothing else is simulated.
+
+        The first entries name the same effects as :attr:`coexist.model.MembraneModel.effects`.
+        """
+        names = [f"elasticity:{self.material}"]
+        if self.voltage is not None:
+            names.append("electrostatics:ideal-dielectric")
+        if self.prestretch != 1.0:
+            names.append("prestretch")
+        names.append("gas:isothermal-ideal-gas" if self.chamber is not None else "pressure-control")
+        if self.breakdown_field is not None:
+            names.append("breakdown-check")
+        return names
+
+    def model(self):
+        """The :class:`coexist.model.MembraneModel` with exactly the scene's effects (imports CasADi)."""
+        from .effects import Gent, IdealDielectric, NeoHookean, NoElectrostatics
+        from .model import MembraneModel
+
+        return MembraneModel(
+            elasticity=Gent(self.jlim) if self.material == "gent" else NeoHookean(),
+            electrostatics=IdealDielectric() if self.voltage is not None else NoElectrostatics(),
+            prestretch=self.prestretch,
+        )
+
+    def to_dict(self) -> dict:
+        """JSON-ready description: SI values with units in the key names, effects, groups, notes."""
+        membrane = {
+            "material": self.material,
+            "shear_modulus_Pa": self.shear_modulus,
+            "relative_permittivity": self.relative_permittivity,
+            "permittivity_F_per_m": self.permittivity,
+            "thickness_m": self.thickness,
+            "zone_radius_m": self.zone_radius,
+            "prestretch": self.prestretch,
+            "breakdown_field_V_per_m": self.breakdown_field,
+        }
+        if self.jlim is not None:
+            membrane["jlim"] = self.jlim
+        chamber = None if self.chamber is None else {
+            "volume_m3": self.chamber.volume,
+            "closing_pressure_Pa": self.chamber.closing_pressure,
+            "atmospheric_pressure_Pa": self.chamber.atmospheric_pressure,
+        }
+        voltage = None if self.voltage is None else {
+            "kind": self.voltage.kind,
+            "start_V": self.voltage.start,
+            "stop_V": self.voltage.stop,
+            "step_V": self.voltage.step,
+            "values_V": [float(v) for v in self.voltage.values],
+        }
+        return {
+            "name": self.name,
+            "description": self.description,
+            "source": self.source,
+            "membrane": membrane,
+            "zones": {"count": self.zone_count},
+            "chamber": chamber,
+            "voltage": voltage,
+            "solver": {"relative_tolerance": self.settings.rtol},
+            "effects": self.effects(),
+            "dimensionless_groups": self.dimensionless_groups(),
+            "fitted": _json_safe(self.fitted),
+        }
+
+
+def _scaled(x, factor):
+    if np.ndim(x) == 0:
+        return float(x) * factor
+    return np.asarray(x, dtype=float) * factor
+
+
+def _json_safe(value):
+    """TOML values as JSON values: dates become ISO strings, non-finite floats strings."""
+    if isinstance(value, dict):
+        return {str(k): _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, (datetime.date, datetime.time)):
+        return value.isoformat()
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return value
+
+
+# --- loading ---------------------------------------------------------------------------------------
+def builtin_scenes() -> dict[str, str]:
+    """Built-in scene names with a one-line description each."""
+    out = {}
+    for name in _builtin_names():
+        doc = tomllib.loads(builtin_scene_text(name))
+        text = str(doc.get("description", "")).strip()
+        out[name] = text.splitlines()[0] if text else ""
+    return out
+
+
+def builtin_scene_text(name: str) -> str:
+    """The TOML text of a built-in scene."""
+    names = _builtin_names()
+    if name not in names:
+        raise SceneError(f"unknown built-in scene {name!r}{did_you_mean(name, names)} (built-in scenes: "
+                         f"{', '.join(names)}; or give the path of a .toml file)")
+    return resources.files("coexist.scenes").joinpath(f"{name}.toml").read_text(encoding="utf-8")
+
+
+def load_scene(name_or_path: str | Path | None = None) -> Scene:
+    """Load a built-in scene by name, or a scene file by path (``None``: the default, ``tricircle``).
+
+    A string ending in ``.toml`` or holding a path separator is a path; otherwise a built-in name,
+    falling back to a file of that name if one exists.
+    """
+    if name_or_path is None:
+        name_or_path = DEFAULT_SCENE
+    text = str(name_or_path)
+    looks_like_path = isinstance(name_or_path, Path) or text.endswith(".toml") or "/" in text or "\\" in text
+    if not looks_like_path and (text in _builtin_names() or not Path(text).is_file()):
+        return parse_scene(builtin_scene_text(text), source=text)
+    path = Path(name_or_path)
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise SceneError(f"scene file {str(path)!r} not found") from None
+    except OSError as exc:
+        raise SceneError(f"cannot read scene file {str(path)!r}: {exc.strerror or exc}") from None
+    try:
+        source = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"scene file {str(path)!r} is not UTF-8 text (byte {exc.start})") from None
+    return parse_scene(source, source=str(path))
+
+
+def parse_scene(text: str, source: str = "<string>") -> Scene:
+    """Parse and validate the TOML text of a scene; every problem is a :class:`SceneError`."""
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"invalid TOML in {source}: {exc}") from None
+    fields = read_document(doc, source)
+    if fields["chamber"] is not None:
+        fields["chamber"] = Chamber(**fields["chamber"])
+    if fields["voltage"] is not None:
+        values = np.array(fields["voltage"].pop("values"), dtype=float)
+        values.setflags(write=False)
+        fields["voltage"] = VoltagePath(values=values, **fields["voltage"])
+    return Scene(**fields)
+
+
+def _builtin_names() -> list[str]:
+    folder = resources.files("coexist.scenes")
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))

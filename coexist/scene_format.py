@@ -1,0 +1,364 @@
+"""The scene file format: sections, keys, unit suffixes, defaults and the checks on every value.
+
+:func:`read_document` turns a parsed TOML document into plain keyword arguments of
+:class:`coexist.scene.Scene` (SI units), raising :class:`SceneError` naming the field
+(``[chamber].volume_ml``) for the first problem found. Every dimensional value carries its unit in
+its key name (``thickness_mm = 0.5``, never ``thickness = 0.5``).
+
+Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suffix):
+
+============  ===========================================================================================
+[membrane]    ``material`` ("neo-hookean"; or "gent"), ``jlim`` (gent only, [97]),
+              ``shear_modulus_*`` [45 kPa], ``relative_permittivity`` [4.7], ``thickness_*`` [0.5 mm],
+              ``zone_radius_*`` [10 mm], ``prestretch`` [1, no prestretch], ``breakdown_field_*``
+              [absent: no breakdown check]
+[zones]       ``count`` [1], a whole number 1..1000: identical zones sharing one gas and one voltage
+[chamber]     ``volume_*`` (required), ``closing_pressure_*`` (required, gauge),
+              ``atmospheric_pressure_*`` [101.325 kPa]; absent: the pressure is controlled directly
+[voltage]     a ramp ``start_*`` [0], ``stop_*`` (required), ``step_*`` [(stop − start)/100], which goes
+              up from start to stop and back down to start; or a list ``values_*``; absent: no voltage
+[solver]      ``accuracy`` ("draft", "default", "high" or a tolerance) or ``rtol``
+[fitted]      free-form notes of fitted parameters, carried through unchanged
+top level     ``name``, ``description``
+============  ===========================================================================================
+
+Unit suffixes (:data:`UNITS`): length ``_m _mm _um``; shear modulus ``_Pa _kPa _MPa``; pressure
+``_Pa _kPa _mbar _bar``; volume ``_m3 _l _ml``; voltage ``_V _kV``; field ``_V_per_m _MV_per_m``.
+"""
+
+from __future__ import annotations
+
+import copy
+import difflib
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from .errors import SceneError
+from .settings import SolverSettings
+
+MAX_ZONES = 1000
+MAX_VOLTAGE_POINTS = 100_000
+#: Dimensional values must lie in this range in SI units (keeps every scale finite and non-zero).
+SI_RANGE = (1e-30, 1e30)
+
+#: Accepted unit suffixes per kind of quantity, with their factor to SI.
+UNITS = {
+    "length": {"m": 1.0, "mm": 1e-3, "um": 1e-6},
+    "modulus": {"Pa": 1.0, "kPa": 1e3, "MPa": 1e6},
+    "pressure": {"Pa": 1.0, "kPa": 1e3, "mbar": 1e2, "bar": 1e5},
+    "volume": {"m3": 1.0, "l": 1e-3, "ml": 1e-6},
+    "voltage": {"V": 1.0, "kV": 1e3},
+    "field": {"V_per_m": 1.0, "MV_per_m": 1e6},
+}
+MATERIALS = ("neo-hookean", "gent")
+#: Defaults in SI units of the keys a scene may leave out.
+DEFAULTS = {"shear_modulus": 45e3, "relative_permittivity": 4.7, "thickness": 0.5e-3, "zone_radius": 10e-3,
+            "prestretch": 1.0, "jlim": 97.0, "count": 1, "atmospheric_pressure": 101_325.0, "start": 0.0}
+
+
+@dataclass(frozen=True)
+class _Key:
+    """One scene key: its kind (a key of UNITS, or number/integer/string/accuracy) and its rule."""
+
+    kind: str
+    rule: str = ""  # "positive", "nonnegative", "at_least_one"
+    unit: str = ""  # the unit used in examples
+    many: bool = False  # a list of values
+
+
+SCHEMA = {
+    "membrane": {
+        "material": _Key("string"),
+        "jlim": _Key("number", "positive"),
+        "shear_modulus": _Key("modulus", "positive", "kPa"),
+        "relative_permittivity": _Key("number", "at_least_one"),
+        "thickness": _Key("length", "positive", "mm"),
+        "zone_radius": _Key("length", "positive", "mm"),
+        "prestretch": _Key("number", "at_least_one"),
+        "breakdown_field": _Key("field", "positive", "MV_per_m"),
+    },
+    "zones": {"count": _Key("integer")},
+    "chamber": {
+        "volume": _Key("volume", "positive", "ml"),
+        "closing_pressure": _Key("pressure", "positive", "mbar"),
+        "atmospheric_pressure": _Key("pressure", "positive", "kPa"),
+    },
+    "voltage": {
+        "start": _Key("voltage", "nonnegative", "kV"),
+        "stop": _Key("voltage", "nonnegative", "kV"),
+        "step": _Key("voltage", "positive", "kV"),
+        "values": _Key("voltage", "nonnegative", "kV", many=True),
+    },
+    "solver": {"accuracy": _Key("accuracy"), "rtol": _Key("number", "positive")},
+}
+TOP_LEVEL = ("name", "description", "fitted", *SCHEMA)
+_RULES = {"positive": (lambda x: x > 0, "positive"), "nonnegative": (lambda x: x >= 0, "zero or positive"),
+          "at_least_one": (lambda x: x >= 1, "at least 1")}
+
+
+def _key_names(section: str) -> list[str]:
+    """Every valid key of a section, each unit suffix spelled out."""
+    names = []
+    for name, key in SCHEMA[section].items():
+        names += [f"{name}_{u}" for u in UNITS[key.kind]] if key.kind in UNITS else [name]
+    return names
+
+
+def did_you_mean(word: str, options) -> str:
+    """``"; did you mean 'x'?"`` for the closest option (same spelling in another case first), or ``""``."""
+    options = list(options)
+    same_case = {o.lower(): o for o in options}
+    match = [same_case[word.lower()]] if word.lower() in same_case else difflib.get_close_matches(word, options, 1)
+    return f"; did you mean {match[0]!r}?" if match else ""
+
+
+def _describe(value) -> str:
+    if isinstance(value, bool):
+        return f"the boolean {str(value).lower()}"
+    if isinstance(value, str):
+        return f"the string {value!r}"
+    if isinstance(value, dict):
+        return "a table"
+    if isinstance(value, list):
+        return "a list"
+    return f"{type(value).__name__} {value!r}"
+
+
+def _resolve(section: str, key: str) -> tuple[str, str]:
+    """``"thickness_mm"`` -> ``("thickness", "mm")``; unknown keys and units are SceneErrors."""
+    where = f"[{section}].{key}"
+    spec = SCHEMA[section]
+    if key in spec:
+        if spec[key].kind in UNITS:
+            units = ", ".join(f"_{u}" for u in UNITS[spec[key].kind])
+            raise SceneError(f"put the unit in the key, e.g. {key}_{spec[key].unit} (units: {units})", where)
+        return key, ""
+    for name, spec_key in spec.items():
+        if spec_key.kind in UNITS and key.startswith(name + "_"):
+            unit = key[len(name) + 1:]
+            if unit in UNITS[spec_key.kind]:
+                return name, unit
+            units = ", ".join(f"_{u}" for u in UNITS[spec_key.kind])
+            hint = did_you_mean(key, [f"{name}_{u}" for u in UNITS[spec_key.kind]])
+            raise SceneError(f"unknown unit '_{unit}' for {name}{hint} (units: {units})", where)
+    hint = did_you_mean(key, _key_names(section)) or f"; valid keys: {', '.join(_key_names(section))}"
+    raise SceneError(f"unknown key in [{section}]{hint}", where)
+
+
+def _value(key: _Key, value, unit: str, where: str):
+    """Check a value against its key and convert it to SI units."""
+    if key.many:
+        if not isinstance(value, list) or not value:
+            raise SceneError(f"expected a non-empty list of numbers, got {_describe(value)}", where)
+        if len(value) > MAX_VOLTAGE_POINTS:
+            raise SceneError(f"at most {MAX_VOLTAGE_POINTS} values, got {len(value)}", where)
+        return [_value(replace(key, many=False), v, unit, where) for v in value]
+    if key.kind == "string":
+        if not isinstance(value, str):
+            raise SceneError(f"expected a string, got {_describe(value)}", where)
+        return value
+    if key.kind == "integer":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SceneError(f"expected a whole number, got {_describe(value)}", where)
+        return value
+    if key.kind == "accuracy" and isinstance(value, str):
+        return value
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        quoted = " (write numbers without quotes)" if isinstance(value, str) else ""
+        raise SceneError(f"expected a number, got {_describe(value)}{quoted}", where)
+    shown = f"{value!r}{' ' + unit if unit else ''}"
+    x = float(value)
+    if not math.isfinite(x):
+        raise SceneError(f"must be a finite number, got {shown}", where)
+    if key.rule:
+        ok, words = _RULES[key.rule]
+        if not ok(x):
+            raise SceneError(f"must be {words}, got {shown}", where)
+    x *= UNITS[key.kind][unit] if unit else 1.0
+    if x != 0 and not SI_RANGE[0] <= abs(x) <= SI_RANGE[1]:
+        raise SceneError(f"{shown} is out of range (at most 1e30 and at least 1e-30 in SI units)", where)
+    return x
+
+
+class _Section:
+    """The checked entries of one section: ``{name: (key as written, value in SI units)}``."""
+
+    def __init__(self, doc: dict, section: str):
+        self.section = section
+        self.present = section in doc
+        table = doc.get(section, {})
+        if not isinstance(table, dict):
+            raise SceneError(f"must be a table (a [{section}] header), got {_describe(table)}", f"[{section}]")
+        self.entries = {}
+        for key, value in table.items():
+            name, unit = _resolve(section, key)
+            if name in self.entries:
+                raise SceneError(f"{name} given twice (as {self.entries[name][0]} and {key})", self.where(name, key))
+            self.entries[name] = (key, _value(SCHEMA[section][name], value, unit, self.where(name, key)))
+
+    def __contains__(self, name):
+        return name in self.entries
+
+    def get(self, name, default=None):
+        return self.entries[name][1] if name in self.entries else default
+
+    def where(self, name, key=None):
+        """``[section].key`` as written, or with the example unit if the key is absent."""
+        if key is None:
+            spec = SCHEMA[self.section][name]
+            key = self.entries[name][0] if name in self.entries else name + (f"_{spec.unit}" if spec.unit else "")
+        return f"[{self.section}].{key}"
+
+    def require(self, name, what):
+        if name not in self.entries:
+            spec = SCHEMA[self.section][name]
+            raise SceneError(f"missing: {what}, e.g. {name}_{spec.unit} = ...", self.where(name))
+        return self.get(name)
+
+
+def read_document(doc: dict, source: str) -> dict:
+    """Check a parsed TOML scene and return the keyword arguments of :class:`~coexist.scene.Scene`.
+
+    ``chamber`` and ``voltage`` are plain dicts (or ``None``); values are in SI units.
+    """
+    for key in doc:
+        if key not in TOP_LEVEL:
+            table = isinstance(doc[key], dict)
+            raise SceneError(_unknown_top_level(key, table), f"[{key}]" if table else key)
+    name, description = (_top_string(doc, k) for k in ("name", "description"))
+    fitted = doc.get("fitted", {})
+    if not isinstance(fitted, dict):
+        raise SceneError(f"must be a table (a [fitted] header), got {_describe(fitted)}", "[fitted]")
+    membrane, zones, chamber, voltage, solver = (_Section(doc, s) for s in SCHEMA)
+    material, jlim = _material(membrane)
+    thickness = membrane.get("thickness", DEFAULTS["thickness"])
+    radius = membrane.get("zone_radius", DEFAULTS["zone_radius"])
+    if not thickness < radius:
+        raise SceneError(f"a membrane must be thinner than its zone radius ({radius * 1e3:g} mm), got "
+                         f"{thickness * 1e3:g} mm", membrane.where("thickness"))
+    prestretch = membrane.get("prestretch", DEFAULTS["prestretch"])
+    if jlim is not None and 2 * prestretch**2 + prestretch**-4 - 3 >= jlim:
+        raise SceneError(f"a prestretch of {prestretch:g} locks a Gent membrane with jlim = {jlim:g}",
+                         membrane.where("prestretch"))
+    count = zones.get("count", DEFAULTS["count"])
+    if not 1 <= count <= MAX_ZONES:
+        raise SceneError(f"must be a whole number from 1 to {MAX_ZONES}, got {count}", zones.where("count"))
+    return dict(
+        shear_modulus=membrane.get("shear_modulus", DEFAULTS["shear_modulus"]),
+        relative_permittivity=membrane.get("relative_permittivity", DEFAULTS["relative_permittivity"]),
+        thickness=thickness,
+        zone_radius=radius,
+        prestretch=prestretch,
+        material=material,
+        jlim=jlim,
+        breakdown_field=membrane.get("breakdown_field"),
+        zone_count=count,
+        chamber=_chamber(chamber),
+        voltage=_voltage(voltage),
+        settings=_settings(solver),
+        name=name if name is not None else Path(source).stem,
+        description=description or "",
+        fitted=copy.deepcopy(fitted),
+        source=source,
+    )
+
+
+def _all_keys() -> dict[str, str]:
+    return {k: s for s in SCHEMA for k in _key_names(s)}
+
+
+def _unknown_top_level(key: str, table: bool) -> str:
+    sections = [f"[{s}]" for s in (*SCHEMA, "fitted")]
+    if table:
+        return f"unknown section{did_you_mean(f'[{key}]', sections) or '; sections: ' + ', '.join(sections)}"
+    if key in _all_keys():
+        return f"belongs in a section: write it under [{_all_keys()[key]}]"
+    for section in SCHEMA:
+        try:
+            _resolve(section, key)
+        except SceneError:
+            continue
+        return f"belongs in a section: write it under [{section}]"
+    hint = did_you_mean(key, ["name", "description"]) or "; top-level keys: name, description; sections: " \
+        + ", ".join(sections)
+    return f"unknown key{hint}"
+
+
+def _top_string(doc, key):
+    value = doc.get(key)
+    if value is not None and not isinstance(value, str):
+        raise SceneError(f"expected a string, got {_describe(value)}", key)
+    return value
+
+
+def _material(membrane: _Section) -> tuple[str, float | None]:
+    given = membrane.get("material", "neo-hookean")
+    material = given.strip().lower().replace("_", "-").replace(" ", "-")
+    material = {"neohookean": "neo-hookean", "nh": "neo-hookean"}.get(material, material)
+    if material not in MATERIALS:
+        raise SceneError(f"unknown material {given!r}{did_you_mean(material, MATERIALS)}; use one of "
+                         f"{', '.join(MATERIALS)}", membrane.where("material"))
+    if material != "gent":
+        if "jlim" in membrane:
+            raise SceneError("only the gent material takes jlim (add material = \"gent\")", membrane.where("jlim"))
+        return material, None
+    return material, membrane.get("jlim", DEFAULTS["jlim"])
+
+
+def _chamber(chamber: _Section) -> dict | None:
+    if not chamber.present:
+        return None
+    return dict(
+        volume=chamber.require("volume", "the chamber volume"),
+        closing_pressure=chamber.require("closing_pressure", "the gauge pressure when the valves close"),
+        atmospheric_pressure=chamber.get("atmospheric_pressure", DEFAULTS["atmospheric_pressure"]),
+        closing_pressure_field=chamber.where("closing_pressure"),
+    )
+
+
+def _voltage(voltage: _Section) -> dict | None:
+    if not voltage.present:
+        return None
+    ramp = [n for n in ("start", "stop", "step") if n in voltage]
+    if "values" in voltage:
+        if ramp:
+            raise SceneError("give either a ramp (start, stop, step) or a list of values, not both",
+                             voltage.where(ramp[0]))
+        return dict(kind="list", values=np.array(voltage.get("values")))
+    start = voltage.get("start", DEFAULTS["start"])
+    stop = voltage.require("stop", "a ramp needs the highest voltage (or give a list of values)")
+    if stop < start:
+        raise SceneError(f"the ramp must go up: stop ({stop:g} V) is below start ({start:g} V)", voltage.where("stop"))
+    step = voltage.get("step", (stop - start) / 100 or 1.0)
+    if (stop - start) / step > MAX_VOLTAGE_POINTS:
+        raise SceneError(f"a step of {step:g} V makes {(stop - start) / step:.3g} steps; at most "
+                         f"{MAX_VOLTAGE_POINTS}", voltage.where("step"))
+    return dict(kind="ramp", values=ramp_path(start, stop, step), start=start, stop=stop, step=step)
+
+
+def ramp_path(start: float, stop: float, step: float) -> np.ndarray:
+    """``start, start + step, ..., stop, ..., start + step, start``: up to ``stop`` and back down.
+
+    The last step up is shortened to land on ``stop`` when ``stop − start`` is not a whole number of
+    steps (to within 1e-9 of a step).
+    """
+    steps = (stop - start) / step
+    n = round(steps) if abs(steps - round(steps)) < 1e-9 * max(1.0, steps) else math.floor(steps)
+    up = start + step * np.arange(n + 1)
+    up = np.append(up[up < stop - 1e-9 * step], stop)
+    return np.concatenate([up, up[-2::-1]])
+
+
+def _settings(solver: _Section) -> SolverSettings:
+    if "accuracy" in solver and "rtol" in solver:
+        raise SceneError("give either accuracy or rtol, not both", solver.where("rtol"))
+    name = "rtol" if "rtol" in solver else "accuracy"
+    try:
+        if name == "rtol":
+            return SolverSettings(rtol=solver.get("rtol"))
+        return SolverSettings.from_accuracy(solver.get("accuracy"))
+    except SceneError as exc:
+        raise SceneError(exc.message, solver.where(name)) from None

@@ -1,0 +1,430 @@
+"""Scenes: built-in scenes load, defaults fill a three-line scene, every bad input is a SceneError naming
+its field, a scene builds only the effects it calls for, and the CLI never shows a traceback."""
+
+import datetime
+import json
+import math
+import tempfile
+from pathlib import Path
+
+import casadi as ca
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from coexist.cli.main import cli
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from coexist.errors import SceneError
+from coexist.scene import VACUUM_PERMITTIVITY, Scene, builtin_scene_text, builtin_scenes, load_scene, parse_scene
+from coexist.scene_format import SCHEMA, UNITS
+
+THREE_LINES = """\
+[membrane]
+thickness_mm = 0.5
+zone_radius_mm = 10
+"""
+
+
+def _no_traceback(result):
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.output
+
+
+# --- built-in scenes and defaults ------------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(builtin_scenes()))
+def test_builtin_scenes_load(name):
+    scene = load_scene(name)
+    assert scene.name == name and scene.source == name
+    assert builtin_scenes()[name]
+    json.dumps(scene.to_dict(), allow_nan=False)
+
+
+def test_tricircle_is_the_paper_experiment():
+    scene = load_scene(None)
+    assert scene.name == "tricircle"
+    assert scene.shear_modulus == 45e3 and scene.relative_permittivity == 4.7
+    assert scene.permittivity == pytest.approx(4.7 * VACUUM_PERMITTIVITY)
+    assert scene.thickness == pytest.approx(0.5e-3) and scene.zone_count == 3
+    assert scene.chamber.volume == pytest.approx(300e-6)
+    assert scene.chamber.closing_pressure == pytest.approx(2000.0)
+    assert scene.chamber.atmospheric_pressure == pytest.approx(101_325.0)
+    volts = scene.voltage.values
+    assert volts[0] == 0 and volts[-1] == 0 and volts.max() == 5000 and volts.size == 2 * 250 + 1
+    np.testing.assert_allclose(np.diff(volts[:251]), 20.0)
+    assert "zone_radius" in scene.fitted and scene.material == "neo-hookean" and scene.jlim is None
+
+
+def test_three_line_scene_takes_documented_defaults():
+    scene = parse_scene(THREE_LINES)
+    assert (scene.shear_modulus, scene.relative_permittivity, scene.prestretch) == (45e3, 4.7, 1.0)
+    assert scene.zone_radius == pytest.approx(0.01) and scene.zone_count == 1
+    assert scene.chamber is None and scene.voltage is None and scene.breakdown_field is None
+    assert scene.settings.rtol == 1e-10
+    assert scene.effects() == ["elasticity:neo-hookean", "pressure-control"]
+    assert parse_scene("").zone_radius == pytest.approx(0.01)
+
+
+def test_three_line_scene_runs():
+    """The scene's model solves, and its snap-through pressure p̂max = 1.8792 bounds the closing pressure."""
+    from coexist.curves import pressure_volume_curve
+
+    scene = parse_scene(THREE_LINES + "[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 30\n")
+    curve = pressure_volume_curve(scene.model(), 0.0, np.linspace(1.01, 3.0, 30), scene.settings)
+    p_max = curve.limit_points[0].p_hat
+    assert p_max == pytest.approx(1.8792, abs=1e-4)
+    scene.check_closing_pressure(p_max)
+    assert scene.pressure(p_max) == pytest.approx(p_max * 2250.0)
+
+
+def test_closing_pressure_above_snap_through_names_the_field():
+    scene = parse_scene(THREE_LINES + "[chamber]\nvolume_ml = 300\nclosing_pressure_kPa = 5\n")
+    with pytest.raises(SceneError) as info:
+        scene.check_closing_pressure(1.879)
+    assert info.value.field == "[chamber].closing_pressure_kPa"
+    parse_scene(THREE_LINES).check_closing_pressure(1.879)  # no chamber: nothing to check
+
+
+# --- normalisation ---------------------------------------------------------------------------------
+def test_normalisation_follows_the_seed():
+    scene = load_scene("tricircle")
+    mu, H, A, eps = 45e3, 0.5e-3, 12e-3, 4.7 * VACUUM_PERMITTIVITY
+    assert scene.p_hat(2000.0) == pytest.approx(2000.0 * A / (mu * H))
+    assert scene.v_hat(300e-6) == pytest.approx(300e-6 / A**3)
+    assert scene.phi_hat(4000.0) == pytest.approx(4000.0 / H * math.sqrt(eps / mu))
+    assert scene.charge_scale == pytest.approx(A**2 * math.sqrt(eps * mu))
+    # pressure × volume and voltage × charge both carry the energy scale μHA², so dΨ̂ = p̂dV̂ − Q̂dΦ̂
+    assert scene.pressure_scale * scene.volume_scale == pytest.approx(scene.energy_scale)
+    assert scene.voltage_scale * scene.charge_scale == pytest.approx(scene.energy_scale)
+    for there, back, x in [(scene.p_hat, scene.pressure, 123.0), (scene.v_hat, scene.volume, 1e-6),
+                           (scene.phi_hat, scene.voltage_of, 3800.0)]:
+        assert back(there(x)) == pytest.approx(x)
+    np.testing.assert_allclose(scene.voltage_hat_path, scene.voltage.values / scene.voltage_scale)
+    groups = scene.dimensionless_groups()
+    assert groups["closing_pressure_hat"] == pytest.approx(2000.0 / scene.pressure_scale)
+    assert groups["chamber_volume_hat"] == pytest.approx(300e-6 / A**3)
+    assert groups["atmospheric_pressure_hat"] == pytest.approx(101_325.0 / scene.pressure_scale)
+    gas = scene.gas_amount_hat(2.5)
+    assert gas * scene.energy_scale == pytest.approx((300e-6 + 2.5 * A**3) * (101_325.0 + 2000.0))
+
+
+def test_gas_amount_needs_a_chamber():
+    with pytest.raises(SceneError, match="chamber"):
+        parse_scene(THREE_LINES).gas_amount_hat(1.0)
+
+
+@pytest.mark.parametrize("text, expected_kV", [
+    ("stop_kV = 2\nstep_kV = 1", [0, 1, 2, 1, 0]),
+    ("start_kV = 1\nstop_kV = 3.5\nstep_kV = 1", [1, 2, 3, 3.5, 3, 2, 1]),
+    ("start_kV = 2\nstop_kV = 2\nstep_kV = 1", [2]),
+    ("stop_V = 300\nstep_V = 100", [0, 0.1, 0.2, 0.3, 0.2, 0.1, 0]),
+    ("values_kV = [0, 3, 1]", [0, 3, 1]),
+])
+def test_voltage_paths(text, expected_kV):
+    path = parse_scene(f"[voltage]\n{text}\n").voltage
+    np.testing.assert_allclose(path.values, np.array(expected_kV) * 1e3)
+    assert path.kind == ("list" if "values" in text else "ramp")
+
+
+def test_units_convert_to_si():
+    scene = parse_scene("""
+        [membrane]
+        thickness_um = 500
+        zone_radius_m = 0.02
+        shear_modulus_MPa = 0.1
+        breakdown_field_V_per_m = 2e8
+        [chamber]
+        volume_l = 0.3
+        closing_pressure_bar = 0.02
+        atmospheric_pressure_Pa = 1e5
+    """)
+    assert scene.thickness == pytest.approx(5e-4) and scene.zone_radius == pytest.approx(0.02)
+    assert scene.shear_modulus == pytest.approx(1e5) and scene.breakdown_field == pytest.approx(2e8)
+    assert scene.chamber.volume == pytest.approx(3e-4) and scene.chamber.closing_pressure == pytest.approx(2000)
+    assert scene.chamber.atmospheric_pressure == 1e5
+
+
+def test_fitted_notes_and_solver_settings_carry_through():
+    scene = parse_scene('[fitted]\nzone_radius = "fitted to 4.0 kV"\nwhen = 2024-05-01\n'
+                        '[solver]\naccuracy = "draft"\n')
+    assert scene.fitted == {"zone_radius": "fitted to 4.0 kV", "when": datetime.date(2024, 5, 1)}
+    assert scene.to_dict()["fitted"]["when"] == "2024-05-01"
+    assert scene.settings.rtol == 1e-6
+    assert parse_scene("[solver]\nrtol = 1e-8\n").settings.rtol == 1e-8
+
+
+# --- validation: every bad input names its field ---------------------------------------------------
+BAD = [
+    ("[membrane]\nthickness = 0.5", "[membrane].thickness", "thickness_mm"),
+    ("[membrane]\nthicknes_mm = 0.5", "[membrane].thicknes_mm", "did you mean 'thickness_mm'"),
+    ("[membrane]\nthickness_in = 0.5", "[membrane].thickness_in", "unknown unit"),
+    ("[membrane]\nthickness_MM = 0.5", "[membrane].thickness_MM", "did you mean 'thickness_mm'"),
+    ("[membrane]\nfoo = 1", "[membrane].foo", "valid keys"),
+    ("[membrne]\nthickness_mm = 0.5", "[membrne]", "did you mean '[membrane]'"),
+    ("thickness_mm = 0.5", "thickness_mm", "[membrane]"),
+    ("nmae = 'x'", "nmae", "did you mean 'name'"),
+    ("membrane = 3", "[membrane]", "table"),
+    ("[[membrane]]\nthickness_mm = 0.5", "[membrane]", "table"),
+    ("name = 3", "name", "string"),
+    ("fitted = 3", "[fitted]", "table"),
+    ('[membrane]\nthickness_mm = "0.5"', "[membrane].thickness_mm", "without quotes"),
+    ("[membrane]\nthickness_mm = true", "[membrane].thickness_mm", "boolean"),
+    ("[membrane]\nthickness_mm = [0.5]", "[membrane].thickness_mm", "number"),
+    ("[membrane]\nthickness_mm = 0", "[membrane].thickness_mm", "positive"),
+    ("[membrane]\nthickness_mm = -0.5", "[membrane].thickness_mm", "positive"),
+    ("[membrane]\nthickness_mm = nan", "[membrane].thickness_mm", "finite"),
+    ("[membrane]\nzone_radius_mm = inf", "[membrane].zone_radius_mm", "finite"),
+    ("[membrane]\nzone_radius_m = 1e40", "[membrane].zone_radius_m", "range"),
+    ("[membrane]\nthickness_mm = 0.5\nthickness_um = 500", "[membrane].thickness_um", "twice"),
+    ("[membrane]\nthickness_mm = 20\nzone_radius_mm = 10", "[membrane].thickness_mm", "thinner"),
+    ("[membrane]\nshear_modulus_kPa = 0", "[membrane].shear_modulus_kPa", "positive"),
+    ("[membrane]\nshear_modulus = 45", "[membrane].shear_modulus", "shear_modulus_kPa"),
+    ("[membrane]\nrelative_permittivity = 0.5", "[membrane].relative_permittivity", "at least 1"),
+    ("[membrane]\nprestretch = 0.9", "[membrane].prestretch", "at least 1"),
+    ("[membrane]\nprestretch = '1.2'", "[membrane].prestretch", "number"),
+    ('[membrane]\nmaterial = "gnet"', "[membrane].material", "did you mean 'gent'"),
+    ("[membrane]\nmaterial = 1", "[membrane].material", "string"),
+    ("[membrane]\njlim = 97", "[membrane].jlim", "gent"),
+    ('[membrane]\nmaterial = "gent"\njlim = -1', "[membrane].jlim", "positive"),
+    ('[membrane]\nmaterial = "gent"\njlim = 5\nprestretch = 3', "[membrane].prestretch", "locks"),
+    ("[membrane]\nbreakdown_field_MV_per_m = -5", "[membrane].breakdown_field_MV_per_m", "positive"),
+    ("[zones]\ncount = 0", "[zones].count", "1 to 1000"),
+    ("[zones]\ncount = -2", "[zones].count", "1 to 1000"),
+    ("[zones]\ncount = 1001", "[zones].count", "1 to 1000"),
+    ("[zones]\ncount = 2.5", "[zones].count", "whole number"),
+    ("[zones]\ncount = 3.0", "[zones].count", "whole number"),
+    ("[zones]\ncount = true", "[zones].count", "whole number"),
+    ('[zones]\ncount = "3"', "[zones].count", "whole number"),
+    ("[chamber]\nvolume_ml = 300", "[chamber].closing_pressure_mbar", "missing"),
+    ("[chamber]\nclosing_pressure_mbar = 20", "[chamber].volume_ml", "missing"),
+    ("[chamber]\nvolume = 300\nclosing_pressure_mbar = 20", "[chamber].volume", "volume_ml"),
+    ("[chamber]\nvolume_ml = -300\nclosing_pressure_mbar = 20", "[chamber].volume_ml", "positive"),
+    ("[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 0", "[chamber].closing_pressure_mbar", "positive"),
+    ("[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\natmospheric_pressure_kPa = 0",
+     "[chamber].atmospheric_pressure_kPa", "positive"),
+    ("[voltage]\nstop_kV = 5\nstep_kV = 0", "[voltage].step_kV", "positive"),
+    ("[voltage]\nstop_kV = 5\nstep_kV = -0.1", "[voltage].step_kV", "positive"),
+    ("[voltage]\nstart_kV = 5\nstop_kV = 1", "[voltage].stop_kV", "must go up"),
+    ("[voltage]\nstop_kV = -1", "[voltage].stop_kV", "positive"),
+    ("[voltage]\nstart_kV = -1\nstop_kV = 1", "[voltage].start_kV", "positive"),
+    ("[voltage]\nstop_kV = 1\nstep_kV = 1e-9", "[voltage].step_kV", "steps"),
+    ("[voltage]\nstep_kV = 0.1", "[voltage].stop_kV", "missing"),
+    ("[voltage]\nvalues_kV = [1, -2]", "[voltage].values_kV", "positive"),
+    ("[voltage]\nvalues_kV = []", "[voltage].values_kV", "non-empty"),
+    ("[voltage]\nvalues_kV = 3", "[voltage].values_kV", "list"),
+    ("[voltage]\nvalues_kV = [1]\nstop_kV = 2", "[voltage].stop_kV", "not both"),
+    ("[voltage]\nvalues_volts = [1]", "[voltage].values_volts", "unknown unit"),
+    ('[solver]\naccuracy = "medium"', "[solver].accuracy", "draft"),
+    ("[solver]\naccuracy = true", "[solver].accuracy", "number"),
+    ("[solver]\nrtol = 1", "[solver].rtol", "tolerance"),
+    ('[solver]\nrtol = 1e-8\naccuracy = "high"', "[solver].rtol", "not both"),
+]
+
+
+@pytest.mark.parametrize("text, field, words", BAD, ids=[b[1] + ":" + b[2] for b in BAD])
+def test_bad_scene_names_the_field(text, field, words):
+    with pytest.raises(SceneError) as info:
+        parse_scene(text + "\n")
+    assert info.value.field == field
+    assert words in str(info.value)
+
+
+def test_file_level_errors(tmp_path):
+    with pytest.raises(SceneError, match="line 2"):
+        parse_scene("[membrane]\nthickness_mm = = 1\n", source="x.toml")
+    with pytest.raises(SceneError, match="not found"):
+        load_scene(tmp_path / "missing.toml")
+    with pytest.raises(SceneError, match="did you mean 'tricircle'"):
+        load_scene("tricirle")
+    with pytest.raises(SceneError, match="cannot read"):
+        load_scene(tmp_path)
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(b"\xff\xfe[membrane]")
+    with pytest.raises(SceneError, match="UTF-8"):
+        load_scene(binary)
+    with pytest.raises(SceneError, match="did you mean 'two-balloons'"):
+        builtin_scene_text("two-baloons")
+
+
+# --- effects: only what the scene calls for ----------------------------------------------------------
+def test_scene_without_voltage_builds_no_electrostatics():
+    scene = load_scene("two-balloons")
+    model = scene.model()
+    assert not model.has_voltage
+    assert not ca.depends_on(model.symbols["W"], model.symbols["phi"])
+    assert "electrostatics:ideal-dielectric" not in scene.effects()
+    assert scene.effects()[:len(model.effects)] == model.effects
+
+
+def test_scene_with_voltage_and_gent_builds_them():
+    scene = parse_scene('[membrane]\nmaterial = "gent"\nprestretch = 1.2\nbreakdown_field_MV_per_m = 100\n'
+                        "[voltage]\nstop_kV = 4\n")
+    model = scene.model()
+    assert model.has_voltage and ca.depends_on(model.symbols["W"], model.symbols["phi"])
+    assert scene.jlim == 97.0 and model.elasticity.jlim == 97.0 and model.prestretch == 1.2
+    assert scene.effects() == ["elasticity:gent", "electrostatics:ideal-dielectric", "prestretch",
+                               "pressure-control", "breakdown-check"]
+    assert scene.effects()[:len(model.effects)] == model.effects
+
+
+def test_scene_without_chamber_is_pressure_controlled():
+    assert "pressure-control" in parse_scene(THREE_LINES).effects()
+    assert "gas:isothermal-ideal-gas" in load_scene("tricircle").effects()
+
+
+# --- command line ----------------------------------------------------------------------------------
+def test_cli_scenes_lists_and_shows():
+    runner = CliRunner()
+    result = runner.invoke(cli, ["scenes"])
+    assert result.exit_code == 0
+    assert {line.split()[0] for line in result.stdout.splitlines()} == set(builtin_scenes())
+    result = runner.invoke(cli, ["scenes", "show", "tricircle"])
+    assert result.exit_code == 0 and result.stdout == builtin_scene_text("tricircle")
+    assert parse_scene(result.stdout).zone_count == 3
+    result = runner.invoke(cli, ["scenes", "show", "tricirle"])
+    assert result.exit_code == 2 and "did you mean 'tricircle'" in result.output
+    _no_traceback(result)
+
+
+def test_cli_check_good_file(tmp_path):
+    path = tmp_path / "good.toml"
+    path.write_text(THREE_LINES + "[voltage]\nstop_kV = 3\n")
+    result = CliRunner().invoke(cli, ["check", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "elasticity:neo-hookean, electrostatics:ideal-dielectric, pressure-control" in result.stdout
+    assert "voltage_hat_max" in result.stdout
+    data = json.loads(CliRunner().invoke(cli, ["check", "--json", str(path)]).stdout)
+    assert data["effects"] == ["elasticity:neo-hookean", "electrostatics:ideal-dielectric", "pressure-control"]
+    assert data["membrane"]["thickness_m"] == pytest.approx(5e-4)
+    assert data["voltage"]["values_V"][-1] == 0
+
+
+def test_cli_check_builtin_and_stdin():
+    runner = CliRunner()
+    result = runner.invoke(cli, ["check", "--json", "tricircle"])
+    assert result.exit_code == 0 and json.loads(result.stdout)["zones"]["count"] == 3
+    result = runner.invoke(cli, ["check", "-"], input="[zones]\ncount = 2\n")
+    assert result.exit_code == 0 and "zones: 2" in result.stdout
+
+
+@pytest.mark.parametrize("text, field", [
+    ("[membrane]\nthickness = 0.5\n", "[membrane].thickness"),
+    ("[chamber]\nvolume_ml = 300\n", "[chamber].closing_pressure_mbar"),
+    ("[zones]\ncount = 0\n", "[zones].count"),
+    ("[membrane\n", "line 1"),
+])
+def test_cli_check_bad_file(tmp_path, text, field):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    result = CliRunner().invoke(cli, ["check", str(path)])
+    assert result.exit_code == 2
+    assert field in result.output and "bad.toml" in result.output
+    assert "Traceback" not in result.output
+    _no_traceback(result)
+
+
+def test_cli_check_missing_file():
+    result = CliRunner().invoke(cli, ["check", "no/such/scene.toml"])
+    assert result.exit_code == 2 and "not found" in result.output
+    _no_traceback(result)
+
+
+# --- fuzzing: SceneError or a Scene, exit 0 or 2, never anything else -------------------------------
+_numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**6, 10**6),
+                     st.sampled_from([0, 1, -1, 0.5, 3, 5, 20, 300, 1e-3, 1e31, 1e-31]))
+_values = st.one_of(_numbers, st.booleans(), st.text(max_size=8), st.lists(_numbers, max_size=4),
+                    st.sampled_from(["neo-hookean", "gent", "draft", "high", "1e-8", "0.5"]))
+#: a plausible value of every key, in the key's example unit
+_GOOD = {"material": "gent", "jlim": 97, "shear_modulus": 45, "relative_permittivity": 4.7, "thickness": 0.5,
+         "zone_radius": 10, "prestretch": 1.2, "breakdown_field": 100, "count": 3, "volume": 300,
+         "closing_pressure": 20, "atmospheric_pressure": 101.325, "start": 0, "stop": 5, "step": 0.5,
+         "values": [0, 1, 2], "accuracy": "draft", "rtol": 1e-8}
+#: keys that make a consistent section, where not any subset does
+_NAMES = {
+    "membrane": st.lists(st.sampled_from([n for n in SCHEMA["membrane"] if n != "jlim"]), max_size=4, unique=True)
+    .map(lambda names: names + ["jlim"] if "material" in names else names),
+    "chamber": st.sampled_from([["volume", "closing_pressure"],
+                                ["volume", "closing_pressure", "atmospheric_pressure"]]),
+    "voltage": st.sampled_from([["values"], ["stop"], ["start", "stop"], ["stop", "step"], ["start", "stop", "step"]]),
+    "solver": st.sampled_from([[], ["accuracy"], ["rtol"]]),
+}
+_MUTATIONS = ["value", "value", "no_unit", "bad_unit", "typo", "unknown_key", "unknown_section", "top_level",
+              "not_table", "syntax"]
+
+
+def _toml_value(value):
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=False)
+    return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+
+
+@st.composite
+def _scene_texts(draw):
+    """A plausible scene (random sections, keys and units) with zero to three mutations."""
+    top, doc = {}, {}
+    if draw(st.booleans()):
+        top["name"] = "fuzz"
+    for section in draw(st.lists(st.sampled_from(list(SCHEMA)), max_size=5, unique=True)):
+        doc[section] = {}
+        for name in draw(_NAMES.get(section, st.lists(st.sampled_from(list(SCHEMA[section])), max_size=4,
+                                                      unique=True))):
+            kind, unit = SCHEMA[section][name].kind, SCHEMA[section][name].unit
+            if kind in UNITS:
+                unit = draw(st.sampled_from([unit, *UNITS[kind]]))
+            doc[section][f"{name}_{unit}" if kind in UNITS else name] = _GOOD[name]
+    if draw(st.booleans()):
+        doc["fitted"] = {"zone_radius": "fitted: 12 mm"}
+    syntax = ""
+    for mutation in draw(st.lists(st.sampled_from(_MUTATIONS), max_size=3)):
+        entries = [(s, k) for s, t in doc.items() if isinstance(t, dict) for k in t]
+        if mutation in ("value", "no_unit", "bad_unit", "typo") and entries:
+            section, key = draw(st.sampled_from(entries))
+            value = doc[section].pop(key)
+            if mutation == "value":
+                value = draw(_values)
+            else:
+                base = key.rsplit("_", 1)[0] if key.split("_")[-1] in sum(map(list, UNITS.values()), []) else key
+                key = {"no_unit": base, "bad_unit": f"{base}_furlong", "typo": key[:-1] or "x"}[mutation]
+            doc[section][key] = value
+        elif mutation == "unknown_key":
+            table = doc.setdefault(draw(st.sampled_from(list(SCHEMA))), {})
+            if isinstance(table, dict):
+                table["bogus"] = 1
+        elif mutation == "unknown_section":
+            doc["membrne"] = {"thickness_mm": 0.5}
+        elif mutation == "top_level":
+            top["thickness_mm"] = draw(_values)
+        elif mutation == "not_table":
+            doc[draw(st.sampled_from([*SCHEMA, "fitted"]))] = draw(_values)
+        elif mutation == "syntax":
+            syntax = draw(st.sampled_from(["= 1", "[membrane", "x = ", "a = 1\na = 2", "[zones]\ncount = 1 2"]))
+    lines = [f"{k} = {_toml_value(v)}" for k, v in top.items()]
+    lines += [f"{s} = {_toml_value(t)}" for s, t in doc.items() if not isinstance(t, dict)]
+    for section, table in doc.items():
+        if isinstance(table, dict):
+            lines += [f"[{section}]"] + [f"{k} = {_toml_value(v)}" for k, v in table.items()]
+    return "\n".join(lines + [syntax]) + "\n"
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(text=_scene_texts(), as_json=st.booleans())
+def test_fuzzed_scenes_fail_cleanly(text, as_json):
+    try:
+        scene = parse_scene(text)
+    except SceneError as exc:
+        assert str(exc)
+        scene = None
+    if scene is not None:
+        assert isinstance(scene, Scene)
+        json.dumps(scene.to_dict(), allow_nan=False)
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "fuzz.toml"
+        path.write_text(text, encoding="utf-8")
+        result = CliRunner().invoke(cli, ["check", str(path)] + (["--json"] if as_json else []))
+    assert result.exit_code == (0 if scene is not None else 2), result.output
+    _no_traceback(result)
