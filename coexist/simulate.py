@@ -1,0 +1,239 @@
+"""From a scene to its answers: the whole pipeline in physical units.
+
+``scene → model (only the scene's effects) → ZoneFamily (curves at every voltage) → gas closed at
+the closing pressure → equilibria → ramp`` and the fit of the one free parameter (the zone radius).
+
+Everything in normalised form depends on the material alone (the scales ``μH/A``, ``A³``,
+``H√(μ/ε)`` carry the geometry), so one :class:`~coexist.branches.ZoneFamily` serves a whole fit
+and sensitivity study: changing ``A``, ``μ``, the chamber or the closing pressure only changes the
+gas and the voltage scale.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy.optimize import brentq
+
+from .branches import ZoneFamily
+from .errors import ModelRangeError, SceneError
+from .ramp import RampResult, _continue, _initial_state, run_ramp
+from .scene import Scene
+from .zones import GasChamber, equilibria
+
+#: the pole-stretch grid ends at this fraction of the Gent locking stretch
+LOCKING_MARGIN = 0.95
+#: upper end of the pole-stretch grid for materials that do not lock
+NEO_HOOKEAN_STRETCH_MAX = 6.0
+
+
+def pole_stretch_max(scene: Scene) -> float:
+    """Upper end of the pole-stretch grid: short of Gent locking (equibiaxial ``2λ² + λ⁻⁴ − 3 = Jlim``)."""
+    if scene.material == "gent":
+        return LOCKING_MARGIN * math.sqrt((scene.jlim + 3) / 2)
+    return NEO_HOOKEAN_STRETCH_MAX * scene.prestretch
+
+
+@dataclass
+class Prepared:
+    """A scene made ready to solve: model, family of zone curves, and the voltage path."""
+
+    scene: Scene
+    model: object
+    family: ZoneFamily
+    phi_path: np.ndarray
+    p_hat_max: float
+
+
+def prepare(scene: Scene, phi_margin: float = 1.0, n_u: int = 128, n_s: int = 33) -> Prepared:
+    """Build the model with the scene's effects and shoot its family of curves once.
+
+    ``phi_margin > 1`` extends the voltage range (used when the scene is perturbed, e.g. ``μ``).
+    """
+    model = scene.model()
+    phi_path = scene.voltage_hat_path if scene.voltage is not None else np.zeros(1)
+    phi_max = float(np.max(phi_path)) * phi_margin
+    family = ZoneFamily(model, phi_max, pole_stretch_max(scene), scene.settings, n_u=n_u, n_s=n_s)
+    c0 = family.curve(0.0)
+    ext = [u for u in c0.pressure_extrema() if c0.dp(u - 1e-9) > 0]
+    p_max = float(c0.p(ext[0])) if ext else float(np.max(c0.p(c0.grid)))
+    return Prepared(scene, model, family, np.asarray(phi_path, dtype=float), p_max)
+
+
+def closed_gas(prep: Prepared, scene: Scene | None = None) -> GasChamber:
+    """The gas when the valves close: all zones on the rising branch at the closing pressure, 0 V."""
+    scene = scene or prep.scene
+    if scene.chamber is None:
+        raise SceneError("this computation needs a [chamber]: the gas that the zones share", "[chamber]")
+    scene.check_closing_pressure(prep.p_hat_max)
+    c0 = prep.family.curve(0.0)
+    pc = scene.closing_pressure_hat
+    first = c0.branches[0]
+    if not first.p_range[0] <= pc <= first.p_range[1]:
+        raise SceneError(f"closing pressure p̂ = {pc:.4g} is below the smallest computed state "
+                         f"(p̂ = {first.p_range[0]:.3g}); raise it", scene.chamber.closing_pressure_field)
+    uc = c0.stretch_at_pressure(first, pc)
+    total = scene.zone_count * float(c0.v(uc))
+    return GasChamber.closed_at(scene.chamber_volume_hat, scene.atmospheric_pressure_hat, pc, total)
+
+
+@dataclass
+class RampReport:
+    """A ramp in physical units, ready for tables, JSON and figures."""
+
+    scene: Scene
+    result: RampResult
+    gas: GasChamber
+    family_error: dict
+    effects: list
+    fitted: dict = field(default_factory=dict)
+
+    def voltage_kV(self, phi_hat):
+        return self.scene.voltage_of(phi_hat) / 1e3
+
+    def pressure_mbar(self, p_hat):
+        return self.scene.pressure(p_hat) / 100
+
+    def volume_ml(self, v_hat):
+        return self.scene.volume(v_hat) * 1e6
+
+    def to_dict(self) -> dict:
+        steps = []
+        for s in self.result.steps:
+            st = s.state
+            steps.append({
+                "voltage_kV": round(float(self.voltage_kV(s.phi_hat)), 10),
+                "direction": s.direction,
+                "pressure_mbar": None if st is None else float(self.pressure_mbar(st.p_hat)),
+                "zone_volumes_ml": None if st is None else [float(self.volume_ml(v)) for v in st.zone_volumes],
+                "pole_stretches": None if st is None else (
+                    [st.pole_stretch_unbulged] * (st.zones - st.k) + [st.pole_stretch_bulged] * st.k),
+                "configuration": "none" if st is None else st.label,
+                "bulged_zones": None if st is None else st.k,
+                "stable": False if st is None else bool(st.stable),
+                **({"note": s.note} if s.note else {}),
+            })
+        trans = [{
+            "voltage_kV": float(self.voltage_kV(t.phi_hat)),
+            "voltage_kV_bracket": [float(self.voltage_kV(x)) for x in t.phi_hat_bracket],
+            "from": t.from_label, "to": t.to_label, "kind": t.kind, "direction": t.direction,
+        } for t in self.result.transitions + self.result.equal_free_energy]
+        return {
+            "scene": self.scene.to_dict(),
+            "effects": self.effects,
+            "fitted_parameters": self.fitted,
+            "relative_tolerance": self.scene.settings.rtol,
+            "curve_interpolation_error": self.family_error,
+            "gas_amount_hat": self.gas.gas_amount,
+            "steps": steps,
+            "transitions": trans,
+            "notes": self.result.notes,
+        }
+
+
+def simulate_ramp(scene: Scene, progress=None, prep: Prepared | None = None) -> RampReport:
+    """Run the scene's voltage ramp (or list of voltages) through the whole pipeline."""
+    if scene.voltage is None:
+        raise SceneError("this scene has no [voltage]: nothing to ramp", "[voltage]")
+    prep = prep or prepare(scene)
+    gas = closed_gas(prep, scene)
+    result = run_ramp(prep.family, gas, scene.zone_count, scene.voltage_hat_path, progress=progress)
+    err = prep.family.interpolation_error()
+    return RampReport(scene, result, gas, err, scene.effects(), dict(scene.fitted))
+
+
+def transition_voltage(prep: Prepared, scene: Scene, kind: str = "spinodal") -> float:
+    """The first voltage (V) on the way up at which the zones stop being homogeneous.
+
+    ``kind = "spinodal"``: where the homogeneous state loses stability (what a slow ramp shows);
+    ``"equal_free_energy"``: where one bulged zone has the same total free energy as none.
+    """
+    gas = closed_gas(prep, scene)
+    top = float(prep.family.phi_max)
+    phis = np.linspace(0.0, top, 121)
+    eqs0 = equilibria(prep.family.curve(0.0), gas, scene.zone_count)
+    state = _initial_state(eqs0)
+    if kind == "spinodal":
+        prev = 0.0
+        for phi in phis[1:]:
+            nxt = _continue(state, equilibria(prep.family.curve(phi), gas, scene.zone_count))
+            if nxt is None:
+                lo, hi = prev, phi
+                ref = state
+                while hi - lo > 1e-11:
+                    mid = 0.5 * (lo + hi)
+                    n2 = _continue(ref, equilibria(prep.family.curve(mid), gas, scene.zone_count))
+                    if n2 is None:
+                        hi = mid
+                    else:
+                        lo, ref = mid, n2
+                return scene.voltage_of(0.5 * (lo + hi))
+            state, prev = nxt, phi
+        raise ModelRangeError(f"the zones stay homogeneous up to {scene.voltage_of(top) / 1e3:.4g} kV",
+                              "no_transition")
+    if kind == "equal_free_energy":
+        def delta(phi):
+            eqs = equilibria(prep.family.curve(phi), gas, scene.zone_count)
+            hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
+            mix = [e for e in eqs if e.k == 1 and e.stable]
+            if not hom or not mix:
+                return None
+            return min(m.free_energy for m in mix) - min(hom, key=lambda e: e.v_unbulged).free_energy
+
+        vals = [delta(p) for p in phis]
+        for i in range(1, phis.size):
+            a, b = vals[i - 1], vals[i]
+            if b is None or b > 0:
+                continue
+            lo, hi = phis[i - 1], phis[i]
+            if a is None:
+                # the bulged configuration appears inside this interval: find where, then the sign there
+                while hi - lo > 1e-11:
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (lo, mid) if delta(mid) is not None else (mid, hi)
+                lo = hi
+                if delta(lo) <= 0:
+                    return scene.voltage_of(lo)  # already lower at its first appearance
+                hi = phis[i]
+            elif a <= 0:
+                continue
+            while hi - lo > 1e-11:
+                mid = 0.5 * (lo + hi)
+                d = delta(mid)
+                if d is None:
+                    break
+                lo, hi = (mid, hi) if d > 0 else (lo, mid)
+            return scene.voltage_of(0.5 * (lo + hi))
+        raise ModelRangeError("no equal-free-energy voltage for one bulged zone in range", "no_transition")
+    raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
+
+
+def fit_zone_radius(scene: Scene, target_voltage: float, kind: str = "spinodal", prep: Prepared | None = None,
+                    bracket_mm=None) -> float:
+    """The zone radius ``A`` (m) that puts the first transition of the ramp at ``target_voltage`` (V).
+
+    The radius enters only through the gas and the pressure scale, so one family of curves serves
+    every trial radius; the root is found by Brent's method to 1e-7 mm. The admissible radii are
+    those whose closing pressure the zones can hold (``p̂close < p̂max``).
+    """
+    prep = prep or prepare(scene, phi_margin=1.0)
+    mu_h = scene.shear_modulus * scene.thickness
+    a_max = prep.p_hat_max * mu_h / scene.chamber.closing_pressure  # closing pressure = snap-through
+    lo_mm, hi_mm = bracket_mm or (0.5 * a_max * 1e3, a_max * 1e3 * (1 - 1e-6))
+
+    def f(a_mm):
+        trial = replace(scene, zone_radius=a_mm / 1e3)
+        try:
+            return transition_voltage(prep, trial, kind) - target_voltage
+        except ModelRangeError:
+            return float(scene.voltage_of(prep.family.phi_max)) - target_voltage + 1.0
+
+    a_mm = np.linspace(lo_mm, hi_mm, 12)
+    vals = [f(a) for a in a_mm]
+    for i in range(len(a_mm) - 1):
+        if vals[i] * vals[i + 1] < 0:
+            return brentq(f, a_mm[i], a_mm[i + 1], xtol=1e-7) / 1e3
+    raise ModelRangeError(f"no zone radius in {lo_mm:.4g}..{hi_mm:.4g} mm puts the transition at "
+                          f"{target_voltage / 1e3:.4g} kV", "no_fit")
