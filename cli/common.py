@@ -91,3 +91,28 @@ def check_output_path(path: str | None, overwrite: bool, option: str) -> Path | 
 def info(message: str) -> None:
     """Progress and notes go to stderr, data to stdout."""
     click.echo(message, err=True)
+
+
+def load_scene_arg(scene):
+    """A scene by built-in name or path (None: the default scene); bad scenes exit with code 2."""
+    from coexist.errors import SceneError
+    from coexist.scene import load_scene
+
+    try:
+        return load_scene(scene)
+    except SceneError as exc:
+        raise InputError(f"{scene or 'default scene'}: {exc}") from None
+
+
+def scene_with_settings(scene, accuracy, rtol):
+    """The scene with the command line's accuracy, if one was given explicitly."""
+    from dataclasses import replace
+
+    if rtol is None and accuracy == "default":
+        return scene
+    return replace(scene, settings=settings_from(accuracy, rtol))
+
+
+def stderr_progress(length, label):
+    """A click progress bar on stderr."""
+    return click.progressbar(length=length, label=label, file=click.get_text_stream("stderr"))

@@ -6,7 +6,11 @@ import click
 
 from coexist import __version__
 
+from .coexistence import coexistence
 from .curves import curves
+from .fit import fit
+from .phase import phase_diagram
+from .ramp import ramp
 from .scenes import check, scenes
 
 
@@ -21,6 +25,10 @@ def cli():
 
 
 cli.add_command(curves)
+cli.add_command(ramp)
+cli.add_command(coexistence)
+cli.add_command(phase_diagram)
+cli.add_command(fit)
 cli.add_command(scenes)
 cli.add_command(check)
 

@@ -51,3 +51,112 @@ def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return Path(path)
+
+
+def plot_ramp_volumes(report, path, title=None):
+    """Zone volumes against voltage: every equilibrium (stable solid, unstable dashed), the ramp path
+    with its jumps (thick), transitions marked."""
+    plt = _pyplot()
+    import numpy as np
+
+    res = report.result
+    fig, ax = plt.subplots(figsize=(7.2, 4.6))
+    # every equilibrium, grouped by (configuration, role) into polylines over consecutive voltages
+    series = {}
+    grid = sorted({round(s.phi_hat, 12) for s in res.steps})
+    index = {p: i for i, p in enumerate(grid)}
+    for s in res.steps:
+        if s.direction == "down" and s is not res.steps[0]:
+            continue
+        i = index[round(s.phi_hat, 12)]
+        for e in s.equilibria:
+            roles = [("u", e.v_unbulged)] + ([("b", e.v_bulged)] if e.k else [])
+            for role, v in roles:
+                key = (e.k, e.branch_unbulged, e.branch_bulged, role)
+                series.setdefault(key, []).append((i, report.voltage_kV(s.phi_hat), report.volume_ml(v), e.stable))
+    for pts in series.values():
+        pts.sort()
+        for (i0, x0, y0, s0), (i1, x1, y1, s1) in zip(pts[:-1], pts[1:]):
+            if i1 - i0 != 1 or abs(y1 - y0) > 0.1 * max(abs(y0), abs(y1), 1e-9):
+                continue
+            stable = s0 and s1
+            ax.plot([x0, x1], [y0, y1], "-" if stable else "--", color="0.55" if stable else "0.75",
+                    lw=1.0 if stable else 0.8, zorder=1)
+    for direction, color, size in (("down", "tab:blue", 2.0), ("up", "tab:red", 3.5)):
+        pts = [(report.voltage_kV(s.phi_hat), [report.volume_ml(v) for v in s.state.zone_volumes])
+               for s in res.steps if s.direction == direction and s.state is not None]
+        if not pts:
+            continue
+        x = np.array([p[0] for p in pts])
+        y = np.array([p[1] for p in pts])
+        for j in range(y.shape[1]):
+            ax.plot(x, y[:, j], ".", color=color, ms=size, zorder=3 if direction == "up" else 2,
+                    label=f"ramp {direction}" if j == 0 else None)
+    for t in res.transitions:
+        if t.kind in ("spinodal", "no_stable_state"):
+            ax.axvline(report.voltage_kV(t.phi_hat), color="tab:red" if t.direction == "up" else "tab:blue",
+                       ls=":", lw=1)
+    for t in res.equal_free_energy:
+        ax.axvline(report.voltage_kV(t.phi_hat), color="k", ls="-.", lw=0.8)
+    ax.plot([], [], "-", color="0.55", label="stable equilibria")
+    ax.plot([], [], "--", color="0.75", label="unstable equilibria")
+    ax.plot([], [], ":", color="tab:red", label="jumps (spinodals)")
+    ax.plot([], [], "-.", color="k", label="equal free energy")
+    ax.set_xlabel("voltage (kV)")
+    ax.set_ylabel("zone volume (ml)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8, loc="upper left")
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_coexisting_states(curve, state, scale_title, path):
+    """The paper's Fig. 7(c): the p̂–V̂ curve at the transition voltage, coexisting states marked."""
+    plt = _pyplot()
+    import numpy as np
+
+    fig, ax = plt.subplots(figsize=(6.0, 4.4))
+    u = np.linspace(curve.grid[0], curve.grid[-1], 800)
+    ax.plot(curve.v(u), curve.p(u), color="tab:blue", lw=1.6, label=f"zone curve at Φ̂ = {curve.phi_hat:.4f}")
+    ax.axhline(state.p_hat, color="0.5", ls="--", lw=0.8)
+    ax.plot([state.v_unbulged], [state.p_hat], "o", color="tab:green", ms=9, mec="k",
+            label=f"unbulged ({state.zones - state.k} zones)")
+    if state.k:
+        ax.plot([state.v_bulged], [state.p_hat], "s", color="tab:red", ms=9, mec="k",
+                label=f"bulged ({state.k} zone{'s' if state.k > 1 else ''})")
+    ax.set_xlabel("volume  V̂ = V/A³")
+    ax.set_ylabel("pressure  p̂ = pA/(μH)")
+    ax.set_title(scale_title, fontsize=10)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return Path(path)
+
+
+def plot_phase_diagram(diagram, path, title=None):
+    """Binodal, spinodals and critical point in the (Φ̂, p̂) plane."""
+    plt = _pyplot()
+
+    fig, ax = plt.subplots(figsize=(6.0, 4.4))
+    ax.plot(diagram.phi_hat, diagram.spinodal_max, "--", color="tab:red", label="spinodal (pressure maximum)")
+    ax.plot(diagram.phi_hat, diagram.spinodal_min, "--", color="tab:blue", label="spinodal (pressure minimum)")
+    ax.plot(diagram.phi_hat, diagram.binodal, "-", color="k", lw=1.8, label="binodal (equal free energy)")
+    if diagram.critical_point is not None:
+        phi_c, p_c, _ = diagram.critical_point
+        ax.plot([phi_c], [p_c], "o", color="gold", mec="k", ms=9, label=f"critical point Φ̂ = {phi_c:.4f}")
+    ax.set_xlabel("voltage  Φ̂ = (Φ/H)√(ε/μ)")
+    ax.set_ylabel("pressure  p̂ = pA/(μH)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    if title:
+        ax.set_title(title, fontsize=10)
+    fig.tight_layout()
+    fig.savefig(path, dpi=130)
+    plt.close(fig)
+    return Path(path)

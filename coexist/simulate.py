@@ -174,39 +174,7 @@ def transition_voltage(prep: Prepared, scene: Scene, kind: str = "spinodal") -> 
         raise ModelRangeError(f"the zones stay homogeneous up to {scene.voltage_of(top) / 1e3:.4g} kV",
                               "no_transition")
     if kind == "equal_free_energy":
-        def delta(phi):
-            eqs = equilibria(prep.family.curve(phi), gas, scene.zone_count)
-            hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
-            mix = [e for e in eqs if e.k == 1 and e.stable]
-            if not hom or not mix:
-                return None
-            return min(m.free_energy for m in mix) - min(hom, key=lambda e: e.v_unbulged).free_energy
-
-        vals = [delta(p) for p in phis]
-        for i in range(1, phis.size):
-            a, b = vals[i - 1], vals[i]
-            if b is None or b > 0:
-                continue
-            lo, hi = phis[i - 1], phis[i]
-            if a is None:
-                # the bulged configuration appears inside this interval: find where, then the sign there
-                while hi - lo > 1e-11:
-                    mid = 0.5 * (lo + hi)
-                    lo, hi = (lo, mid) if delta(mid) is not None else (mid, hi)
-                lo = hi
-                if delta(lo) <= 0:
-                    return scene.voltage_of(lo)  # already lower at its first appearance
-                hi = phis[i]
-            elif a <= 0:
-                continue
-            while hi - lo > 1e-11:
-                mid = 0.5 * (lo + hi)
-                d = delta(mid)
-                if d is None:
-                    break
-                lo, hi = (mid, hi) if d > 0 else (lo, mid)
-            return scene.voltage_of(0.5 * (lo + hi))
-        raise ModelRangeError("no equal-free-energy voltage for one bulged zone in range", "no_transition")
+        return equal_free_energy_voltage(prep, scene, 1, gas)
     raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
 
 
@@ -237,3 +205,132 @@ def fit_zone_radius(scene: Scene, target_voltage: float, kind: str = "spinodal",
             return brentq(f, a_mm[i], a_mm[i + 1], xtol=1e-7) / 1e3
     raise ModelRangeError(f"no zone radius in {lo_mm:.4g}..{hi_mm:.4g} mm puts the transition at "
                           f"{target_voltage / 1e3:.4g} kV", "no_fit")
+
+
+def _delta_g(prep, scene, gas, k, phi):
+    """``G(k bulged, stable) − G(homogeneous)`` at ``Φ̂``, or None where either does not exist."""
+    eqs = equilibria(prep.family.curve(phi), gas, scene.zone_count)
+    hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
+    mix = [e for e in eqs if e.k == k and e.stable]
+    if not hom or not mix:
+        return None
+    return min(m.free_energy for m in mix) - min(hom, key=lambda e: e.v_unbulged).free_energy
+
+
+def equal_free_energy_voltage(prep: Prepared, scene: Scene, k: int = 1, gas=None, samples: int = 121) -> float:
+    """The lowest voltage (V) at which ``k`` bulged zones have the free energy of the homogeneous state.
+
+    Scans ``Φ̂`` over the family's range, then bisects (to 1e-11 in ``Φ̂``) the first interval where
+    the difference turns negative; if the bulged configuration only appears inside that interval
+    and is already lower there, its appearance voltage is returned.
+    """
+    gas = gas or closed_gas(prep, scene)
+    phis = np.linspace(0.0, float(prep.family.phi_max), samples)
+
+    def delta(phi):
+        return _delta_g(prep, scene, gas, k, phi)
+
+    vals = [delta(p) for p in phis]
+    for i in range(1, phis.size):
+        a, b = vals[i - 1], vals[i]
+        if b is None or b > 0:
+            continue
+        lo, hi = phis[i - 1], phis[i]
+        if a is None:
+            while hi - lo > 1e-11:
+                mid = 0.5 * (lo + hi)
+                lo, hi = (lo, mid) if delta(mid) is not None else (mid, hi)
+            lo = hi
+            if delta(lo) <= 0:
+                return scene.voltage_of(lo)
+            hi = phis[i]
+        elif a <= 0:
+            continue
+        while hi - lo > 1e-11:
+            mid = 0.5 * (lo + hi)
+            d = delta(mid)
+            if d is None:
+                break
+            lo, hi = (mid, hi) if d > 0 else (lo, mid)
+        return scene.voltage_of(0.5 * (lo + hi))
+    raise ModelRangeError(f"no voltage up to {scene.voltage_of(phis[-1]) / 1e3:.4g} kV at which {k} bulged "
+                          f"zone{'s' if k > 1 else ''} reach the free energy of the homogeneous state",
+                          "no_transition")
+
+
+@dataclass
+class CoexistenceEntry:
+    """What is known of the configuration with ``k`` of ``N`` zones bulged."""
+
+    k: int
+    stable_range_kV: list
+    equal_free_energy_kV: float | None
+    state: object | None
+    note: str | None = None
+
+
+def coexistence_table(prep: Prepared, scene: Scene, samples: int = 121) -> list[CoexistenceEntry]:
+    """For each ``k = 1..N−1``: the voltages where ``k`` bulged zones are stable, their equal-free-energy
+    voltage against the homogeneous state, and the coexisting states there."""
+    gas = closed_gas(prep, scene)
+    phis = np.linspace(0.0, float(prep.family.phi_max), samples)
+    eqs = [equilibria(prep.family.curve(p), gas, scene.zone_count) for p in phis]
+    out = []
+    for k in range(1, scene.zone_count):
+        present = np.array([any(e.k == k and e.stable for e in es) for es in eqs])
+        ranges = []
+        i = 0
+        while i < phis.size:
+            if present[i]:
+                j = i
+                while j + 1 < phis.size and present[j + 1]:
+                    j += 1
+                ranges.append([float(scene.voltage_of(phis[i]) / 1e3), float(scene.voltage_of(phis[j]) / 1e3)])
+                i = j + 1
+            else:
+                i += 1
+        try:
+            v = equal_free_energy_voltage(prep, scene, k, gas, samples)
+            phi = scene.phi_hat(v)
+            cands = [e for e in equilibria(prep.family.curve(phi), gas, scene.zone_count) if e.k == k and e.stable]
+            state = min(cands, key=lambda e: e.free_energy) if cands else None
+            out.append(CoexistenceEntry(k, ranges, v / 1e3, state))
+        except ModelRangeError as exc:
+            out.append(CoexistenceEntry(k, ranges, None, None, str(exc)))
+    return out
+
+
+def sensitivity(scene: Scene, prep: Prepared | None = None, relative_change: float = 0.01) -> list[dict]:
+    """How the transition voltages move when each input moves by ``±relative_change``.
+
+    Inputs: zone radius (the fitted one), shear modulus, closing pressure, chamber volume. One
+    family of curves serves them all (the normalised curves depend on the material only).
+    """
+    prep = prep or prepare(scene, phi_margin=1.15)
+    rows = []
+
+    def both(sc):
+        out = {}
+        for kind in ("spinodal", "equal_free_energy"):
+            try:
+                out[kind] = transition_voltage(prep, sc, kind) / 1e3
+            except (ModelRangeError, SceneError) as exc:
+                out[kind] = None
+                out[f"{kind}_note"] = str(exc)
+        return out
+
+    base = both(scene)
+    rows.append({"parameter": "baseline", "value": None, **base})
+    ch = scene.chamber
+    perturb = {
+        "zone_radius_mm": (scene.zone_radius * 1e3, lambda x: replace(scene, zone_radius=x / 1e3)),
+        "shear_modulus_kPa": (scene.shear_modulus / 1e3, lambda x: replace(scene, shear_modulus=x * 1e3)),
+        "closing_pressure_mbar": (ch.closing_pressure / 100,
+                                  lambda x: replace(scene, chamber=replace(ch, closing_pressure=x * 100))),
+        "chamber_volume_ml": (ch.volume * 1e6, lambda x: replace(scene, chamber=replace(ch, volume=x / 1e6))),
+    }
+    for name, (value, make) in perturb.items():
+        for sign in (-1, 1):
+            x = value * (1 + sign * relative_change)
+            rows.append({"parameter": name, "value": x, **both(make(x))})
+    return rows

@@ -6,9 +6,9 @@ import sys
 
 import pytest
 from click.testing import CliRunner
+from coexist.cli.main import cli
 
 from coexist import __version__
-from coexist.cli.main import cli
 
 
 def run(*args):

@@ -1,0 +1,69 @@
+"""``coexist phase-diagram``: binodal, spinodals and critical point of one zone in the (Φ̂, p̂) plane."""
+
+from __future__ import annotations
+
+import click
+
+from .common import (
+    InputError,
+    accuracy_option,
+    check_output_path,
+    info,
+    library_errors,
+    parse_floats,
+    settings_from,
+    write_json,
+)
+
+
+@click.command("phase-diagram")
+@click.option("--material", default="gent", show_default=True, help="neo-hookean or gent.")
+@click.option("--jlim", type=float, default=40.0, show_default=True, help="Gent Jlim.")
+@click.option("--phi-hat", "phi_range", default="0,0.36", show_default=True, help="Voltage range 'start,stop' of Φ̂.")
+@click.option("--points", type=click.IntRange(3, 400), default=37, show_default=True, help="Voltages in the range.")
+@click.option("-o", "--plot", "plot", default=None, help="Write the figure here (.png/.svg/.pdf).")
+@click.option("--json", "as_json", is_flag=True, help="Print the diagram as JSON on stdout.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing figure.")
+@accuracy_option
+@library_errors
+def phase_diagram(material, jlim, phi_range, points, plot, as_json, overwrite, accuracy, rtol):
+    """The (Φ̂, p̂) phase diagram of one clamped zone under pressure control: where bulged and unbulged
+    states coexist (binodal, equal free energy), where each stops being stable (spinodals), and the
+    critical point where they merge."""
+    import math
+
+    import numpy as np
+
+    from coexist.coexistence import phase_diagram as compute
+    from coexist.model import build_model
+
+    settings = settings_from(accuracy, rtol)
+    lo, hi = parse_floats(phi_range, "--phi-hat", nonnegative=True, count=(2,))
+    if hi <= lo:
+        raise InputError(f"--phi-hat: the range must increase, got {phi_range!r}")
+    if material.strip().lower() == "gent" and not jlim > 0:
+        raise InputError(f"--jlim: must be positive, got {jlim:g}")
+    model = build_model(material, jlim=jlim if material.strip().lower() == "gent" else None)
+    lmax = 0.95 * math.sqrt((jlim + 3) / 2) if material.strip().lower() == "gent" else 6.0
+    plot_path = check_output_path(plot, overwrite, "--plot")
+    info(f"{points} voltages ...")
+    d = compute(model, np.linspace(lo, hi, points), lmax, settings)
+    if plot_path is not None:
+        from coexist.plotting import plot_phase_diagram
+
+        plot_phase_diagram(d, plot_path, title=f"{material}" + (f", Jlim = {jlim:g}" if material == "gent" else ""))
+        info(f"wrote {plot_path}")
+    data = {"model": model.describe(), "relative_tolerance": settings.rtol, **d.to_dict()}
+    if as_json:
+        write_json(data)
+        return
+    click.echo(f"{'phi_hat':>8} {'p_spinodal_max':>15} {'p_binodal':>12} {'p_spinodal_min':>15}")
+    for i, phi in enumerate(d.phi_hat):
+        def f(x):
+            return "-" if not np.isfinite(x) else f"{x:.6f}"
+        click.echo(f"{phi:>8.4f} {f(d.spinodal_max[i]):>15} {f(d.binodal[i]):>12} {f(d.spinodal_min[i]):>15}")
+    if d.critical_point:
+        click.echo(f"critical point: Φ̂ = {d.critical_point[0]:.8f}, p̂ = {d.critical_point[1]:.6f}, "
+                   f"λ0 = {d.critical_point[2]:.4f}")
+    for n in d.notes:
+        click.echo(f"note: {n}")
