@@ -29,12 +29,12 @@ def fit(scene, target_kv, kind, as_json, accuracy, rtol):
     if sc.chamber is None or sc.voltage is None:
         raise InputError(f"{sc.name}: fitting needs a scene with [chamber] and [voltage]")
     info("shooting the zone curves ...")
-    prep = prepare(sc, phi_margin=1.15)
+    prep = prepare(sc)
     radius = fit_zone_radius(sc, target_kv * 1e3, kind, prep)
     fitted = replace(sc, zone_radius=radius)
     check = transition_voltage(prep, fitted, kind) / 1e3
     info("sensitivity (each input moved by ±1 %) ...")
-    rows = sensitivity(fitted, prep)
+    rows = sensitivity(fitted)
     data = {"fitted_parameter": "zone_radius_mm", "zone_radius_mm": radius * 1e3, "kind": kind,
             "target_kV": target_kv, "transition_kV_at_fit": check, "sensitivity": rows,
             "relative_tolerance": sc.settings.rtol}

@@ -102,8 +102,10 @@ def _table(data, every):
     for t in data["transitions"]:
         click.echo(f"  {t['kind']:<18} {t['direction']:<6} {t['voltage_kV']:.6f} kV  {t['from']} -> {t['to']}")
     err = data["curve_interpolation_error"]
-    click.echo(f"(solver rtol {data['relative_tolerance']:.0e}; curve interpolation error p̂ {err['p_hat']:.1e}, "
-               f"V̂ {err['v_hat']:.1e}, Ψ̂ {err['psi_hat']:.1e}; transitions bisected to 1e-9 kV on that curve)")
+    polished = all(s["polished"] for s in data["steps"] if s["configuration"] != "none")
+    click.echo(f"(states {'re-solved by shooting to' if polished else 'NOT all re-solved; interpolated, see JSON; solver'}"
+               f" rtol {data['relative_tolerance']:.0e}; transitions bisected on the interpolated curves, whose "
+               f"error is p̂ {err['p_hat']:.1e}, V̂ {err['v_hat']:.1e}, Ψ̂ {err['psi_hat']:.1e})")
     for note in data["notes"]:
         click.echo(f"note: {note}")
     if data["fitted_parameters"]:

@@ -113,6 +113,7 @@ class RampReport:
                 "configuration": "none" if st is None else st.label,
                 "bulged_zones": None if st is None else st.k,
                 "stable": False if st is None else bool(st.stable),
+                "polished": st is not None and "polished" in st.notes,
                 **({"note": s.note} if s.note else {}),
             })
         trans = [{
@@ -140,8 +141,22 @@ def simulate_ramp(scene: Scene, progress=None, prep: Prepared | None = None) -> 
     prep = prep or prepare(scene)
     gas = closed_gas(prep, scene)
     result = run_ramp(prep.family, gas, scene.zone_count, scene.voltage_hat_path, progress=progress)
+    _polish_path(prep, gas, result)
     err = prep.family.interpolation_error()
     return RampReport(scene, result, gas, err, scene.effects(), dict(scene.fitted))
+
+
+def _polish_path(prep: Prepared, gas, result: RampResult) -> None:
+    """Replace every state on the path by its directly shot, Newton-polished version (in place)."""
+    from .zones import polish
+
+    on_path = [s for s in result.steps if s.state is not None]
+    unique = {}
+    for s in on_path:
+        unique.setdefault(id(s.state), s.state)
+    polished = dict(zip(unique, polish(prep.model, gas, list(unique.values()), prep.scene.settings)))
+    for s in on_path:
+        s.state = polished[id(s.state)]
 
 
 def transition_voltage(prep: Prepared, scene: Scene, kind: str = "spinodal") -> float:
@@ -294,6 +309,10 @@ def coexistence_table(prep: Prepared, scene: Scene, samples: int = 121) -> list[
             phi = scene.phi_hat(v)
             cands = [e for e in equilibria(prep.family.curve(phi), gas, scene.zone_count) if e.k == k and e.stable]
             state = min(cands, key=lambda e: e.free_energy) if cands else None
+            if state is not None:
+                from .zones import polish
+
+                state = polish(prep.model, gas, [state], scene.settings)[0]
             out.append(CoexistenceEntry(k, ranges, v / 1e3, state))
         except ModelRangeError as exc:
             out.append(CoexistenceEntry(k, ranges, None, None, str(exc)))

@@ -250,3 +250,108 @@ def equilibria(curve: ZoneCurve, gas, zones: int, samples: int = 400) -> list[Eq
             for k, Pr in zip(kk, roots):
                 found.append(_make(curve, gas, zones, int(k), a, b, float(ua_of(Pr)), float(ub_of(Pr))))
     return found
+
+
+def polish(model, gas, states: list, settings=None, iterations: int = 8) -> list:
+    """Re-solve equilibria by direct shooting, all at once: exact to the solver tolerance.
+
+    The equilibria found on interpolated curves carry the interpolation error (largest near the
+    edges of the model's range). Here every state is corrected by Newton's method on the exact
+    equilibrium conditions, evaluated by shooting (derivatives by forward differences in ``λ0``):
+
+    - homogeneous: ``p̂(λ) = p̂_gas(N V̂(λ))``
+    - mixed: ``p̂(λu) = p̂(λb)`` and ``p̂(λu) = p̂_gas((N−k)V̂(λu) + kV̂(λb))``
+
+    Returns new :class:`Equilibrium` objects with ``notes`` saying ``polished`` (or why not: then
+    the interpolated state is kept and says so).
+    """
+    from dataclasses import replace as _replace
+
+    from .shooting import solve_states
+
+    if not states:
+        return []
+    n = len(states)
+    lu = np.array([s.pole_stretch_unbulged for s in states], dtype=float)
+    lb = np.array([s.pole_stretch_bulged if s.k else np.nan for s in states], dtype=float)
+    phi = np.array([s.phi_hat for s in states], dtype=float)
+    zones = np.array([s.zones for s in states], dtype=float)
+    k = np.array([s.k for s in states], dtype=float)
+    mixed = k > 0
+    done = np.zeros(n, dtype=bool)
+    failed = np.zeros(n, dtype=bool)
+    rel = 1e-7
+    last = None
+    for _ in range(iterations):
+        act = np.flatnonzero(~done & ~failed)
+        if act.size == 0:
+            break
+        mx = act[mixed[act]]
+        lam = np.concatenate([lu[act], lu[act] * (1 + rel), lb[mx], lb[mx] * (1 + rel)])
+        ph = np.concatenate([phi[act], phi[act], phi[mx], phi[mx]])
+        st = solve_states(model, lam, ph, settings)
+        m = act.size
+        j = mx.size
+        ok = st.ok
+        okU = ok[:m] & ok[m:2 * m]
+        okB = np.ones(m, dtype=bool)
+        pos = {i: t for t, i in enumerate(act)}
+        okB[[pos[i] for i in mx]] = ok[2 * m:2 * m + j] & ok[2 * m + j:]
+        bad = ~(okU & okB)
+        failed[act[bad]] = True
+        pu, vu = st.p_hat[:m], st.v_hat[:m]
+        dpu = (st.p_hat[m:2 * m] - pu) / (lu[act] * rel)
+        dvu = (st.v_hat[m:2 * m] - vu) / (lu[act] * rel)
+        pb = np.full(m, np.nan)
+        vb = np.full(m, np.nan)
+        dpb = np.full(m, np.nan)
+        dvb = np.full(m, np.nan)
+        idx = np.array([pos[i] for i in mx], dtype=int)
+        if j:
+            pb[idx] = st.p_hat[2 * m:2 * m + j]
+            vb[idx] = st.v_hat[2 * m:2 * m + j]
+            dpb[idx] = (st.p_hat[2 * m + j:] - pb[idx]) / (lb[mx] * rel)
+            dvb[idx] = (st.v_hat[2 * m + j:] - vb[idx]) / (lb[mx] * rel)
+        kk, nn = k[act], zones[act]
+        total = (nn - kk) * vu + np.where(kk > 0, kk * np.nan_to_num(vb), 0.0)
+        pg = gas.pressure(total)
+        sg = gas.stiffness(total)  # −dp_gas/dV_total
+        r2 = pu - pg
+        is_mix = kk > 0
+        # homogeneous: r = p(λ) − p_gas(N V(λ)), dr/dλ = p' + s N V'
+        step_u = np.where(~is_mix, r2 / (dpu + sg * nn * dvu), 0.0)
+        # mixed: [r1, r2] with r1 = p(λu) − p(λb)
+        r1 = np.where(is_mix, pu - pb, 0.0)
+        a11, a12 = dpu, -dpb
+        a21, a22 = dpu + sg * (nn - kk) * dvu, sg * kk * dvb
+        det = a11 * a22 - a12 * a21
+        with np.errstate(all="ignore"):
+            du = np.where(is_mix, (r1 * a22 - a12 * r2) / det, step_u)
+            db = np.where(is_mix, (a11 * r2 - a21 * r1) / det, 0.0)
+        good = ~bad & np.isfinite(du) & np.isfinite(db)
+        failed[act[~good & ~bad]] = True
+        lu[act[good]] -= du[good]
+        lb[act[good & is_mix]] -= db[good & is_mix]
+        conv = good & (np.abs(r2) <= 1e-9 * np.maximum(1.0, np.abs(pu))) & (np.abs(r1) <= 1e-9 * np.maximum(1.0, np.abs(pu)))
+        done[act[conv]] = True
+        last = (act, pu, vu, pb, vb)
+    final = solve_states(model, np.concatenate([lu, np.where(mixed, lb, lu)]), np.concatenate([phi, phi]), settings)
+    out = []
+    for i, s in enumerate(states):
+        if not done[i] or not final.ok[i] or (mixed[i] and not final.ok[n + i]):
+            out.append(_replace(s, notes=s.notes + ["not polished: kept the interpolated state"]))
+            continue
+        vu_i = float(final.v_hat[i])
+        vb_i = float(final.v_hat[n + i]) if mixed[i] else None
+        total = (s.zones - s.k) * vu_i + (s.k * vb_i if s.k else 0.0)
+        G = (s.zones - s.k) * float(final.psi_hat[i]) + (s.k * float(final.psi_hat[n + i]) if s.k else 0.0) \
+            + float(gas.free_energy(total))
+        out.append(_replace(
+            s, pole_stretch_unbulged=float(lu[i]), pole_stretch_bulged=(float(lb[i]) if s.k else None),
+            u_unbulged=float(np.sqrt(lu[i] - model.prestretch)),
+            u_bulged=(float(np.sqrt(lb[i] - model.prestretch)) if s.k else None),
+            p_hat=float(final.p_hat[i]), v_unbulged=vu_i, v_bulged=vb_i, free_energy=G,
+            notes=s.notes + ["polished"],
+        ))
+    del last
+    return out

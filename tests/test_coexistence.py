@@ -1,0 +1,164 @@
+"""Coexistence: the CasADi equal-free-energy solver, N zones on a gas, and the paper's 4 kV transition."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+from scipy.optimize import brentq
+
+from coexist.branches import ZoneCurve
+from coexist.coexistence import MaxwellSolver, maxwell_coexistence, phase_diagram
+from coexist.errors import ModelRangeError
+from coexist.model import build_model
+from coexist.scene import load_scene
+from coexist.shooting import solve_states
+from coexist.simulate import closed_gas, prepare, simulate_ramp
+from coexist.zones import GasChamber, equilibria
+
+
+def gent_curve(jlim, phi, n=128):
+    model = build_model("gent", jlim)
+    u = np.linspace(np.sqrt(0.002), np.sqrt(0.95 * np.sqrt((jlim + 3) / 2) - 1), n)
+    return model, ZoneCurve.compute(model, phi, 1 + u**2)
+
+
+@pytest.mark.parametrize("phi", [0.0, 0.1, 0.2])
+def test_casadi_maxwell_agrees_with_scipy_equal_area(phi):
+    """The CasADi Newton solve and an independent brentq on the equal-area function, same curve."""
+    _, curve = gent_curve(100.0, phi)
+    co = maxwell_coexistence(curve)
+    solver = MaxwellSolver(curve)
+    rising = [b for b in curve.branches if b.rising and b.usable]
+    lo = max(rising[0].p_range[0], rising[1].p_range[0]) + 1e-9
+    hi = min(rising[0].p_range[1], rising[1].p_range[1]) - 1e-9
+    p_brent = brentq(solver.equal_area, lo, hi, xtol=1e-14)
+    assert co.p_hat == pytest.approx(p_brent, rel=1e-10)
+    assert co.pole_stretch_bulged > co.pole_stretch_unbulged + 0.5  # not the trivial solution
+
+
+def test_equal_areas_hold_on_the_curve():
+    """∫ p̂ dV̂ from the unbulged to the bulged state equals p̂ (V̂b − V̂u): the Maxwell rule itself,
+    checked by quadrature of the spline (independent of the Ψ̂ the solver used)."""
+    _, curve = gent_curve(100.0, 0.0)
+    co = maxwell_coexistence(curve)
+    uu, ub = curve.to_u(co.pole_stretch_unbulged), curve.to_u(co.pole_stretch_bulged)
+    area, _ = quad(lambda u: float(curve.p(u) * curve.dv(u)), uu, ub, limit=400, epsabs=1e-12)
+    assert area == pytest.approx(co.p_hat * (co.v_bulged - co.v_unbulged), rel=2e-6)
+
+
+def test_coexisting_states_verified_by_shooting():
+    """The two coexisting states, shot afresh, carry the same pressure to the curve's interpolation error."""
+    model, curve = gent_curve(100.0, 0.1)
+    co = maxwell_coexistence(curve)
+    s = solve_states(model, [co.pole_stretch_unbulged, co.pole_stretch_bulged], 0.1).require_ok()
+    err = curve.interpolation_error(model)["p_hat"]
+    assert s.p_hat[0] == pytest.approx(co.p_hat, abs=10 * err)
+    assert s.p_hat[1] == pytest.approx(co.p_hat, abs=10 * err)
+
+
+def test_neo_hookean_has_no_coexistence():
+    model = build_model("neo-hookean")
+    u = np.linspace(np.sqrt(0.002), np.sqrt(5.0), 96)
+    curve = ZoneCurve.compute(model, 0.0, 1 + u**2)
+    with pytest.raises(ModelRangeError, match="no second stable branch"):
+        maxwell_coexistence(curve)
+
+
+def test_phase_diagram_critical_point():
+    """Gent Jlim = 40: the pressure maximum and minimum appear together at a critical voltage near
+    Φ̂ ≈ 0.232 (measured 0.23207); above it a binodal lies between the two spinodals."""
+    model = build_model("gent", 40.0)
+    d = phase_diagram(model, np.linspace(0.2, 0.3, 11), 0.95 * np.sqrt(43 / 2))
+    assert d.critical_point is not None
+    phi_c, p_c, _ = d.critical_point
+    assert phi_c == pytest.approx(0.2321, abs=5e-4)
+    ok = np.isfinite(d.binodal)
+    assert ok.sum() >= 6 and not ok[0]
+    assert np.all(d.spinodal_min[ok] < d.binodal[ok]) and np.all(d.binodal[ok] < d.spinodal_max[ok])
+    # the loop closes at the critical point: max and min pressures approach each other
+    gap = (d.spinodal_max - d.spinodal_min)[ok]
+    assert gap[0] < 0.01 < gap[-1]
+
+
+def test_two_interconnected_balloons():
+    """Two balloons, no voltage, fixed gas: the symmetric state is stable below the pressure maximum and
+    unstable beyond it, where one balloon grows at the other's expense in a stable asymmetric state."""
+    scene = load_scene("two-balloons")
+    prep = prepare(scene)
+    curve = prep.family.curve(0.0)
+    u_max = [u for u in curve.pressure_extrema() if curve.dp(u - 1e-9) > 0][0]
+    vc, patm = scene.chamber_volume_hat, scene.atmospheric_pressure_hat
+    for du, symmetric_stable in ((-0.05, True), (+0.05, False)):
+        u = u_max + du
+        gas = GasChamber.closed_at(vc, patm, float(curve.p(u)), 2 * float(curve.v(u)))
+        eqs = equilibria(curve, gas, 2)
+        sym = [e for e in eqs if e.k == 0 and abs(e.u_unbulged - u) < 1e-6]
+        assert len(sym) == 1 and sym[0].stable is symmetric_stable
+        if not symmetric_stable:
+            asym = [e for e in eqs if e.k == 1 and e.stable]
+            assert asym, "beyond the maximum a stable asymmetric state must exist"
+            a = asym[0]
+            assert a.v_bulged > sym[0].v_unbulged > a.v_unbulged
+    # the built-in scene closes below the maximum: both balloons stay equal
+    gas = closed_gas(prep)
+    eqs = [e for e in equilibria(curve, gas, 2) if e.stable]
+    assert len(eqs) == 1 and eqs[0].k == 0
+
+
+@pytest.fixture(scope="module")
+def tricircle_ramp():
+    scene = load_scene("tricircle")
+    return scene, simulate_ramp(scene)
+
+
+def _step(report, kv, direction="up"):
+    for s in report.result.steps:
+        if s.direction == direction and abs(report.voltage_kV(s.phi_hat) - kv) < 1e-9:
+            return s
+    raise AssertionError(f"no step at {kv} kV")
+
+
+def test_tricircle_equal_at_3_8_kV(tricircle_ramp):
+    """The paper: at 3.8 kV all three zones are equal (no stored transition voltage is read)."""
+    _, report = tricircle_ramp
+    st = _step(report, 3.8).state
+    assert st.k == 0 and st.stable
+    v = st.zone_volumes
+    assert max(v) - min(v) == 0
+
+
+def test_tricircle_one_zone_bulged_at_4_kV(tricircle_ramp):
+    """The paper: at 4.0 kV one zone bulges and coexists with two unbulged ones, at one pressure, stably."""
+    scene, report = tricircle_ramp
+    st = _step(report, 4.0).state
+    assert st.k == 1 and st.zones == 3 and st.stable and st.min_eigenvalue > 0
+    assert st.v_bulged > 3 * st.v_unbulged
+    # same pressure and voltage in both states, verified by fresh shooting (independent of the splines)
+    model = scene.model()
+    s = solve_states(model, [st.pole_stretch_unbulged, st.pole_stretch_bulged], st.phi_hat).require_ok()
+    assert s.p_hat[0] == pytest.approx(s.p_hat[1], rel=1e-4)
+    # and that pressure is the gas's at the zones' total volume
+    gas = report.gas
+    total = 2 * s.v_hat[0] + s.v_hat[1]
+    assert float(gas.pressure(total)) == pytest.approx(s.p_hat[0], rel=1e-4)
+
+
+def test_tricircle_transitions_and_hysteresis(tricircle_ramp):
+    _, report = tricircle_ramp
+    up = [t for t in report.result.transitions if t.direction == "up" and t.kind == "spinodal"]
+    down = [t for t in report.result.transitions if t.direction == "down" and t.kind == "spinodal"]
+    assert up[0].from_label == "homogeneous" and up[0].to_label == "1 of 3 bulged"
+    assert 3.8 < report.voltage_kV(up[0].phi_hat) < 4.0
+    assert report.voltage_kV(down[-1].phi_hat) < report.voltage_kV(up[0].phi_hat)  # hysteresis
+    (eq,) = report.result.equal_free_energy
+    assert report.voltage_kV(down[-1].phi_hat) < report.voltage_kV(eq.phi_hat) < report.voltage_kV(up[0].phi_hat)
+
+
+def test_neo_hookean_tricircle_bulges_without_bound():
+    """Under the paper's conditions a neo-Hookean zone has no stable bulged state: no coexistence."""
+    scene = replace(load_scene("tricircle"), material="neo-hookean", jlim=None, zone_radius=0.0205206)
+    report = simulate_ramp(scene)
+    kinds = [t.kind for t in report.result.transitions]
+    assert "no_stable_state" in kinds
+    assert not any(s.state is not None and s.state.k > 0 for s in report.result.steps)
