@@ -72,11 +72,19 @@ class ZoneCurve:
         self.p = CubicSpline(x, p_hat)
         self.v = CubicSpline(x, v_hat)
         self.psi = CubicSpline(x, psi_hat)
-        self.q = CubicSpline(x, q_hat)
+        self._q_values = np.asarray(q_hat, dtype=float)
+        self._q = None
         self.dp = self.p.derivative()
         self.dv = self.v.derivative()
         self.stopped_because = stopped_because
         self.branches = self._branches()
+
+    @property
+    def q(self):
+        """Spline of ``Q̂`` (built on first use: most solvers never need the charge)."""
+        if self._q is None:
+            self._q = CubicSpline(self.grid, self._q_values)
+        return self._q
 
     def to_u(self, pole_stretch):
         """``u = √(λ0 − λpre)``."""

@@ -171,7 +171,7 @@ class _BranchInverse:
         P = np.asarray(P, dtype=float)
         u = np.interp(P, self.p_sorted, self.u_sorted)
         lo, hi = self.branch.start, self.branch.stop
-        for _ in range(4):
+        for _ in range(3):
             dp = self.curve.dp(u)
             step = np.where(dp != 0, (self.curve.p(u) - P) / np.where(dp != 0, dp, 1.0), 0.0)
             u = np.clip(u - step, lo, hi)

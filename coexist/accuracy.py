@@ -1,0 +1,604 @@
+"""What accuracy costs in time: work-precision studies of the project's headline outputs.
+
+In the style of the SciML work-precision benchmarks: for each headline output, the error against a
+tight reference (computed once, at settings tighter than any in the sweep) is set against the wall
+time, for every solver setting the project offers. Two kinds of setting are swept, each as its own
+*family* (one line in the figure), every family passing through the project's default:
+
+- the integrator tolerance ``rtol`` (:class:`~coexist.settings.SolverSettings`), sampling fixed at
+  its default;
+- the sampling (curve points, spline points, the ``n_u × n_s`` family grid), ``rtol`` fixed at its
+  default ``1e-10``.
+
+The three studies
+-----------------
+1. ``pressure_max``: the snap-through pressure ``p̂max`` of the neo-Hookean ``p̂–V̂`` curve at
+   ``Φ̂ = 0.1`` (:func:`~coexist.curves.pressure_volume_curve`, limit point refined), against the
+   number of pole-stretch points and ``rtol``. Also the *tolerance* data: achieved relative error
+   (of ``p̂max`` and of every state of the curve) against the requested ``rtol``.
+2. ``maxwell_pressure``: the Maxwell coexistence pressure of a Gent (``Jlim = 100``) zone at
+   ``Φ̂ = 0`` (:func:`~coexist.coexistence.maxwell_coexistence` on a
+   :class:`~coexist.branches.ZoneCurve`), against the spline points ``n`` and ``rtol``.
+3. ``transition_voltage``: the first (spinodal) transition voltage, in kV, of the built-in
+   ``tricircle`` scene (:func:`~coexist.simulate.prepare` +
+   :func:`~coexist.simulate.transition_voltage`), against the family grid ``n_u``, ``n_s`` and
+   ``rtol``. The scene is read when the study runs; if its transition cannot be computed
+   (:class:`~coexist.errors.ModelRangeError`), the study falls back to :data:`FALLBACK_SCENE_CHANGES`
+   and says so in its notes.
+
+Errors are relative, ``|x − x_ref| / |x_ref|``. Times are wall times (``time.perf_counter``) of the
+whole computation a user would run for that output (model construction excluded for studies 1–2,
+included for study 3 since :func:`~coexist.simulate.prepare` builds it), the best of a few repeats.
+Each study also reports the *resolution* of its reference (its difference from a second reference
+computed differently); errors below it are not resolved and are drawn at it.
+
+Everything returned is a plain dataclass with a ``to_dict()`` for JSON.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import inspect
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import CoexistError, ModelRangeError
+from .settings import SolverSettings
+
+#: the project's default tolerance (``SolverSettings()``)
+DEFAULT_RTOL = SolverSettings().rtol
+#: points of a default ``p̂–V̂`` curve (``pressure_volume_curve`` without ``pole_stretch``)
+DEFAULT_CURVE_POINTS = 200
+#: tightest tolerance the project accepts is 1e-14; references use this one
+REFERENCE_RTOL = 1e-13
+#: study 1: voltage and pole-stretch range of the curve (the ``curves`` command's default range)
+STUDY1_PHI_HAT = 0.1
+STUDY1_POLE_STRETCH = (1.01, 4.0)
+#: study 2: material, voltage and the lower end of the ``u`` grid
+STUDY2_JLIM = 100.0
+STUDY2_PHI_HAT = 0.0
+STUDY2_U_MIN = math.sqrt(0.002)
+#: study 3: what replaces the scene's material and radius when its transition cannot be computed
+FALLBACK_SCENE_CHANGES = {"material": "gent", "jlim": 97.0, "zone_radius": 0.0214165}
+#: a point whose time is within this factor of a front point of at least equal accuracy is
+#: "near" the front (timings on a shared machine scatter by about this much)
+TIME_NOISE_FACTOR = 1.5
+#: smallest relative error that is meaningful at all (double precision, a few roundings)
+ROUNDOFF = 1e-15
+
+
+def _default_of(func, name):
+    return inspect.signature(func).parameters[name].default
+
+
+def _defaults():
+    """The project's default sampling, read from the library so the study follows any change."""
+    from .coexistence import phase_diagram
+    from .simulate import prepare
+
+    return {
+        "curve_points": DEFAULT_CURVE_POINTS,
+        "spline_points": int(_default_of(phase_diagram, "points")),
+        "n_u": int(_default_of(prepare, "n_u")),
+        "n_s": int(_default_of(prepare, "n_s")),
+    }
+
+
+# --- results -------------------------------------------------------------------------------------
+@dataclass
+class Measurement:
+    """One solver setting of one study: the value it gives, its error and what it cost.
+
+    Attributes
+    ----------
+    family : str
+        The sweep it belongs to: ``"rtol"`` or the name of a sampling parameter (``"points"``,
+        ``"n"``, ``"n_u"``, ``"n_s"``, ``"grid"`` for ``n_u`` and ``n_s`` refined together).
+    label : str
+        The setting, e.g. ``"rtol=1e-08"`` or ``"n_u=96"``.
+    rtol : float
+    sampling : dict
+        The sampling parameters, e.g. ``{"points": 200}``.
+    value : float or None
+        The output (None if the computation failed; ``failed`` says why).
+    error, abs_error : float or None
+        Relative and absolute error against the reference.
+    time : float or None
+        Wall time in seconds, best of ``repeats``.
+    default : bool
+        This is the project's default setting.
+    extra : dict
+        Further errors measured with this setting (study 1: ``states_max_error`` over the curve).
+    """
+
+    family: str
+    label: str
+    rtol: float
+    sampling: dict
+    value: float | None
+    error: float | None
+    abs_error: float | None
+    time: float | None
+    repeats: int
+    default: bool = False
+    failed: str | None = None
+    extra: dict = field(default_factory=dict)
+
+    def to_dict(self) -> dict:
+        return _clean(dataclasses.asdict(self))
+
+
+@dataclass
+class Study:
+    """One headline output: reference, measurements, Pareto front and where the default sits.
+
+    ``measurements`` lists each setting once per family it belongs to (the default is in every
+    family; it is measured once and shared).
+    """
+
+    number: int
+    key: str
+    title: str
+    quantity: str
+    unit: str
+    reference: dict
+    reference_checks: list
+    resolution: float
+    measurements: list
+    families: dict
+    notes: list = field(default_factory=list)
+    tolerance: list = field(default_factory=list)
+    setup: dict = field(default_factory=dict)
+
+    @property
+    def default(self) -> Measurement | None:
+        return next((m for m in self.measurements if m.default), None)
+
+    def unique(self) -> list[Measurement]:
+        """Every measured setting once (the default appears in several families)."""
+        seen, out = set(), []
+        for m in self.measurements:
+            key = (m.rtol, tuple(sorted(m.sampling.items())))
+            if key not in seen:
+                seen.add(key)
+                out.append(m)
+        return out
+
+    def front(self) -> list[Measurement]:
+        """The Pareto front of (time, error) over all settings, fastest first.
+
+        Errors below the reference's resolution are not resolved and count as equal to it.
+        """
+        pts = [m for m in self.unique() if m.error is not None and m.time is not None]
+        idx = pareto_front([m.time for m in pts], [self._floor(m.error) for m in pts])
+        return [pts[i] for i in idx]
+
+    def _floor(self, error):
+        return max(error, self.resolution)
+
+    def default_vs_front(self) -> dict:
+        """Is the default on the Pareto front, and if not, how far from it.
+
+        ``time_excess``: the default's time over the least time of any setting at least as
+        accurate (1 on the front). ``error_excess``: the default's error over the least error of
+        any setting at most as slow (1 on the front). ``near_front``: on it, or a setting of at least
+        equal accuracy saves less than the timing noise (``time_excess ≤ 1.5``).
+        """
+        d = self.default
+        if d is None or d.error is None:
+            return {"on_front": None, "near_front": None, "note": "the default setting failed"}
+        pts = [m for m in self.unique() if m.error is not None and m.time is not None]
+        e_d = self._floor(d.error)
+        as_good = [m for m in pts if self._floor(m.error) <= e_d]
+        as_fast = [m for m in pts if m.time <= d.time]
+        fastest = min(as_good, key=lambda m: m.time)
+        best = min(as_fast, key=lambda m: self._floor(m.error))
+        dominated_by = [m.label for m in pts if m is not d and m.time <= d.time and self._floor(m.error) <= e_d
+                        and (m.time < d.time or self._floor(m.error) < e_d)]
+        time_excess = d.time / fastest.time
+        return {
+            "on_front": not dominated_by,
+            "near_front": (not dominated_by) or time_excess <= TIME_NOISE_FACTOR,
+            "time_excess": time_excess,
+            "fastest_as_accurate": fastest.label,
+            "error_excess": e_d / self._floor(best.error),
+            "most_accurate_as_fast": best.label,
+            "dominated_by": dominated_by,
+        }
+
+    def to_dict(self) -> dict:
+        d = self.default
+        return _clean({
+            "study": self.number,
+            "key": self.key,
+            "title": self.title,
+            "quantity": self.quantity,
+            "unit": self.unit,
+            "setup": self.setup,
+            "families": self.families,
+            "reference": self.reference,
+            "reference_checks": self.reference_checks,
+            "resolution": self.resolution,
+            "measurements": [m.to_dict() for m in self.measurements],
+            "default": None if d is None else d.to_dict(),
+            "pareto_front": [m.label for m in self.front()],
+            "default_vs_front": self.default_vs_front(),
+            "tolerance": self.tolerance,
+            "notes": self.notes,
+        })
+
+
+def _clean(obj):
+    """JSON-safe: numpy scalars to Python, non-finite floats to None."""
+    if isinstance(obj, dict):
+        return {str(k): _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    if isinstance(obj, (np.floating, float)):
+        x = float(obj)
+        return x if math.isfinite(x) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    if isinstance(obj, np.bool_):
+        return bool(obj)
+    return obj
+
+
+def pareto_front(times, errors) -> list[int]:
+    """Indices of the non-dominated points of ``(time, error)``, fastest first.
+
+    A point is dominated when another is no slower and no less accurate, and better in one.
+    """
+    t = np.asarray(times, dtype=float)
+    e = np.asarray(errors, dtype=float)
+    order = np.lexsort((e, t))  # by time, ties by error
+    front, best = [], math.inf
+    for i in order:
+        if e[i] < best:
+            front.append(int(i))
+            best = e[i]
+    return front
+
+
+# --- measuring -----------------------------------------------------------------------------------
+def _timed(fn, repeats):
+    """``(result, best wall time)`` of ``fn()`` over ``repeats`` runs."""
+    best, out = math.inf, None
+    for _ in range(max(1, repeats)):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return out, best
+
+
+def _fmt(x):
+    return f"{x:.0e}" if isinstance(x, float) else str(x)
+
+
+def _label(family, rtol, sampling):
+    if family == "rtol":
+        return f"rtol={rtol:.0e}"
+    if family == "grid":
+        return "n_u×n_s=" + "×".join(str(v) for v in sampling.values())
+    return f"{family}={sampling[family]}"
+
+
+class _Sweep:
+    """Measures settings once each (shared between families) against a reference value."""
+
+    def __init__(self, compute, reference_value, repeats, progress, default_key, extra=None):
+        self.compute = compute
+        self.ref = reference_value
+        self.repeats = repeats
+        self.progress = progress
+        self.default_key = default_key
+        self.extra = extra
+        self.cache = {}
+        self.measurements = []
+
+    def add(self, family, rtol, sampling):
+        key = (rtol, tuple(sorted(sampling.items())))
+        is_default = key == self.default_key
+        if key not in self.cache:
+            label = _label(family, rtol, sampling)
+            try:
+                (value, payload), t = _timed(lambda: self.compute(rtol, **sampling), self.repeats)
+                err = abs(value - self.ref) / abs(self.ref)
+                extra = self.extra(rtol, sampling, payload) if self.extra else {}
+                self.cache[key] = dict(value=value, error=err, abs_error=abs(value - self.ref), time=t, failed=None,
+                                       extra=extra)
+                self.progress(f"  {label:<22} value {value:.12g}  error {err:.2e}  time {t:.3f} s")
+            except CoexistError as exc:
+                self.cache[key] = dict(value=None, error=None, abs_error=None, time=None, failed=str(exc), extra={})
+                self.progress(f"  {label:<22} failed: {exc}")
+        m = Measurement(family=family, label=_label(family, rtol, sampling), rtol=rtol, sampling=dict(sampling),
+                        repeats=self.repeats, default=is_default, **self.cache[key])
+        self.measurements.append(m)
+        return m
+
+
+def _noop(_msg):
+    pass
+
+
+# --- study 1: p̂max of a p̂–V̂ curve -----------------------------------------------------------------
+def pressure_max_study(quick: bool = False, progress: Callable[[str], None] | None = None,
+                       repeats: int | None = None) -> Study:
+    """Study 1: the pressure maximum ``p̂max`` of the neo-Hookean ``p̂–V̂`` curve at ``Φ̂ = 0.1``.
+
+    Families: ``rtol`` (at the default 200 points) and ``points`` (at the default ``rtol``).
+    Reference: ``rtol = 1e-13``, 400 points; checked against 800 points (600 when ``quick``).
+    The ``tolerance`` list holds, per requested ``rtol``, the achieved relative error of ``p̂max`` and
+    the largest relative error of ``p̂`` and ``V̂`` over the 200 states of the curve.
+    """
+    from .curves import pressure_volume_curve
+    from .model import MembraneModel
+    from .shooting import solve_states
+
+    progress = progress or _noop
+    repeats = repeats or (2 if quick else 5)
+    model = MembraneModel()
+    defaults = _defaults()
+    n_default = defaults["curve_points"]
+
+    def grid(points):
+        return np.linspace(*STUDY1_POLE_STRETCH, int(points))
+
+    def compute(rtol, points):
+        curve = pressure_volume_curve(model, STUDY1_PHI_HAT, grid(points), SolverSettings(rtol=rtol))
+        lp = [p for p in curve.limit_points if p.kind == "pressure_max"]
+        if not lp:
+            raise ModelRangeError("the curve has no pressure maximum", "no_limit_point")
+        return lp[0].p_hat, curve
+
+    progress("study 1: p̂max of the neo-Hookean p̂–V̂ curve at Φ̂ = 0.1")
+    ref_points, check_points = 400, (600 if quick else 800)
+    (ref, _), t_ref = _timed(lambda: compute(REFERENCE_RTOL, ref_points), 1)
+    check, _ = compute(REFERENCE_RTOL, check_points)
+    check_diff = abs(check - ref) / abs(ref)
+    resolution = max(check_diff, ROUNDOFF)
+    progress(f"  reference p̂max = {ref:.15g} (rtol 1e-13, {ref_points} points, {t_ref:.2f} s); "
+             f"{check_points} points differ by {check_diff:.1e}")
+    ref_states = solve_states(model, grid(n_default), STUDY1_PHI_HAT, SolverSettings(rtol=REFERENCE_RTOL))
+
+    def states_error(rtol, sampling, curve):
+        if sampling["points"] != n_default:
+            return {}
+        s = curve.states
+        r_p = np.interp(s.pole_stretch, ref_states.pole_stretch, ref_states.p_hat)
+        r_v = np.interp(s.pole_stretch, ref_states.pole_stretch, ref_states.v_hat)
+        return {"states_max_error_p_hat": float(np.max(np.abs(s.p_hat - r_p) / np.abs(r_p))),
+                "states_max_error_v_hat": float(np.max(np.abs(s.v_hat - r_v) / np.abs(r_v)))}
+
+    compute(1e-6, 25)  # warm-up
+    sweep = _Sweep(compute, ref, repeats, progress, (DEFAULT_RTOL, (("points", n_default),)), states_error)
+    rtols = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12] if quick else [10.0**-k for k in range(4, 13)]
+    points = [25, 100, 200] if quick else [25, 50, 100, 200]
+    for r in rtols:
+        sweep.add("rtol", r, {"points": n_default})
+    for n in points:
+        sweep.add("points", DEFAULT_RTOL, {"points": n})
+    tolerance = [{"requested_rtol": m.rtol, "achieved_error": m.error,
+                  "states_max_error_p_hat": m.extra.get("states_max_error_p_hat"),
+                  "states_max_error_v_hat": m.extra.get("states_max_error_v_hat")}
+                 for m in sweep.measurements if m.family == "rtol" and m.error is not None]
+    notes = []
+    if len({round(m.error / resolution) for m in sweep.measurements if m.family == "points" and m.error}) <= 1:
+        notes.append("the number of curve points does not change p̂max: the limit point is refined by "
+                     "Chebyshev interpolation on shrinking brackets, whatever grid found it")
+    return Study(
+        number=1, key="pressure_max", title="p̂max, neo-Hookean p̂–V̂ curve at Φ̂ = 0.1", quantity="p̂max",
+        unit="", resolution=resolution,
+        reference={"rtol": REFERENCE_RTOL, "points": ref_points, "value": ref, "time": t_ref},
+        reference_checks=[{"rtol": REFERENCE_RTOL, "points": check_points, "value": check,
+                           "relative_difference": check_diff}],
+        measurements=sweep.measurements,
+        families={"rtol": f"integrator tolerance, {n_default} curve points",
+                  "points": f"pole-stretch points of the curve, rtol {DEFAULT_RTOL:.0e}"},
+        tolerance=tolerance, notes=notes,
+        setup={"material": "neo-hookean", "phi_hat": STUDY1_PHI_HAT,
+               "pole_stretch": f"linspace({STUDY1_POLE_STRETCH[0]}, {STUDY1_POLE_STRETCH[1]}, points)",
+               "timed": "pressure_volume_curve (states + refined limit points)"},
+    )
+
+
+# --- study 2: Maxwell pressure of a Gent zone ------------------------------------------------------
+def maxwell_pressure_study(quick: bool = False, progress: Callable[[str], None] | None = None,
+                           repeats: int | None = None) -> Study:
+    """Study 2: the Maxwell coexistence pressure of a Gent (``Jlim = 100``) zone at ``Φ̂ = 0``.
+
+    ``u = linspace(√0.002, √(0.95 √((Jlim + 3)/2) − 1), n)``, pole stretch ``1 + u²``. Families:
+    ``rtol`` (at the default ``n = 128``) and ``n`` (at the default ``rtol``). Reference:
+    ``rtol = 1e-13``, ``n = 1024``, checked against ``n = 512`` and (unless ``quick``) ``n = 2048``.
+    """
+    from .branches import ZoneCurve
+    from .coexistence import maxwell_coexistence
+    from .model import build_model
+
+    progress = progress or _noop
+    repeats = repeats or (1 if quick else 3)
+    model = build_model("gent", STUDY2_JLIM)
+    u_max = math.sqrt(0.95 * math.sqrt((STUDY2_JLIM + 3) / 2) - 1)
+    n_default = _defaults()["spline_points"]
+
+    def compute(rtol, n):
+        u = np.linspace(STUDY2_U_MIN, u_max, int(n))
+        curve = ZoneCurve.compute(model, STUDY2_PHI_HAT, 1 + u**2, SolverSettings(rtol=rtol))
+        return maxwell_coexistence(curve).p_hat, None
+
+    progress(f"study 2: Maxwell pressure of a Gent (Jlim = {STUDY2_JLIM:g}) zone at Φ̂ = 0")
+    compute(1e-6, 64)  # warm-up (CasADi)
+    ref_n = 1024
+    (ref, _), t_ref = _timed(lambda: compute(REFERENCE_RTOL, ref_n), 1)
+    checks = []
+    for n in ([512] if quick else [512, 2048]):
+        v, _ = compute(REFERENCE_RTOL, n)
+        checks.append({"rtol": REFERENCE_RTOL, "n": n, "value": v, "relative_difference": abs(v - ref) / abs(ref)})
+    finer = [c for c in checks if c["n"] > ref_n]
+    resolution = max((finer or checks)[0]["relative_difference"], ROUNDOFF)
+    progress(f"  reference p̂ = {ref:.15g} (rtol 1e-13, n = {ref_n}, {t_ref:.2f} s); "
+             + "; ".join(f"n = {c['n']} differs by {c['relative_difference']:.1e}" for c in checks))
+    sweep = _Sweep(compute, ref, repeats, progress, (DEFAULT_RTOL, (("n", n_default),)))
+    rtols = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12] if quick else [10.0**-k for k in range(4, 13)]
+    ns = [32, 64, 128, 256] if quick else [32, 64, 128, 256, 512]
+    for r in rtols:
+        sweep.add("rtol", r, {"n": n_default})
+    for n in ns:
+        sweep.add("n", DEFAULT_RTOL, {"n": n})
+    notes = [f"reference check: n = 512 and n = 1024 differ by {checks[0]['relative_difference']:.1e}"
+             + (f", n = 1024 and n = 2048 by {checks[1]['relative_difference']:.1e}" if len(checks) > 1 else "")]
+    return Study(
+        number=2, key="maxwell_pressure", title=f"Maxwell pressure, Gent Jlim = {STUDY2_JLIM:g}, Φ̂ = 0",
+        quantity="p̂ (coexistence)", unit="", resolution=resolution,
+        reference={"rtol": REFERENCE_RTOL, "n": ref_n, "value": ref, "time": t_ref},
+        reference_checks=checks, measurements=sweep.measurements,
+        families={"rtol": f"integrator tolerance, n = {n_default} spline points",
+                  "n": f"spline points in u = √(λ0 − 1), rtol {DEFAULT_RTOL:.0e}"},
+        notes=notes,
+        setup={"material": "gent", "jlim": STUDY2_JLIM, "phi_hat": STUDY2_PHI_HAT,
+               "u": f"linspace(√0.002, {u_max:.6g}, n)",
+               "timed": "ZoneCurve.compute + maxwell_coexistence"},
+    )
+
+
+# --- study 3: transition voltage of the tricircle scene ----------------------------------------------
+def _transition_kV(scene, rtol, n_u, n_s):
+    from .simulate import prepare, transition_voltage
+
+    sc = dataclasses.replace(scene, settings=SolverSettings(rtol=rtol))
+    prep = prepare(sc, n_u=int(n_u), n_s=int(n_s))
+    return transition_voltage(prep, sc, "spinodal") / 1e3
+
+
+def transition_voltage_study(quick: bool = False, progress: Callable[[str], None] | None = None,
+                             repeats: int | None = None, scene_name: str = "tricircle") -> Study:
+    """Study 3: the spinodal transition voltage (kV) of the built-in ``tricircle`` scene.
+
+    Families: ``rtol`` (default grid), ``n_u`` (``n_s`` and ``rtol`` default), ``n_s`` (``n_u`` and
+    ``rtol`` default) and, unless ``quick``, ``grid`` (both refined together). Reference:
+    ``rtol = 1e-13`` on ``n_u × n_s = 768 × 65``, checked against ``512 × 65`` (quick: ``256 × 65``,
+    no check). The scene is loaded now; if its transition raises :class:`ModelRangeError` the study
+    uses the scene with :data:`FALLBACK_SCENE_CHANGES` and notes it.
+    """
+    from .scene import load_scene
+
+    progress = progress or _noop
+    repeats = repeats or (1 if quick else 2)
+    defaults = _defaults()
+    nu0, ns0 = defaults["n_u"], defaults["n_s"]
+    scene = load_scene(scene_name)
+    notes = []
+    progress(f"study 3: spinodal transition voltage of the {scene_name} scene "
+             f"({scene.material}{'' if scene.jlim is None else f', Jlim = {scene.jlim:g}'}, "
+             f"zone radius {scene.zone_radius * 1e3:g} mm)")
+    ref_nu, ref_ns = (256, 65) if quick else (768, 65)
+    used = scene
+    try:
+        (ref), t_ref = _timed(lambda: _transition_kV(scene, REFERENCE_RTOL, ref_nu, ref_ns), 1)
+    except ModelRangeError as exc:
+        used = dataclasses.replace(scene, **FALLBACK_SCENE_CHANGES)
+        msg = (f"the {scene_name} scene as loaded ({scene.material}, zone radius {scene.zone_radius * 1e3:g} mm) "
+               f"has no transition: {exc}; using it with "
+               + ", ".join(f"{k} = {v}" for k, v in FALLBACK_SCENE_CHANGES.items()) + " instead")
+        notes.append(msg)
+        progress("  note: " + msg)
+        ref, t_ref = _timed(lambda: _transition_kV(used, REFERENCE_RTOL, ref_nu, ref_ns), 1)
+    checks = []
+    if not quick:
+        v = _transition_kV(used, REFERENCE_RTOL, 512, 65)
+        checks.append({"rtol": REFERENCE_RTOL, "n_u": 512, "n_s": 65, "value": v,
+                       "relative_difference": abs(v - ref) / abs(ref)})
+    resolution = max(checks[0]["relative_difference"] if checks else 0.0, ROUNDOFF)
+    progress(f"  reference {ref:.12g} kV (rtol 1e-13, {ref_nu} × {ref_ns}, {t_ref:.1f} s)"
+             + "".join(f"; {c['n_u']} × {c['n_s']} differs by {c['relative_difference']:.1e}" for c in checks))
+
+    def compute(rtol, n_u, n_s):
+        return _transition_kV(used, rtol, n_u, n_s), None
+
+    sweep = _Sweep(compute, ref, repeats, progress, (DEFAULT_RTOL, (("n_s", ns0), ("n_u", nu0))))
+    if quick:
+        rtols, nus, nss, grids = [1e-6, 1e-8, 1e-10], [48, 96, 128], [17, 33], []
+    else:
+        rtols = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12]
+        nus, nss = [48, 96, 128, 192], [9, 17, 33, 65]
+        grids = [(48, 9), (96, 17), (128, 33), (192, 65)]
+    for r in rtols:
+        sweep.add("rtol", r, {"n_u": nu0, "n_s": ns0})
+    for n in nus:
+        sweep.add("n_u", DEFAULT_RTOL, {"n_u": n, "n_s": ns0})
+    for n in nss:
+        sweep.add("n_s", DEFAULT_RTOL, {"n_u": nu0, "n_s": n})
+    for nu, ns in grids:
+        sweep.add("grid", DEFAULT_RTOL, {"n_u": nu, "n_s": ns})
+    families = {"rtol": f"integrator tolerance, grid {nu0} × {ns0}",
+                "n_u": f"pole-stretch nodes n_u, n_s = {ns0}, rtol {DEFAULT_RTOL:.0e}",
+                "n_s": f"voltage nodes n_s, n_u = {nu0}, rtol {DEFAULT_RTOL:.0e}"}
+    if grids:
+        families["grid"] = f"n_u and n_s refined together, rtol {DEFAULT_RTOL:.0e}"
+    if quick:
+        notes.append("quick: the reference (256 × 65) is not converged to better than about 1e-7; "
+                      "errors below that are not resolved")
+        resolution = max(resolution, 1e-7)
+    return Study(
+        number=3, key="transition_voltage", title=f"transition voltage, {scene_name} scene (spinodal)",
+        quantity="transition voltage", unit="kV", resolution=resolution,
+        reference={"rtol": REFERENCE_RTOL, "n_u": ref_nu, "n_s": ref_ns, "value": ref, "time": t_ref},
+        reference_checks=checks, measurements=sweep.measurements, families=families, notes=notes,
+        setup={"scene": scene_name, "material": used.material, "jlim": used.jlim,
+               "zone_radius_mm": used.zone_radius * 1e3, "fallback": used is not scene,
+               "timed": "prepare (model + ZoneFamily) + transition_voltage(kind='spinodal')"},
+    )
+
+
+#: the studies by number
+STUDIES = {1: pressure_max_study, 2: maxwell_pressure_study, 3: transition_voltage_study}
+
+
+def run_studies(studies=(1, 2, 3), quick: bool = False, progress: Callable[[str], None] | None = None) -> list[Study]:
+    """Run the chosen studies (numbers 1–3) in order."""
+    return [STUDIES[int(k)](quick=quick, progress=progress) for k in studies]
+
+
+def report(studies: list[Study], quick: bool = False) -> dict:
+    """JSON-ready report of a set of studies, with the defaults and the machine it ran on."""
+    import os
+    import platform
+
+    return _clean({
+        "quick": bool(quick),
+        "defaults": {"rtol": DEFAULT_RTOL, **_defaults()},
+        "reference_rtol": REFERENCE_RTOL,
+        "error": "relative, |x − x_ref| / |x_ref|",
+        "time": "wall time in s (time.perf_counter), best of `repeats`",
+        "machine": {"python": platform.python_version(), "numpy": np.__version__, "cpus": os.cpu_count(),
+                    "platform": platform.platform()},
+        "studies": [s.to_dict() for s in studies],
+    })
+
+
+def summary_lines(study: Study) -> list[str]:
+    """A plain-text table of one study."""
+    lines = [f"study {study.number}: {study.title}",
+             f"  reference {study.reference['value']:.15g} {study.unit}".rstrip()
+             + f"  (resolution {study.resolution:.1e})"]
+    lines.append(f"  {'family':<7} {'setting':<22} {'value':>20} {'rel. error':>11} {'time (s)':>9}")
+    for m in study.measurements:
+        star = " *" if m.default else ""
+        if m.failed:
+            lines.append(f"  {m.family:<7} {m.label:<22} failed: {m.failed}")
+            continue
+        lines.append(f"  {m.family:<7} {m.label:<22} {m.value:>20.14g} {m.error:>11.2e} {m.time:>9.3f}{star}")
+    dv = study.default_vs_front()
+    if dv.get("on_front") is not None:
+        where = "on the Pareto front" if dv["on_front"] else (
+            "near the Pareto front" if dv["near_front"] else "off the Pareto front")
+        lines.append(f"  default (*) is {where}: time ×{dv['time_excess']:.2f} of the fastest setting as accurate "
+                     f"({dv['fastest_as_accurate']}), error ×{dv['error_excess']:.3g} of the best as fast "
+                     f"({dv['most_accurate_as_fast']})")
+    for n in study.notes:
+        lines.append(f"  note: {n}")
+    return lines
