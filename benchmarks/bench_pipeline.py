@@ -94,10 +94,12 @@ def main():
     if "--json" in sys.argv:
         print(json.dumps(out, indent=1, sort_keys=True))
         return
-    print(f"coexist --help        : {out['help_seconds_mean'] * 1e3:.0f} ms mean (min {out['help_seconds_min'] * 1e3:.0f} ms)")
+    print(f"coexist --help        : {out['help_seconds_mean'] * 1e3:.0f} ms mean "
+          f"(min {out['help_seconds_min'] * 1e3:.0f} ms)")
     print(f"ramp ({out['ramp_steps']} steps)     : {out['ramp_seconds']:.2f} s  (baseline, direct curve per voltage: "
           f"{out['ramp_baseline_seconds']:.2f} s; ratio {out['ramp_ratio']:.1f}x)")
-    print(f"  first jump          : {out['ramp_transition_kV']:.6f} kV (baseline {out['ramp_baseline_transition_kV']:.6f} kV)")
+    print(f"  first jump          : {out['ramp_transition_kV']:.6f} kV "
+          f"(baseline {out['ramp_baseline_transition_kV']:.6f} kV)")
     print(f"phase diagram (37 Φ̂)  : {out['phase_diagram_seconds']:.2f} s  (critical Φ̂ = {out['critical_phi_hat']})")
 
 

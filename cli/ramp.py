@@ -103,7 +103,8 @@ def _table(data, every):
         click.echo(f"  {t['kind']:<18} {t['direction']:<6} {t['voltage_kV']:.6f} kV  {t['from']} -> {t['to']}")
     err = data["curve_interpolation_error"]
     polished = all(s["polished"] for s in data["steps"] if s["configuration"] != "none")
-    click.echo(f"(states {'re-solved by shooting to' if polished else 'NOT all re-solved; interpolated, see JSON; solver'}"
+    how = "re-solved by shooting to" if polished else "NOT all re-solved (see 'polished' in --json); solver"
+    click.echo(f"(states {how}"
                f" rtol {data['relative_tolerance']:.0e}; transitions bisected on the interpolated curves, whose "
                f"error is p̂ {err['p_hat']:.1e}, V̂ {err['v_hat']:.1e}, Ψ̂ {err['psi_hat']:.1e})")
     for note in data["notes"]:

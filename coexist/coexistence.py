@@ -118,10 +118,10 @@ class MaxwellSolver:
     def _stable_pair(self):
         rising = [b for b in self.curve.branches if b.rising and b.usable]
         if len(rising) < 2:
+            why = f"; {self.curve.stopped_because}" if self.curve.stopped_because else ""
             raise ModelRangeError(
                 f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the curve has no second stable branch "
-                f"(no stiffening within the model's range{'; ' + self.curve.stopped_because if self.curve.stopped_because else ''})",
-                "no_coexistence")
+                f"(no stiffening within the model's range{why})", "no_coexistence")
         return rising[0], rising[1]
 
     def initial_guess(self, samples: int = 200):

@@ -2,10 +2,11 @@
 
 A model is assembled from one elasticity effect and one electrostatics effect; each contributes
 its own symbolic terms to the free energy at fixed voltage, so turning an effect off removes its
-terms from the equations instead of multiplying them by zero. Elasticity is written as a function of
-``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` and electrostatics of ``K = λ1²λ2²`` (both models of the
-project are of this form), which lets the model differentiate through the invariants. All energies are per unit reference
-volume and normalised by the shear modulus ``μ``; the voltage enters as ``Φ̂ = (Φ/H)√(ε/μ)``.
+terms from the equations instead of multiplying them by zero. Elasticity is written as a function
+of ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` and electrostatics of ``K = λ1²λ2²`` (both models of the
+project are of this form), which lets the model differentiate through the invariants. All energies
+are per unit reference volume and normalised by the shear modulus ``μ``; the voltage enters as
+``Φ̂ = (Φ/H)√(ε/μ)``.
 """
 
 from __future__ import annotations

@@ -143,10 +143,19 @@ def plot_phase_diagram(diagram, path, title=None):
     """Binodal, spinodals and critical point in the (Φ̂, p̂) plane."""
     plt = _pyplot()
 
+    import numpy as np
+
     fig, ax = plt.subplots(figsize=(6.0, 4.4))
-    ax.plot(diagram.phi_hat, diagram.spinodal_max, "--", color="tab:red", label="spinodal (pressure maximum)")
-    ax.plot(diagram.phi_hat, diagram.spinodal_min, "--", color="tab:blue", label="spinodal (pressure minimum)")
-    ax.plot(diagram.phi_hat, diagram.binodal, "-", color="k", lw=1.8, label="binodal (equal free energy)")
+    phi, smax, smin, bino = diagram.phi_hat, diagram.spinodal_max, diagram.spinodal_min, diagram.binodal
+    if diagram.critical_point is not None:
+        # the three lines meet at the critical point: draw them from there
+        phi_c, p_c, _ = diagram.critical_point
+        order = np.argsort(np.append(phi, phi_c))
+        phi, smax, smin, bino = (np.append(a, b)[order] for a, b in ((phi, phi_c), (smax, p_c), (smin, p_c),
+                                                                        (bino, p_c)))
+    ax.plot(phi, smax, "--", color="tab:red", label="spinodal (pressure maximum)")
+    ax.plot(phi, smin, "--", color="tab:blue", label="spinodal (pressure minimum)")
+    ax.plot(phi, bino, "-", color="k", lw=1.8, label="binodal (equal free energy)")
     if diagram.critical_point is not None:
         phi_c, p_c, _ = diagram.critical_point
         ax.plot([phi_c], [p_c], "o", color="gold", mec="k", ms=9, label=f"critical point Φ̂ = {phi_c:.4f}")

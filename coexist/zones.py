@@ -281,7 +281,6 @@ def polish(model, gas, states: list, settings=None, iterations: int = 8) -> list
     done = np.zeros(n, dtype=bool)
     failed = np.zeros(n, dtype=bool)
     rel = 1e-7
-    last = None
     for _ in range(iterations):
         act = np.flatnonzero(~done & ~failed)
         if act.size == 0:
@@ -332,9 +331,9 @@ def polish(model, gas, states: list, settings=None, iterations: int = 8) -> list
         failed[act[~good & ~bad]] = True
         lu[act[good]] -= du[good]
         lb[act[good & is_mix]] -= db[good & is_mix]
-        conv = good & (np.abs(r2) <= 1e-9 * np.maximum(1.0, np.abs(pu))) & (np.abs(r1) <= 1e-9 * np.maximum(1.0, np.abs(pu)))
+        tol = 1e-9 * np.maximum(1.0, np.abs(pu))
+        conv = good & (np.abs(r2) <= tol) & (np.abs(r1) <= tol)
         done[act[conv]] = True
-        last = (act, pu, vu, pb, vb)
     final = solve_states(model, np.concatenate([lu, np.where(mixed, lb, lu)]), np.concatenate([phi, phi]), settings)
     out = []
     for i, s in enumerate(states):
@@ -353,5 +352,4 @@ def polish(model, gas, states: list, settings=None, iterations: int = 8) -> list
             p_hat=float(final.p_hat[i]), v_unbulged=vu_i, v_bulged=vb_i, free_energy=G,
             notes=s.notes + ["polished"],
         ))
-    del last
     return out
