@@ -24,6 +24,22 @@ def first_invariant(l1, l2):
     return l1**2 + l2**2 + 1 / (l1**2 * l2**2) - 3
 
 
+def first_invariant_derivatives(l1, l2):
+    """``(∂I/∂λ1, ∂I/∂λ2, ∂²I/∂λ1², ∂²I/∂λ1∂λ2)`` of ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` in closed form.
+
+    With ``a = λ1⁻²λ2⁻²``: ``I_1 = 2λ1 − 2a/λ1``, ``I_11 = 2 + 6a/λ1²``, ``I_12 = 4a/(λ1λ2)``.
+    Written out (rather than left to automatic differentiation) because the generated code is then
+    about half as long; ``tests/test_model.py`` checks them against CasADi's derivatives.
+    """
+    a = 1 / (l1 * l1 * l2 * l2)
+    return 2 * l1 - 2 * a / l1, 2 * l2 - 2 * a / l2, 2 + 6 * a / (l1 * l1), 4 * a / (l1 * l2)
+
+
+def area_invariant_derivatives(l1, l2):
+    """``(∂K/∂λ1, ∂K/∂λ2, ∂²K/∂λ1², ∂²K/∂λ1∂λ2)`` of ``K = λ1²λ2²``: ``2λ1λ2², 2λ1²λ2, 2λ2², 4λ1λ2``."""
+    return 2 * l1 * l2 * l2, 2 * l1 * l1 * l2, 2 * l2 * l2, 4 * l1 * l2
+
+
 def area_invariant(l1, l2):
     """``K = λ1² λ2²``, the squared areal stretch (the field scales with ``√K``)."""
     return l1**2 * l2**2

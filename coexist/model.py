@@ -22,7 +22,8 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
-from .effects import IdealDielectric, NeoHookean, NoElectrostatics, area_invariant, first_invariant
+from .effects import (IdealDielectric, NeoHookean, NoElectrostatics, area_invariant, area_invariant_derivatives,
+                      first_invariant, first_invariant_derivatives)
 from .errors import SceneError
 from .symbolic import numpy_function
 
@@ -112,8 +113,7 @@ def _build(model: MembraneModel) -> dict:
     e = model.electrostatics.energy_of_invariant(K_s, phi)
     w_I = ca.gradient(w, I_s)
     w_II = ca.gradient(w_I, I_s)
-    I_1, I_2 = ca.gradient(I_expr, l1), ca.gradient(I_expr, l2)
-    I_11, I_12 = ca.gradient(I_1, l1), ca.gradient(I_1, l2)
+    I_1, I_2, I_11, I_12 = first_invariant_derivatives(l1, l2)
     W_inv = w
     T1_inv = w_I * I_1
     T2_inv = w_I * I_2
@@ -122,8 +122,7 @@ def _build(model: MembraneModel) -> dict:
     if e is not None:
         e_K = ca.gradient(e, K_s)
         e_KK = ca.gradient(e_K, K_s)
-        K_1, K_2 = ca.gradient(K_expr, l1), ca.gradient(K_expr, l2)
-        K_11, K_12 = ca.gradient(K_1, l1), ca.gradient(K_1, l2)
+        K_1, K_2, K_11, K_12 = area_invariant_derivatives(l1, l2)
         W_inv = W_inv + e
         T1_inv = T1_inv + e_K * K_1
         T2_inv = T2_inv + e_K * K_2
@@ -138,8 +137,9 @@ def _build(model: MembraneModel) -> dict:
     E = model.electrostatics.field(l1, l2, phi)
     E = ca.SX(0.0) if E is None else E
     c, s = ca.cos(th), ca.sin(th)
-    dl2 = (l1 * c - l2) / R
-    dl1 = (T2 * c - T1 - R * T12 * dl2) / (R * T11)
+    R_dl2 = l1 * c - l2  # R λ2'
+    dl2 = R_dl2 / R
+    dl1 = (T2 * c - T1 - T12 * R_dl2) / (R * T11)
     dth = (p * l1 * l2 * R - T2 * s) / (R * T1)
     dV = math.pi * (l2 * R) ** 2 * l1 * s
     dQ = 2 * math.pi * q * R

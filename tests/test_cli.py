@@ -25,8 +25,10 @@ def test_help_and_version():
     assert r.exit_code == 0 and __version__ in r.output
 
 
-def test_python_dash_m():
-    r = subprocess.run([sys.executable, "-m", "coexist", "--version"], capture_output=True, text=True, timeout=60)
+def test_python_dash_m(tmp_path):
+    # run outside the source tree, so the installed package is the one found
+    r = subprocess.run([sys.executable, "-m", "coexist", "--version"], capture_output=True, text=True, timeout=60,
+                       cwd=tmp_path)
     assert r.returncode == 0 and __version__ in r.stdout
 
 

@@ -69,3 +69,17 @@ def test_bad_prestretch(bad):
 def test_bad_jlim(bad):
     with pytest.raises(SceneError, match="Jlim"):
         Gent(bad)
+
+
+def test_closed_form_invariant_derivatives_match_casadi():
+    from coexist.effects import (area_invariant, area_invariant_derivatives, first_invariant,
+                                 first_invariant_derivatives)
+
+    l1, l2 = ca.SX.sym("l1"), ca.SX.sym("l2")
+    for inv, closed in ((first_invariant, first_invariant_derivatives), (area_invariant, area_invariant_derivatives)):
+        e = inv(l1, l2)
+        d1, d2 = ca.gradient(e, l1), ca.gradient(e, l2)
+        auto = ca.Function("a", [l1, l2], [d1, d2, ca.gradient(d1, l1), ca.gradient(d1, l2)])
+        mine = ca.Function("m", [l1, l2], list(closed(l1, l2)))
+        for a, b in ((1.3, 2.1), (3.7, 1.01), (1.0, 1.0)):
+            np.testing.assert_allclose([float(x) for x in auto(a, b)], [float(x) for x in mine(a, b)], rtol=1e-14)
