@@ -116,3 +116,15 @@ def scene_with_settings(scene, accuracy, rtol):
 def stderr_progress(length, label):
     """A click progress bar on stderr."""
     return click.progressbar(length=length, label=label, file=click.get_text_stream("stderr"))
+
+
+def material_options(scene, material, jlim, prestretch):
+    """Material, Jlim and prestretch: explicit options first, then the scene's (if given), then defaults."""
+    if scene is not None:
+        sc = load_scene_arg(scene)
+        material = material or sc.material
+        jlim = jlim if jlim is not None else (sc.jlim if (material or "").lower() == "gent" else None)
+        prestretch = prestretch if prestretch is not None else sc.prestretch
+    material = material or "neo-hookean"
+    prestretch = 1.0 if prestretch is None else prestretch
+    return material, jlim, prestretch

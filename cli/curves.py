@@ -10,6 +10,7 @@ from .common import (
     check_output_path,
     info,
     library_errors,
+    material_options,  # noqa: I001
     parse_floats,
     settings_from,
     write_json,
@@ -17,9 +18,10 @@ from .common import (
 
 
 @click.command()
-@click.option("--material", default="neo-hookean", show_default=True, help="neo-hookean or gent.")
+@click.option("--scene", default=None, help="Take material, Jlim and prestretch from this scene (name or file).")
+@click.option("--material", default=None, help="neo-hookean (default) or gent.")
 @click.option("--jlim", type=float, default=None, help="Gent limiting stretch invariant Jlim (gent only), e.g. 97.")
-@click.option("--prestretch", type=float, default=1.0, show_default=True, help="Equibiaxial prestretch λpre ≥ 1.")
+@click.option("--prestretch", type=float, default=None, help="Equibiaxial prestretch λpre ≥ 1 (default 1).")
 @click.option("--phi-hat", "phi_hat", default="0,0.05,0.1,0.15,0.2", show_default=True,
               help="Voltages Φ̂ of the pressure–volume curves, comma-separated.")
 @click.option("--p-hat", "p_hat", default="1.2,1.5,1.7", show_default=True,
@@ -34,7 +36,7 @@ from .common import (
 @click.option("--overwrite", is_flag=True, help="Replace existing output files.")
 @accuracy_option
 @library_errors
-def curves(material, jlim, prestretch, phi_hat, p_hat, pole_stretch, points, plot, as_json, csv_path, overwrite,
+def curves(scene, material, jlim, prestretch, phi_hat, p_hat, pole_stretch, points, plot, as_json, csv_path, overwrite,
            accuracy, rtol):
     """Pressure–volume curves at fixed voltage and voltage–charge curves at fixed pressure.
 
@@ -49,6 +51,7 @@ def curves(material, jlim, prestretch, phi_hat, p_hat, pole_stretch, points, plo
     from coexist.model import build_model
 
     settings = settings_from(accuracy, rtol)
+    material, jlim, prestretch = material_options(scene, material, jlim, prestretch)
     phis = parse_floats(phi_hat, "--phi-hat", nonnegative=True)
     pressures = [] if p_hat.strip().lower() == "none" else parse_floats(p_hat, "--p-hat", positive=True)
     lo, hi = parse_floats(pole_stretch, "--pole-stretch", positive=True, count=(2,))

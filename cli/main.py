@@ -6,6 +6,7 @@ import click
 
 from coexist import __version__
 
+from .accuracy import accuracy
 from .coexistence import coexistence
 from .curves import curves
 from .fit import fit
@@ -31,6 +32,7 @@ cli.add_command(phase_diagram)
 cli.add_command(fit)
 cli.add_command(scenes)
 cli.add_command(check)
+cli.add_command(accuracy)
 
 
 def main():

@@ -10,6 +10,7 @@ from .common import (
     check_output_path,
     info,
     library_errors,
+    material_options,  # noqa: I001
     parse_floats,
     settings_from,
     write_json,
@@ -17,8 +18,9 @@ from .common import (
 
 
 @click.command("phase-diagram")
-@click.option("--material", default="gent", show_default=True, help="neo-hookean or gent.")
-@click.option("--jlim", type=float, default=40.0, show_default=True, help="Gent Jlim.")
+@click.option("--scene", default=None, help="Take material and Jlim from this scene (name or file).")
+@click.option("--material", default=None, help="neo-hookean or gent (default gent).")
+@click.option("--jlim", type=float, default=None, help="Gent Jlim (default 40, where the critical point is in range).")
 @click.option("--phi-hat", "phi_range", default="0,0.36", show_default=True, help="Voltage range 'start,stop' of Φ̂.")
 @click.option("--points", type=click.IntRange(3, 400), default=37, show_default=True, help="Voltages in the range.")
 @click.option("-o", "--plot", "plot", default=None, help="Write the figure here (.png/.svg/.pdf).")
@@ -26,7 +28,7 @@ from .common import (
 @click.option("--overwrite", is_flag=True, help="Replace an existing figure.")
 @accuracy_option
 @library_errors
-def phase_diagram(material, jlim, phi_range, points, plot, as_json, overwrite, accuracy, rtol):
+def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overwrite, accuracy, rtol):
     """The (Φ̂, p̂) phase diagram of one clamped zone under pressure control: where bulged and unbulged
     states coexist (binodal, equal free energy), where each stops being stable (spinodals), and the
     critical point where they merge."""
@@ -38,20 +40,24 @@ def phase_diagram(material, jlim, phi_range, points, plot, as_json, overwrite, a
     from coexist.model import build_model
 
     settings = settings_from(accuracy, rtol)
+    material, jlim, prestretch = material_options(scene, material, jlim, None)
+    if material.strip().lower() == "gent" and jlim is None:
+        jlim = 40.0
     lo, hi = parse_floats(phi_range, "--phi-hat", nonnegative=True, count=(2,))
     if hi <= lo:
         raise InputError(f"--phi-hat: the range must increase, got {phi_range!r}")
     if material.strip().lower() == "gent" and not jlim > 0:
         raise InputError(f"--jlim: must be positive, got {jlim:g}")
-    model = build_model(material, jlim=jlim if material.strip().lower() == "gent" else None)
-    lmax = 0.95 * math.sqrt((jlim + 3) / 2) if material.strip().lower() == "gent" else 6.0
+    gent = material.strip().lower() == "gent"
+    model = build_model(material, jlim=jlim if gent else None, prestretch=prestretch)
+    lmax = 0.95 * math.sqrt((jlim + 3) / 2) if gent else 6.0 * prestretch
     plot_path = check_output_path(plot, overwrite, "--plot")
     info(f"{points} voltages ...")
     d = compute(model, np.linspace(lo, hi, points), lmax, settings)
     if plot_path is not None:
         from coexist.plotting import plot_phase_diagram
 
-        plot_phase_diagram(d, plot_path, title=f"{material}" + (f", Jlim = {jlim:g}" if material == "gent" else ""))
+        plot_phase_diagram(d, plot_path, title=f"{material}" + (f", Jlim = {jlim:g}" if gent else ""))
         info(f"wrote {plot_path}")
     data = {"model": model.describe(), "relative_tolerance": settings.rtol, **d.to_dict()}
     if as_json:

@@ -51,7 +51,7 @@ def test_tricircle_is_the_paper_experiment():
     volts = scene.voltage.values
     assert volts[0] == 0 and volts[-1] == 0 and volts.max() == 5000 and volts.size == 2 * 250 + 1
     np.testing.assert_allclose(np.diff(volts[:251]), 20.0)
-    assert "zone_radius" in scene.fitted and scene.material == "neo-hookean" and scene.jlim is None
+    assert "zone_radius" in scene.fitted and scene.material == "gent" and scene.jlim == 97
 
 
 def test_three_line_scene_takes_documented_defaults():
@@ -87,7 +87,7 @@ def test_closing_pressure_above_snap_through_names_the_field():
 # --- normalisation ---------------------------------------------------------------------------------
 def test_normalisation_follows_the_seed():
     scene = load_scene("tricircle")
-    mu, H, A, eps = 45e3, 0.5e-3, 12e-3, 4.7 * VACUUM_PERMITTIVITY
+    mu, H, A, eps = 45e3, 0.5e-3, scene.zone_radius, 4.7 * VACUUM_PERMITTIVITY
     assert scene.p_hat(2000.0) == pytest.approx(2000.0 * A / (mu * H))
     assert scene.v_hat(300e-6) == pytest.approx(300e-6 / A**3)
     assert scene.phi_hat(4000.0) == pytest.approx(4000.0 / H * math.sqrt(eps / mu))
@@ -428,3 +428,22 @@ def test_fuzzed_scenes_fail_cleanly(text, as_json):
         result = CliRunner().invoke(cli, ["check", str(path)] + (["--json"] if as_json else []))
     assert result.exit_code == (0 if scene is not None else 2), result.output
     _no_traceback(result)
+
+
+def test_zero_voltage_gives_the_numbers_of_no_voltage():
+    """The electrostatics effect at zero strength (0 V) equals the scene without it."""
+    from coexist.simulate import closed_gas, prepare
+    from coexist.zones import equilibria
+
+    base = load_scene("two-balloons")
+    text = builtin_scene_text("two-balloons") + "\n[voltage]\nvalues_kV = [0.0]\n"
+    with_voltage = parse_scene(text)
+    assert "electrostatics:ideal-dielectric" in with_voltage.effects()
+    assert "electrostatics:ideal-dielectric" not in base.effects()
+    results = []
+    for sc in (base, with_voltage):
+        prep = prepare(sc)
+        eqs = equilibria(prep.family.curve(0.0), closed_gas(prep, sc), sc.zone_count)
+        results.append([(e.k, e.p_hat, e.v_unbulged, e.free_energy) for e in eqs])
+    assert len(results[0]) == len(results[1]) == 1
+    np.testing.assert_allclose(np.array(results[0], dtype=float), np.array(results[1], dtype=float), rtol=1e-13)

@@ -1,0 +1,60 @@
+"""``coexist accuracy``: what accuracy costs in time (work-precision of the headline outputs)."""
+
+from __future__ import annotations
+
+import click
+
+from .common import InputError, check_output_path, info, library_errors, parse_floats, write_json
+
+
+def _parse_studies(text: str) -> list[int]:
+    values = parse_floats(text, "--study", positive=True)
+    if any(v != int(v) or int(v) not in (1, 2, 3) for v in values):
+        raise InputError(f"--study: expected study numbers among 1, 2, 3 (comma-separated), got {text!r}")
+    out = []
+    for v in values:
+        if int(v) not in out:
+            out.append(int(v))
+    return out
+
+
+@click.command()
+@click.option("--study", "study", default="1,2,3", show_default=True,
+              help="Which studies, comma-separated: 1 p̂max of a p̂–V̂ curve, 2 Maxwell pressure of a Gent "
+                   "zone, 3 transition voltage of the tricircle scene.")
+@click.option("--quick", is_flag=True, help="Fewer settings and cheaper references (for tests; about 15 s).")
+@click.option("-o", "--plot", "plot", default=None,
+              help="Write the work-precision figure here (.png, .svg or .pdf).")
+@click.option("--json", "as_json", is_flag=True, help="Print the measurements as JSON on stdout.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing figure.")
+@library_errors
+def accuracy(study, quick, plot, as_json, overwrite):
+    """What accuracy costs in time: error against a tight reference versus wall time.
+
+    For each headline output, every solver setting the project offers (the integrator tolerance
+    rtol, and the sampling: curve points, spline points, the n_u × n_s family grid) is timed
+    (best of a few runs) and its relative error taken against a reference at rtol = 1e-13 on a
+    denser sampling. The table says whether the project's default (rtol 1e-10, 200 curve points,
+    128 spline points, 128 × 33 family grid) lies on the Pareto front of (time, error). Study 1 also
+    gives the achieved error against the requested rtol. Timings depend on the machine and its load.
+    The full run takes a few minutes.
+    """
+    from coexist.accuracy import report, run_studies, summary_lines
+
+    numbers = _parse_studies(study)
+    plot_path = check_output_path(plot, overwrite, "--plot")
+    if plot_path is not None and plot_path.suffix.lower() not in (".png", ".svg", ".pdf"):
+        raise InputError(f"--plot: unsupported figure type {plot_path.suffix!r} (use .png, .svg or .pdf)")
+    if plot_path is None:
+        info("note: no figure (pass -o figures/accuracy_cost.png to draw one)")
+    studies = run_studies(numbers, quick=quick, progress=info)
+    if plot_path is not None:
+        from coexist.plotting_accuracy import plot_accuracy
+
+        plot_accuracy(studies, plot_path, title="What accuracy costs in time" + (" (quick)" if quick else ""))
+        info(f"wrote {plot_path}")
+    if as_json:
+        write_json(report(studies, quick=quick))
+    else:
+        for s in studies:
+            click.echo("\n".join(summary_lines(s)))
