@@ -115,7 +115,9 @@ def scene_with_settings(scene, accuracy, rtol):
 
 def stderr_progress(length, label):
     """A click progress bar on stderr."""
-    return click.progressbar(length=length, label=label, file=click.get_text_stream("stderr"))
+    import sys
+
+    return click.progressbar(length=length, label=label, file=sys.stderr)
 
 
 def material_options(scene, material, jlim, prestretch):

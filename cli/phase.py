@@ -40,6 +40,8 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     from coexist.model import build_model
 
     settings = settings_from(accuracy, rtol)
+    if scene is None and material is None:
+        material = "gent"
     material, jlim, prestretch = material_options(scene, material, jlim, None)
     if material.strip().lower() == "gent" and jlim is None:
         jlim = 40.0
