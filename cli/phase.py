@@ -75,3 +75,5 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
                    f"λ0 = {d.critical_point[2]:.4f}")
     for n in d.notes:
         click.echo(f"note: {n}")
+    click.echo(f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {128} shot states per voltage, "
+               "critical voltage bisected to 1e-8)")

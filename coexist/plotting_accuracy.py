@@ -40,7 +40,7 @@ def _study_panel(ax, study):
             families.setdefault(m.family, []).append(m)
     for fam, ms in families.items():
         color, marker, name = _FAMILY_STYLE.get(fam, ("tab:gray", "o", fam))
-        ms = sorted(ms, key=lambda m: m.time)
+        # joined in the order of the setting (loose to tight, coarse to fine), as measured
         ax.plot([m.time for m in ms], [max(m.error, floor) for m in ms], marker=marker, color=color, lw=1.3,
                 ms=5, label=name, alpha=0.9)
         groups = []  # settings that land on the same spot share one label

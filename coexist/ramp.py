@@ -90,7 +90,7 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
     phi_path : sequence of float
         Normalised voltages in the order applied (up and back down for a ramp).
     refine : bool
-        Locate each transition between its two path voltages by bisection (to 1e-9 in Φ̂).
+        Locate each transition between its two path voltages by bisection (to 1e-8 in Φ̂).
     progress : callable, optional
         Called with the step index after each step.
 
@@ -160,7 +160,7 @@ def eqs_at_exact(family, gas, zones):
     return lambda phi: equilibria(family.curve(phi), gas, zones)
 
 
-def _bisect_loss(eqs_of, state, lo, hi, tol=1e-9):
+def _bisect_loss(eqs_of, state, lo, hi, tol=1e-8):
     """Shrink [lo, hi] around the voltage where ``state``'s configuration stops being stable."""
     ref = state
     for _ in range(60):
@@ -202,7 +202,7 @@ def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
     return found
 
 
-def _bisect_sign(family, gas, zones, key, lo, hi, d_lo, tol=1e-9):
+def _bisect_sign(family, gas, zones, key, lo, hi, d_lo, tol=1e-8):
     def delta(phi):
         eqs = equilibria(family.curve(phi), gas, zones)
         hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
