@@ -22,8 +22,15 @@ from dataclasses import dataclass, field
 
 import casadi as ca
 
-from .effects import (IdealDielectric, NeoHookean, NoElectrostatics, area_invariant, area_invariant_derivatives,
-                      first_invariant, first_invariant_derivatives)
+from .effects import (
+    IdealDielectric,
+    NeoHookean,
+    NoElectrostatics,
+    area_invariant,
+    area_invariant_derivatives,
+    first_invariant,
+    first_invariant_derivatives,
+)
 from .errors import SceneError
 from .symbolic import numpy_function
 

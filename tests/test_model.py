@@ -72,8 +72,7 @@ def test_bad_jlim(bad):
 
 
 def test_closed_form_invariant_derivatives_match_casadi():
-    from coexist.effects import (area_invariant, area_invariant_derivatives, first_invariant,
-                                 first_invariant_derivatives)
+    from coexist.effects import area_invariant, area_invariant_derivatives, first_invariant, first_invariant_derivatives
 
     l1, l2 = ca.SX.sym("l1"), ca.SX.sym("l2")
     for inv, closed in ((first_invariant, first_invariant_derivatives), (area_invariant, area_invariant_derivatives)):
