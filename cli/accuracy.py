@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from .common import InputError, check_output_path, info, library_errors, parse_floats, write_json
@@ -47,6 +49,12 @@ def accuracy(study, quick, plot, as_json, overwrite):
         raise InputError(f"--plot: unsupported figure type {plot_path.suffix!r} (use .png, .svg or .pdf)")
     if plot_path is None:
         info("note: no figure (pass -o figures/accuracy_cost.png to draw one)")
+    try:
+        load_before = os.getloadavg()
+    except OSError:
+        load_before = None
+    if load_before is not None and load_before[0] > 0.5 * (os.cpu_count() or 1):
+        info(f"note: the machine is busy (load {load_before[0]:.2f} on {os.cpu_count()} CPUs); timings will be slower")
     studies = run_studies(numbers, quick=quick, progress=info)
     if plot_path is not None:
         from coexist.plotting_accuracy import plot_accuracy
@@ -54,7 +62,7 @@ def accuracy(study, quick, plot, as_json, overwrite):
         plot_accuracy(studies, plot_path, title="What accuracy costs in time" + (" (quick)" if quick else ""))
         info(f"wrote {plot_path}")
     if as_json:
-        write_json(report(studies, quick=quick))
+        write_json(report(studies, quick=quick, load_before=load_before))
     else:
         for s in studies:
             click.echo("\n".join(summary_lines(s)))

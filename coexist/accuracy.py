@@ -489,7 +489,7 @@ def transition_voltage_study(quick: bool = False, progress: Callable[[str], None
     from .scene import load_scene
 
     progress = progress or _noop
-    repeats = repeats or (1 if quick else 2)
+    repeats = repeats or (1 if quick else 3)
     defaults = _defaults()
     nu0, ns0 = defaults["n_u"], defaults["n_s"]
     scene = load_scene(scene_name)
@@ -565,10 +565,19 @@ def run_studies(studies=(1, 2, 3), quick: bool = False, progress: Callable[[str]
     return [STUDIES[int(k)](quick=quick, progress=progress) for k in studies]
 
 
-def report(studies: list[Study], quick: bool = False) -> dict:
-    """JSON-ready report of a set of studies, with the defaults and the machine it ran on."""
+def report(studies: list[Study], quick: bool = False, load_before=None) -> dict:
+    """JSON-ready report of a set of studies, with the defaults and the machine it ran on.
+
+    ``load_before``: ``os.getloadavg()`` taken before the studies ran (timings on a shared machine
+    depend on its load; the load after is added here).
+    """
     import os
     import platform
+
+    try:
+        load_after = list(os.getloadavg())
+    except OSError:  # not available on every platform
+        load_after = None
 
     return _clean({
         "quick": bool(quick),
@@ -577,7 +586,9 @@ def report(studies: list[Study], quick: bool = False) -> dict:
         "error": "relative, |x − x_ref| / |x_ref|",
         "time": "wall time in s (time.perf_counter), best of `repeats`",
         "machine": {"python": platform.python_version(), "numpy": np.__version__, "cpus": os.cpu_count(),
-                    "platform": platform.platform()},
+                    "platform": platform.platform(),
+                    "load_average_before": None if load_before is None else list(load_before),
+                    "load_average_after": load_after},
         "studies": [s.to_dict() for s in studies],
     })
 

@@ -24,6 +24,17 @@ _FAMILY_STYLE = {
 }
 
 
+#: where each family's point labels go, so that crossing families do not write over each other
+_LABEL_PLACE = {
+    "rtol": {"xytext": (4, 3), "ha": "left", "va": "bottom"},
+    "grid": {"xytext": (-4, 3), "ha": "right", "va": "bottom"},
+    "n_s": {"xytext": (4, -3), "ha": "left", "va": "top"},
+    "points": {"xytext": (4, -3), "ha": "left", "va": "top"},
+    "n": {"xytext": (4, -3), "ha": "left", "va": "top"},
+    "n_u": {"xytext": (4, -3), "ha": "left", "va": "top"},
+}
+
+
 def _short(m):
     if m.family == "rtol":
         return f"{m.rtol:.0e}".replace("e-0", "e-")
@@ -55,8 +66,8 @@ def _study_panel(ax, study):
             else:
                 groups.append([x, y, [_short(m)]])
         for x, y, names in groups:
-            ax.annotate(",".join(names), (x, y), textcoords="offset points", xytext=(4, 3), fontsize=6.5,
-                        color=color)
+            ax.annotate(",".join(names), (x, y), textcoords="offset points", fontsize=6.5, color=color,
+                        **_LABEL_PLACE.get(fam, _LABEL_PLACE["rtol"]))
     front = study.front()
     if len(front) > 1:
         ax.step([m.time for m in front], [max(m.error, floor) for m in front], where="post", color="0.6", lw=0.8,
@@ -71,6 +82,7 @@ def _study_panel(ax, study):
                 va="bottom", fontsize=6.5, color="0.4")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    ax.margins(x=0.12, y=0.08)
     ax.set_xlabel("wall time (s)")
     ax.set_ylabel("relative error")
     ref = study.reference["value"]
