@@ -47,7 +47,7 @@ class Prepared:
     p_hat_max: float
 
 
-def prepare(scene: Scene, phi_margin: float = 1.0, n_u: int = 128, n_s: int = 33) -> Prepared:
+def prepare(scene: Scene, phi_margin: float = 1.0, n_u: int = 128, n_s: int = 17) -> Prepared:
     """Build the model with the scene's effects and shoot its family of curves once.
 
     ``phi_margin > 1`` extends the voltage range (used when the scene is perturbed, e.g. ``μ``).

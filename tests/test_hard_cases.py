@@ -556,6 +556,17 @@ def test_voltage_at_pressure_on_the_valid_branch(nh):
     np.testing.assert_allclose(s.p_hat, 1.5, rtol=1e-9)
 
 
+def test_pressure_above_what_any_voltage_allows(nh):
+    """p̂ = 1.9 exceeds the zero-voltage maximum 1.8792 and voltage only lowers the pressure: no state, and
+    the curve says why (no_equilibrium, 'no voltage')."""
+    s = bounded(voltage_at_pressure, nh, [1.5, 2.2, 3.0], 1.9)
+    assert_flags_consistent(s)
+    assert not s.ok.any()
+    with pytest.raises(ModelRangeError, match="no voltage") as info:
+        bounded(voltage_charge_curve, nh, 1.9, np.linspace(1.01, 6, 40))
+    assert info.value.reason == "no_equilibrium"
+
+
 @pytest.mark.xfail(strict=True, reason=(
     "BUG: voltage_at_pressure marks a state OK when the secant iterate stalls (|x_new − x_a| ≤ 1e-14 x) "
     "whatever the residual: voltage_at_pressure(nh, [1.05], 0.1) → OK with p̂ = 0.1301 (Φ̂ = 0.3056, the "
