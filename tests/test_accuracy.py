@@ -34,7 +34,14 @@ def _family(study, name):
 def test_cli_quick_json_parses(quick):
     assert quick["quick"] is True
     assert [s["study"] for s in quick["studies"]] == [1, 2, 3]
-    assert quick["defaults"] == {"rtol": 1e-10, "curve_points": 200, "spline_points": 128, "n_u": 128, "n_s": 33}
+    import inspect
+
+    from coexist.settings import SolverSettings
+    from coexist.simulate import prepare
+
+    sig = inspect.signature(prepare).parameters
+    assert quick["defaults"] == {"rtol": SolverSettings().rtol, "curve_points": 200, "spline_points": 128,
+                                 "n_u": sig["n_u"].default, "n_s": sig["n_s"].default}
     for s in quick["studies"]:
         assert s["default"] is not None and s["default"]["default"] is True
         assert s["pareto_front"], s["key"]
