@@ -246,25 +246,42 @@ class ZoneFamily:
         self.status = st.status.reshape(shape)
         self._cache = {}
 
-    def _weights(self, s):
-        """Stencil indices and cubic Lagrange weights in ``s``."""
-        if self.s.size == 1:
-            return np.array([0]), np.array([1.0])
-        if self.s.size < 4:
-            raise ValueError("need at least 4 voltage nodes")
-        h = self.s[1] - self.s[0]
-        i = int(np.clip(np.floor(s / h) - 1, 0, self.s.size - 4))
-        idx = np.arange(i, i + 4)
-        x = self.s[idx]
-        w = np.ones(4)
-        for j in range(4):
-            for m in range(4):
-                if m != j:
-                    w[j] *= (s - x[m]) / (x[j] - x[m])
-        return idx, w
+    def _stencils(self, s):
+        """Candidate node sets for interpolation at ``s``, most accurate first.
+
+        A node that ``s`` coincides with is used alone; otherwise 4-node (cubic) windows that contain
+        ``s`` (centred, then lower, then upper), then 3- and 2-node windows. Every candidate
+        interpolates (never extrapolates). Each is returned with its Lagrange weights.
+        """
+        n = self.s.size
+        if n == 1:
+            return [(np.array([0]), np.array([1.0]))]
+        hit = np.flatnonzero(np.abs(self.s - s) <= 1e-14 * max(self.s[-1], 1e-300))
+        out = [(hit[:1], np.array([1.0]))] if hit.size else []
+        k = int(np.clip(np.searchsorted(self.s, s, side="right") - 1, 0, n - 2))  # s_k <= s <= s_k+1
+        starts = []
+        for size, pref in ((4, (k - 1, k - 2, k)), (3, (k - 1, k)), (2, (k,))):
+            for j in pref:
+                if 0 <= j and j + size - 1 < n and j <= k and j + size - 1 >= k + 1:
+                    starts.append((j, size))
+        for j, size in starts:
+            idx = np.arange(j, j + size)
+            x = self.s[idx]
+            w = np.ones(size)
+            for p in range(size):
+                for q in range(size):
+                    if q != p:
+                        w[p] *= (s - x[q]) / (x[p] - x[q])
+            out.append((idx, w))
+        return out
 
     def curve(self, phi_hat: float) -> ZoneCurve:
-        """The zone curve at ``Φ̂`` (cached)."""
+        """The zone curve at ``Φ̂`` (cached).
+
+        At each pole stretch the most accurate stencil whose states are all valid is used, so a
+        curve is not cut short by failures at the voltages of its neighbours (higher voltages
+        wrinkle earlier).
+        """
         phi_hat = float(phi_hat)
         if phi_hat < 0 or phi_hat > self.phi_max * (1 + 1e-12) + 1e-15:
             raise ModelRangeError(f"Φ̂ = {phi_hat:.6g} is outside the precomputed range [0, {self.phi_max:.6g}]",
@@ -272,11 +289,22 @@ class ZoneFamily:
         key = round(phi_hat, 14)
         if key in self._cache:
             return self._cache[key]
-        idx, w = self._weights(phi_hat**2)
-        valid = np.all(self.status[idx] == 0, axis=0)
-        values = {k: np.tensordot(w, np.where(valid, v[idx], 0.0), axes=1) for k, v in self.table.items()}
+        s2 = phi_hat**2
+        nu = self.u.size
+        valid = np.zeros(nu, dtype=bool)
+        values = {k: np.zeros(nu) for k in self.table}
+        for idx, w in self._stencils(s2):
+            ok = np.all(self.status[idx] == 0, axis=0) & ~valid
+            if not ok.any():
+                continue
+            for k, v in self.table.items():
+                values[k][ok] = np.tensordot(w, v[idx][:, ok], axes=1)
+            valid |= ok
+        # the status of the nearest voltage node explains where the curve stops
+        nearest = int(np.argmin(np.abs(self.s - s2)))
         if not valid.any():
-            code = self.status[idx[0], 0]
+            bad = self.status[nearest][self.status[nearest] != 0]
+            code = bad[0] if bad.size else self.status[self.status != 0][0]
             raise ModelRangeError(f"no valid state at Φ̂ = {phi_hat:.6g}: {reason_text(code)}", reason_tag(code))
         first = int(np.argmax(valid))
         last = first
@@ -284,8 +312,8 @@ class ZoneFamily:
             last += 1
         stopped = None
         if last + 1 < valid.size:
-            bad = self.status[idx, last + 1]
-            code = bad[bad != 0][0]
+            column = self.status[:, last + 1]
+            code = self.status[nearest, last + 1] or column[column != 0][0]
             stopped = f"{reason_tag(code)} beyond pole stretch {self.model.prestretch + self.u[last] ** 2:.6g}"
         sl = slice(first, last + 1)
         curve = ZoneCurve(self.model.prestretch + self.u[sl] ** 2, values["p_hat"][sl], values["v_hat"][sl],

@@ -135,7 +135,14 @@ class MaxwellSolver:
         area = np.array([self.equal_area(x) for x in P])
         sign = np.flatnonzero(area[:-1] * area[1:] < 0)
         if sign.size == 0:
-            raise ModelRangeError(f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the equal-area pressure "
+            c = self.curve
+            loop = abs(c.p(a.stop) - c.p(b.start)) / max(abs(float(c.p(a.stop))), 1e-300)
+            if b.start == a.stop or loop < 1e-4 or np.max(np.abs(area)) < 1e-7 * max(1.0, abs(float(c.psi(b.stop)))):
+                raise ModelRangeError(
+                    f"coexistence ends near Φ̂ = {c.phi_hat:.6g}: so close to the critical point that the "
+                    f"equal-area condition is below the curve's resolution (pressure loop {loop:.1e})",
+                    "critical_point")
+            raise ModelRangeError(f"no coexistence at Φ̂ = {c.phi_hat:.6g}: the equal-area pressure "
                                   "lies outside the stable branches", "no_coexistence")
         P0 = 0.5 * (P[sign[0]] + P[sign[0] + 1])
         return self.curve.stretch_at_pressure(a, P0), self.curve.stretch_at_pressure(b, P0)

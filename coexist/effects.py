@@ -20,8 +20,22 @@ from .errors import SceneError
 
 
 def first_invariant(l1, l2):
-    """``I1 - 3 = λ1² + λ2² + λ1⁻²λ2⁻² - 3`` of an incompressible membrane (zero when unstretched)."""
-    return l1**2 + l2**2 + 1 / (l1**2 * l2**2) - 3
+    """``I1 - 3 = λ1² + λ2² + λ1⁻²λ2⁻² - 3`` of an incompressible membrane (zero when unstretched).
+
+    Evaluated as ``expm1(2a) + expm1(2b) + expm1(−2a−2b)`` with ``a = log1p(λ1 − 1)``,
+    ``b = log1p(λ2 − 1)``: the same number, but without the cancellation of ``λ² − 1`` terms, so a
+    barely inflated membrane (``I1 − 3 ~ δ²``) keeps its digits.
+    """
+    a, b = _log1p(l1 - 1), _log1p(l2 - 1)
+    return _expm1(2 * a) + _expm1(2 * b) + _expm1(-2 * a - 2 * b)
+
+
+def _log1p(x):
+    return ca.log1p(x) if isinstance(x, (ca.SX, ca.MX)) else math.log1p(x)
+
+
+def _expm1(x):
+    return ca.expm1(x) if isinstance(x, (ca.SX, ca.MX)) else math.expm1(x)
 
 
 def first_invariant_derivatives(l1, l2):
@@ -86,7 +100,7 @@ class Gent:
 
     def energy_of_invariant(self, i1):
         """``Ws/μ`` as a function of ``I = I1 − 3``."""
-        return -0.5 * self.jlim * ca.log(1 - i1 / self.jlim)
+        return -0.5 * self.jlim * ca.log1p(-i1 / self.jlim)  # log1p: exact as Jlim → ∞
 
     def strain_energy(self, l1, l2):
         return self.energy_of_invariant(first_invariant(l1, l2))

@@ -85,8 +85,12 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
     t0, t_end : ndarray, shape (n,)
         Start and end of each trajectory (``t_end < t0`` integrates backwards).
     y0 : ndarray, shape (m, n)
-    rtol, atol : float
-        Tolerances of the local error per step, as in :func:`scipy.integrate.solve_ivp`.
+    rtol : float or ndarray, shape (n,)
+        Relative tolerance of the local error per step, as in :func:`scipy.integrate.solve_ivp`
+        (one number, or one per trajectory).
+    atol : float or ndarray, shape (m, n)
+        Absolute tolerance, one number or one per state component and trajectory (so that each
+        trajectory's tolerance follows the size of its own quantities).
     max_steps : int
         Attempted steps per trajectory before it stops with ``STEP_LIMIT``.
     event : callable, optional
@@ -102,6 +106,8 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
     """
     t = np.array(t0, dtype=float, copy=True)
     y = np.array(y0, dtype=float, copy=True)
+    atol = np.broadcast_to(np.asarray(atol, dtype=float), y.shape)
+    rtol = np.broadcast_to(np.asarray(rtol, dtype=float), t.shape)
     t_end = np.broadcast_to(np.asarray(t_end, dtype=float), t.shape).copy()
     m, n = y.shape
     direction = np.where(t_end >= t, 1.0, -1.0)
@@ -111,7 +117,7 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
     y_prev = y.copy()
     f = fun(t, y)
     if h0 is None:
-        h = initial_step(fun, t, y, f, direction, rtol, atol)
+        h = initial_step(fun, t, y, f, direction, rtol[None, :], atol)
     else:
         h = np.broadcast_to(np.asarray(h0, dtype=float), t.shape).copy()
     active = np.arange(n)
@@ -131,7 +137,7 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
         t_new = np.where(last, tea, ta + hs)
         f_new = fun(t_new, y_new)
         Ka[_NS] = f_new
-        scale = atol + np.maximum(np.abs(ya), np.abs(y_new)) * rtol
+        scale = atol[:, active] + np.maximum(np.abs(ya), np.abs(y_new)) * rtol[active]
         err = _error_norm(Ka, hs, scale)
         finite = np.all(np.isfinite(y_new), axis=0) & np.all(np.isfinite(f_new), axis=0)
         accepted = (err <= 1.0) & finite

@@ -106,7 +106,11 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
     def eqs_at(phi):
         key = round(phi, 14)
         if key not in cache:
-            cache[key] = equilibria(family.curve(phi), gas, zones)
+            try:
+                cache[key] = equilibria(family.curve(phi), gas, zones)
+            except ModelRangeError as exc:  # nothing valid at this voltage: no equilibrium at all
+                cache[key] = []
+                notes.append(f"Φ̂ = {phi:.6g}: {exc}")
         return cache[key]
 
     steps, transitions, notes = [], [], []
@@ -135,12 +139,15 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
                 lo, hi = phi_path[i - 1], phi
                 if refine:
                     lo, hi = _bisect_loss(eqs_at_exact(family, gas, zones), state, lo, hi)
-                curve = family.curve(phi)
+                try:
+                    stopped = family.curve(phi).stopped_because
+                except ModelRangeError as exc:
+                    stopped = str(exc)
                 kind = "spinodal"
                 why = "loses stability" if _continue(state, eqs, stable_only=False) else "ceases to exist"
                 if target is None:
                     kind = "no_stable_state"
-                    reason = curve.stopped_because or "no stable equilibrium in the model's range"
+                    reason = stopped or "no stable equilibrium in the model's range"
                     note = (f"{state.label} {why} and no stable state remains: a zone bulges without bound "
                             f"or leaves the model's range ({reason})")
                     notes.append(note)
@@ -156,8 +163,13 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
 
 
 def eqs_at_exact(family, gas, zones):
-    """Equilibria at any voltage (not cached: used by the bisections)."""
-    return lambda phi: equilibria(family.curve(phi), gas, zones)
+    """Equilibria at any voltage (not cached: used by the bisections); none where nothing is valid."""
+    def at(phi):
+        try:
+            return equilibria(family.curve(phi), gas, zones)
+        except ModelRangeError:
+            return []
+    return at
 
 
 def _bisect_loss(eqs_of, state, lo, hi, tol=1e-8):
@@ -204,7 +216,7 @@ def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
 
 def _bisect_sign(family, gas, zones, key, lo, hi, d_lo, tol=1e-8):
     def delta(phi):
-        eqs = equilibria(family.curve(phi), gas, zones)
+        eqs = eqs_at_exact(family, gas, zones)(phi)
         hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
         mix = [e for e in eqs if (e.k, e.branch_unbulged, e.branch_bulged) == key and e.stable]
         if not hom or not mix:

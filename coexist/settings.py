@@ -41,7 +41,7 @@ class SolverSettings:
     atol_factor: float = 1e-2
     pole_radius: float = 1e-4
     max_steps: int = 4000
-    max_radius_factor: float = 25.0
+    max_radius_factor: float = 1000.0
     limit_point_xtol: float = 1e-9
 
     def __post_init__(self):

@@ -26,6 +26,15 @@ from .errors import ModelRangeError, SceneError
 from .model import MembraneModel
 from .settings import SolverSettings
 
+#: pole stretches closer than this (relative) to the clamp stretch are below double-precision resolution
+FLAT_LIMIT = 5e-9
+#: relative precision of a tension near the flat state, per unit of (λ0/λpre − 1): the integrator is
+#: never asked for more than ROUNDOFF_TOLERANCE / (λ0/λpre − 1), which it could not deliver
+ROUNDOFF_TOLERANCE = 1e-14
+#: a Gent locking margin 1 − (I1 − 3)/Jlim below this at the pole counts as locked (the membrane is
+#: then so stiff that no integration resolves it)
+LOCKING_LIMIT = 1e-9
+
 OK = 0
 WRINKLED_AT_POLE = 10
 WRINKLED = 11
@@ -36,6 +45,7 @@ STEP_LIMIT = 15
 NOT_FINITE = 16
 FOLDED_BACK = 17
 NO_VOLTAGE = 18
+BELOW_RESOLUTION = 19
 
 #: a short tag and a sentence for every way a state can fail
 REASONS = {
@@ -43,15 +53,18 @@ REASONS = {
     WRINKLED_AT_POLE: ("wrinkling", "the tension at the pole is not positive: the membrane wrinkles "
                        "(membrane theory does not hold)"),
     WRINKLED: ("wrinkling", "a tension turns negative between pole and clamp: the membrane wrinkles"),
-    LOCKED: ("gent_locking", "the Gent chains lock (I1 - 3 reaches Jlim)"),
+    LOCKED: ("gent_locking", "the Gent chains lock (I1 - 3 reaches Jlim, or comes within 1e-9 of it)"),
     LOST_ELLIPTICITY: ("electromechanical_instability", "dT1/dλ1 vanishes: the membrane loses "
                        "stability to thinning (electromechanical instability)"),
-    NO_CLAMP: ("no_equilibrium", "the membrane never returns to the clamp stretch: no equilibrium "
-               "at this pole stretch"),
-    STEP_LIMIT: ("no_equilibrium", "the integration used up its step budget"),
+    NO_CLAMP: ("no_equilibrium", "the membrane does not return to the clamp stretch within a radius "
+               "of max_radius_factor (default 1000) times its estimated size: no equilibrium at this pole "
+               "stretch within that search"),
+    STEP_LIMIT: ("solver_budget", "the integration used up its step budget (SolverSettings.max_steps)"),
     NOT_FINITE: ("no_equilibrium", "the integration produced non-finite values"),
     FOLDED_BACK: ("no_equilibrium", "the meridian turns back on itself (θ > π)"),
     NO_VOLTAGE: ("no_equilibrium", "no voltage Φ̂ ≥ 0 holds this pole stretch at the requested pressure"),
+    BELOW_RESOLUTION: ("out_of_range", "the pole stretch is within 5e-9 of the flat membrane: its deviation "
+                       "from the clamp stretch is below what double precision resolves"),
 }
 
 
@@ -86,7 +99,10 @@ class MembraneStates:
     status : ndarray of int
         ``OK`` or a failure code of :data:`REASONS`.
     fail_radius : ndarray
-        Where along ``R̂/R*`` a failed trajectory stopped (NaN when ``OK``).
+        Where a failed trajectory stopped, in units of the clamp radius estimated before the
+        integration (its true clamp radius is unknown when it fails); NaN when ``OK``.
+    steps : ndarray of int
+        Integration steps taken per state (a diagnostic of cost).
     shapes : list or None
         With ``shape=True``: per state an array ``(R̂, r̂, ẑ)`` of the meridian.
     """
@@ -196,7 +212,8 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
     with np.errstate(all="ignore"):
         T0, alpha, beta, W0, q0 = (np.broadcast_to(np.asarray(x, dtype=float), (n,)) for x in model.pole(l0, phi))
         margin0 = np.broadcast_to(np.asarray(model.tensions(l0, l0, phi)[4], dtype=float), (n,))
-    status[margin0 <= 0] = LOCKED
+    status[l0 - model.prestretch < FLAT_LIMIT * model.prestretch] = BELOW_RESOLUTION
+    status[(status == OK) & (margin0 <= LOCKING_LIMIT)] = LOCKED
     status[(status == OK) & ((T0 <= 0) | ~np.isfinite(T0))] = WRINKLED_AT_POLE
     status[(status == OK) & (alpha <= 0)] = LOST_ELLIPTICITY
     fail_radius[status != OK] = 0.0
@@ -204,7 +221,8 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
     live = np.flatnonzero(status == OK)
     out = {k: np.full(n, np.nan) for k in ("p", "V", "Q", "Psi", "z", "R")}
     min_tension = np.where(status == OK, T0, np.nan)
-    max_field = np.abs(np.asarray(model.tensions(l0, l0, phi)[5], dtype=float) * np.ones(n))
+    with np.errstate(all="ignore"):
+        max_field = np.abs(np.asarray(model.tensions(l0, l0, phi)[5], dtype=float) * np.ones(n))
     steps = np.zeros(n, dtype=int)
     shapes = [None] * n if shape else None
     if live.size:
@@ -240,6 +258,15 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
         p, phi,
     ])
     m = live.size
+    # absolute tolerances that follow each trajectory's own scale (series values at R̂ = 1): a barely
+    # inflated membrane has θ ~ δ, V̂ ~ δ, Ψ̂ ~ δ² for an apex deflection δ, and a fixed absolute
+    # tolerance would swallow them
+    size = np.vstack([np.ones(m), np.ones(m), np.abs(c), math.pi * l0**3 * np.abs(c) / 4, math.pi * np.abs(q0),
+                      math.pi * np.abs(W0), l0 * np.abs(c) / 2, np.ones(m), np.ones(m)])
+    atol = settings.atol * np.maximum(size, 1e-30)
+    # roundoff bounds what can be asked of a barely inflated membrane: its tensions are differences
+    # of O(1) numbers that are O(λ0 − λpre), so their relative precision is ~ε/(λ0 − λpre)
+    rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam_clamp - 1))
     local_min_T = T0.copy()
     local_max_E = max_field[live].copy()
     local_fail_R = np.full(m, np.nan)
@@ -254,9 +281,11 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
     def check(R, y, cols):
         T1, T2, T11, _, margin, E = (np.broadcast_to(np.asarray(x, dtype=float), (cols.size,))
                                      for x in model.tensions(y[0], y[1], y[8]))
-        local_min_T[cols] = np.minimum(local_min_T[cols], np.minimum(T1, T2))
-        local_max_E[cols] = np.maximum(local_max_E[cols], np.abs(E))
         crossed = y[1] <= lam_clamp
+        # a step that crosses the clamp is discarded: its state lies outside the membrane
+        keep = cols[~crossed]
+        local_min_T[keep] = np.minimum(local_min_T[keep], np.minimum(T1, T2)[~crossed])
+        local_max_E[keep] = np.maximum(local_max_E[keep], np.abs(E)[~crossed])
         code = np.zeros(cols.size, dtype=int)
         code[(T1 <= 0) | (T2 <= 0)] = WRINKLED
         code[crossed] = 0
@@ -273,7 +302,7 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
         return result
 
     R_end = np.full(m, settings.max_radius_factor)
-    res = _int.integrate(f_radius, np.full(m, R0), y0, R_end, settings.rtol, settings.atol,
+    res = _int.integrate(f_radius, np.full(m, R0), y0, R_end, rtol, atol,
                          settings.max_steps, event=check)
     steps[live] += res.steps
     code = np.where(res.status == _int.CROSSED, OK, local_code)
@@ -298,7 +327,8 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
             out[2:7] = d[2:] * inv
             return out
 
-        hop = _int.integrate(f_hoop, yh[1], z0, np.full(go.size, lam_clamp), settings.rtol, settings.atol,
+        atol_h = np.vstack([np.full(go.size, settings.atol), atol[0, go], atol[2:, go]])
+        hop = _int.integrate(f_hoop, yh[1], z0, np.full(go.size, lam_clamp), rtol[go], atol_h,
                              settings.max_steps, h0=np.abs(yh[1] - lam_clamp))
         steps[live[go]] += hop.steps
         landed = hop.status == _int.REACHED_END

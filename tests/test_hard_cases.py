@@ -11,9 +11,8 @@ Every case ends in one of two ways:
   whose message names the cause.
 
 Every call runs under a wall-clock limit (:func:`time_limit`, ``SIGALRM``), so a hang fails the test.
-Where the library does not behave that way, the test states what it should do and is marked
-``xfail(strict=True)`` with the measured symptom (see the ``BUG`` notes); these are for the lead to fix
-in ``coexist/``.
+Several tests are regression tests for bugs these cases found in ``coexist/`` (all fixed; the
+docstrings keep the symptoms).
 """
 
 from __future__ import annotations
@@ -199,10 +198,6 @@ def test_barely_inflated_potential_is_a_quarter_of_pV(nh, delta):
     assert abs(ratio / 0.25 - 1) <= 4 * delta + 1e-6
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: Ψ̂ of barely inflated states is lost to the integrator's absolute tolerance (atol = 1e-12 on "
-    "Ψ̂t ~ δ²): Ψ̂/(p̂V̂/4) − 1 is 2e-5..6e-5 at δ = 1e-6, ~1e-3 at 1e-7, 0.6..0.7 at 1e-8 (the digits move "
-    "with roundoff), status OK; documented accuracy is relative ~rtol = 1e-10, p̂ and V̂ are fine"))
 @pytest.mark.parametrize("delta", [1e-6, 1e-7, 1e-8])
 def test_barely_inflated_potential_accurate(nh, delta):
     s = solve(nh, [1 + delta], 0.0)
@@ -214,9 +209,6 @@ def test_barely_inflated_potential_accurate(nh, delta):
             s.require_ok()
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: at λ0 = 1 + 1e-12 the state is OK but p̂ is 2.1% off the small-deflection limit 27.0802 δ^1.5 "
-    "(λ2 − 1 ~ 1e-12 is below what double precision resolves near 1); it should be flagged or accurate"))
 def test_flat_membrane_pressure_flagged_or_accurate(nh):
     ref = solve(nh, [1 + 1e-7], 0.0, TIGHT).require_ok()
     constant = ref.p_hat[0] / 1e-7**1.5
@@ -364,10 +356,6 @@ def test_gent_beyond_locking_is_locked(jlim):
     assert curve.states.pole_stretch[-1] < lock
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: Gent Jlim = 10 at pole stretch λlock(1 − 1e-10) (and at 1 − 1e-9, 1e-12): status STEP_LIMIT "
-    "('no_equilibrium: the integration used up its step budget', 4000 steps, ~1 s) instead of OK or "
-    "LOCKED; 1 − 1e-8 is still OK with p̂ ≈ 4.5e7 (p̂ε → 0.44941)"))
 def test_gent_at_the_locking_stretch_is_ok_or_locked():
     model = build_model("gent", 10.0)
     lock = equibiaxial_locking_stretch(10.0)
@@ -376,10 +364,6 @@ def test_gent_at_the_locking_stretch_is_ok_or_locked():
     assert set(s.status.tolist()) <= {OK, LOCKED}
 
 
-@pytest.mark.xfail(strict=True, raises=RuntimeWarning, reason=(
-    "BUG: a pole stretch exactly at Gent locking (I1 − 3 == Jlim, here λ0 = 2, Jlim = 5.0625) raises "
-    "'RuntimeWarning: divide by zero' from model.tensions in solve_states (max_field is computed outside "
-    "the np.errstate block, shooting.py ~line 207); it should return status LOCKED"))
 def test_gent_exactly_at_locking_returns_locked():
     model = build_model("gent", 5.0625)  # 2·2² + 2⁻⁴ − 3 = 5.0625 exactly
     s = solve(model, [2.0], 0.0)
@@ -402,11 +386,6 @@ def test_large_jlim_matches_neo_hookean(nh):
     np.testing.assert_allclose(diffs[1e5] / diffs[1e6], 10.0, rtol=0.01)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: Gent with huge Jlim (1e10) fails with STEP_LIMIT at 6 of 9 pole stretches at default settings "
-    "(Jlim = 1e7 already at rtol 1e-12): W = −(Jlim/2)·log(1 − I/Jlim) cancels catastrophically "
-    "(model.free_energy noise ±2e-7 at Jlim = 1e10), which the step control of Ψ̂ cannot meet; "
-    "log1p would fix it"))
 def test_huge_jlim_is_neo_hookean(nh):
     l0 = np.linspace(1.1, 3.0, 9)
     a = solve(nh, l0, 0.1).require_ok()
@@ -511,12 +490,6 @@ def test_huge_range_of_pole_stretches_at_high_voltage(nh, phi):
         np.testing.assert_allclose(s.q_hat[s.ok], t.q_hat, rtol=1e-8)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: MembraneStates.min_tension includes the discarded trial step that overshoots the clamp "
-    "(λ2 < 1): at Φ̂ = 0.3, λ0 = 1.05 an OK state reports min_tension = -0.0131 while the true minimum over "
-    "0 ≤ R̂ ≤ 1 is +0.0038 (T2 at the clamp); at λ0 = 1.1 it reports 0.0419 for 0.0680 "
-    "(shooting.py check(): local_min_T is updated before the crossing is known); at Φ̂ = 0.46 most OK "
-    "states report min_tension -0.1..-0.001 (λ0 = 1.5: -0.0819 for +0.0135)"))
 @pytest.mark.parametrize("phi, l0", [(0.3, [1.05, 1.06, 1.1, 1.2]), (0.46, [1.5, 1.75, 2.0])])
 def test_min_tension_of_ok_states_is_the_true_minimum(nh, phi, l0):
     s = solve(nh, l0, phi, TIGHT)
@@ -527,24 +500,20 @@ def test_min_tension_of_ok_states_is_the_true_minimum(nh, phi, l0):
         assert s.min_tension[i] == pytest.approx(ref["min_tension"], rel=1e-6, abs=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: NO_CLAMP ('the membrane never returns to the clamp stretch: no equilibrium at this pole "
-    "stretch') is an artefact of SolverSettings.max_radius_factor = 25: at Φ̂ = 0.26, λ0 = 3.775..3.825 "
-    "and at Φ̂ = 0, λ0 = 2000, 5000, max_radius_factor = 1e3 gives OK states (R* = 29..257) that the "
-    "reference integration confirms"))
-def test_no_clamp_means_no_equilibrium(nh):
-    cases = [(np.array([3.775, 3.8, 3.825]), 0.26), (np.array([2000.0, 5000.0]), 0.0)]
-    wide = SolverSettings(max_radius_factor=1e3)
-    for l0, phi in cases:
+def test_far_clamps_are_found_and_verified(nh):
+    """States whose clamp lies far beyond the spherical-cap estimate (R* up to ~260 of it) used to be
+    reported as NO_CLAMP by a search radius of 25; the default search (1000) finds them, and the
+    reference integration confirms them. A tiny search radius reports NO_CLAMP and says why."""
+    for l0, phi in ((np.array([3.775, 3.8, 3.825]), 0.26), (np.array([2000.0, 5000.0]), 0.0)):
         s = solve(nh, l0, phi)
-        assert np.all(s.status == NO_CLAMP)
-        w = solve(nh, l0, phi, wide)
-        for i in np.flatnonzero(w.ok):
+        assert_flags_consistent(s)
+        assert s.ok.all()
+        for i in range(l0.size):
             if l0[i] < 100:  # the reference integration resolves these
-                ref = reference_shot(nh, l0[i], phi, w.p_hat[i])
+                ref = reference_shot(nh, l0[i], phi, s.p_hat[i])
                 assert ref["l2"] == pytest.approx(1.0, abs=1e-6) and ref["min_tension"] > 0
-        # either there really is no equilibrium, or the message must say that the search was cut short
-        assert not w.ok.any() or "radius" in reason_text(NO_CLAMP)
+    narrow = solve(nh, [3.8], 0.26, SolverSettings(max_radius_factor=2.0))
+    assert narrow.status[0] == NO_CLAMP and "radius" in reason_text(NO_CLAMP)
 
 
 def test_voltage_at_pressure_on_the_valid_branch(nh):
@@ -567,11 +536,6 @@ def test_pressure_above_what_any_voltage_allows(nh):
     assert info.value.reason == "no_equilibrium"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: voltage_at_pressure marks a state OK when the secant iterate stalls (|x_new − x_a| ≤ 1e-14 x) "
-    "whatever the residual: voltage_at_pressure(nh, [1.05], 0.1) → OK with p̂ = 0.1301 (Φ̂ = 0.3056, the "
-    "state wrinkles at the clamp before p̂ falls to 0.1); [2.0] at p̂ = 0.5 → OK with p̂ = 0.7735; "
-    "[3.5, 5.0] at p̂ = 1.0 → OK with p̂ = 1.331, 1.479"))
 def test_voltage_at_pressure_never_returns_another_pressure(nh):
     for l0, p in (([1.05], 0.1), ([2.0], 0.5), ([3.5, 5.0], 1.0)):
         s = bounded(voltage_at_pressure, nh, l0, p)
@@ -579,10 +543,6 @@ def test_voltage_at_pressure_never_returns_another_pressure(nh):
         np.testing.assert_allclose(s.p_hat[s.ok], p, rtol=1e-8)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: voltage_charge_curve(nh, 0.1, linspace(1.01, 1.135, 6)) returns a curve 'at fixed p̂ = 0.1' "
-    "whose states carry p̂ = 0.1, 0.163, 0.246, 0.325, 0.397 (to_dict p_hat_residual_max = 0.297), from "
-    "the voltage_at_pressure stall above"))
 def test_voltage_charge_curve_holds_its_pressure(nh):
     try:
         c = bounded(voltage_charge_curve, nh, 0.1, np.linspace(1.01, 1.135, 6))
@@ -713,12 +673,6 @@ def test_no_coexistence_below_the_critical_point(gent40, gent40_diagram, delta):
     assert info.value.reason == "no_coexistence"
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG (message): 1e-5 above the critical voltage the curve's spline has a loop (the phase diagram's own "
-    "bisection says so) but maxwell_coexistence raises 'no coexistence ...: the equal-area pressure lies "
-    "outside the stable branches' (reason no_coexistence): the equal-area function (~1e-9) is below the "
-    "spline error of Ψ̂ and has no sign change. Expected: the pair (gap ≈ 0.025 by the √ law) or "
-    "reason 'critical_point'"))
 def test_maxwell_very_close_to_the_critical_point(gent40, gent40_diagram):
     curve = gent40_curve(gent40, gent40_diagram.critical_point[0] + 1e-5)
     try:
@@ -883,11 +837,6 @@ def test_ramp_within_the_model_range_is_quick_and_homogeneous():
     assert all(np.isfinite(step.state.p_hat) for step in report.result.steps)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: ZoneFamily interpolates in Φ̂² on a 4-node stencil and keeps only pole stretches valid at all "
-    "four nodes, so the curve at Φ̂ = 0 inherits the wrinkling of higher voltages: "
-    "ZoneFamily(nh, 0.6, 6.0, n_u=32, n_s=9).curve(0.0) spans λ0 = 1.107..2.554 with stopped_because "
-    "'wrinkling beyond pole stretch 2.55358', although every neo-Hookean state at Φ̂ = 0 up to 6 is ok"))
 def test_family_curve_at_zero_voltage_keeps_its_range(nh):
     family = bounded(ZoneFamily, nh, 0.6, 6.0, n_u=32, n_s=9)
     curve = family.curve(0.0)
@@ -896,10 +845,6 @@ def test_family_curve_at_zero_voltage_keeps_its_range(nh):
     assert curve.pole_stretch[-1] == pytest.approx(6.0)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "BUG: a ramp to 30 kV (Φ̂max = 1.83) fails at its first voltage with ModelRangeError "
-    "'no valid state at Φ̂ = 0: converged': the Φ̂ = 0 curve's stencil reaches Φ̂ = 0.55 where nothing is "
-    "valid, and the message reports the status of a valid state"))
 def test_ramp_far_beyond_the_model_range_names_the_voltage():
     scene = parse_scene(SCENE + "[voltage]\nstop_kV = 30\nstep_kV = 3\n")
     try:
