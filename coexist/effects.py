@@ -22,36 +22,34 @@ from .errors import SceneError
 def first_invariant(l1, l2):
     """``I1 - 3 = λ1² + λ2² + λ1⁻²λ2⁻² - 3`` of an incompressible membrane (zero when unstretched).
 
-    Evaluated as ``expm1(2a) + expm1(2b) + expm1(−2a−2b)`` with ``a = log1p(λ1 − 1)``,
-    ``b = log1p(λ2 − 1)``: the same number, but without the cancellation of ``λ² − 1`` terms, so a
-    barely inflated membrane (``I1 − 3 ~ δ²``) keeps its digits.
+    Evaluated without cancellation: with ``x = λ² − 1 = (λ − 1)(λ + 1)`` (exact for ``λ`` near 1)
+    and ``J = (1 + x1)(1 + x2) = λ1²λ2²``,
+    ``I1 − 3 = [(x1 + x2)² + x1 x2 (x1 + x2 − 1)] / J``, which is ``x1² + x1x2 + x2²`` to leading
+    order: a barely inflated membrane (``I1 − 3 ~ δ²``) keeps its digits, where the textbook form
+    loses them to the cancellation of its ``O(δ)`` terms.
     """
-    a, b = _log1p(l1 - 1), _log1p(l2 - 1)
-    return _expm1(2 * a) + _expm1(2 * b) + _expm1(-2 * a - 2 * b)
-
-
-def _log1p(x):
-    return ca.log1p(x) if isinstance(x, (ca.SX, ca.MX)) else math.log1p(x)
-
-
-def _expm1(x):
-    return ca.expm1(x) if isinstance(x, (ca.SX, ca.MX)) else math.expm1(x)
+    x1 = (l1 - 1) * (l1 + 1)
+    x2 = (l2 - 1) * (l2 + 1)
+    s = x1 + x2
+    return (s * s + x1 * x2 * (s - 1)) / ((1 + x1) * (1 + x2))
 
 
 def first_invariant_derivatives(l1, l2):
-    """``(∂I/∂λ1, ∂I/∂λ2, ∂²I/∂λ1², ∂²I/∂λ1∂λ2)`` of ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` in closed form.
+    """Half the derivatives of ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3``, in closed form:
+    ``(∂I/∂λ1, ∂I/∂λ2, ∂²I/∂λ1², ∂²I/∂λ1∂λ2) / 2``.
 
-    With ``a = λ1⁻²λ2⁻²``: ``I_1 = 2λ1 − 2a/λ1``, ``I_11 = 2 + 6a/λ1²``, ``I_12 = 4a/(λ1λ2)``.
-    Written out (rather than left to automatic differentiation) because the generated code is then
-    about half as long; ``tests/test_model.py`` checks them against CasADi's derivatives.
+    With ``a = λ1⁻²λ2⁻²``: ``I_1/2 = λ1 − a/λ1``, ``I_11/2 = 1 + 3a/λ1²``, ``I_12/2 = 2a/(λ1λ2)``.
+    Written out (rather than left to automatic differentiation), and halved so that the factor 2
+    meets the energy's derivative as a constant, because the generated code is then about a third
+    shorter; ``tests/test_model.py`` checks them against CasADi's derivatives.
     """
     a = 1 / (l1 * l1 * l2 * l2)
-    return 2 * l1 - 2 * a / l1, 2 * l2 - 2 * a / l2, 2 + 6 * a / (l1 * l1), 4 * a / (l1 * l2)
+    return l1 - a / l1, l2 - a / l2, 1 + 3 * a / (l1 * l1), 2 * a / (l1 * l2)
 
 
 def area_invariant_derivatives(l1, l2):
-    """``(∂K/∂λ1, ∂K/∂λ2, ∂²K/∂λ1², ∂²K/∂λ1∂λ2)`` of ``K = λ1²λ2²``: ``2λ1λ2², 2λ1²λ2, 2λ2², 4λ1λ2``."""
-    return 2 * l1 * l2 * l2, 2 * l1 * l1 * l2, 2 * l2 * l2, 4 * l1 * l2
+    """Half the derivatives of ``K = λ1²λ2²``: ``(λ1λ2², λ1²λ2, λ2², 2λ1λ2)``."""
+    return l1 * l2 * l2, l1 * l1 * l2, l2 * l2, 2 * l1 * l2
 
 
 def area_invariant(l1, l2):

