@@ -60,6 +60,27 @@ def _error_norm(K, h, scale):
     return np.abs(h) * e5 / np.sqrt(denom * m)
 
 
+def single_step(fun, t, y, h, rtol, atol):
+    """One DOP853 step of size ``h`` (per column) from ``(t, y)``, and its error norm (≤ 1: accepted)."""
+    m, k = y.shape
+    Ka = np.empty((_NS + 1, m, k))
+    flat = Ka.reshape(_NS + 1, -1)
+    Ka[0] = fun(t, y)
+    for s in range(1, _NS):
+        dy = (_A[s, :s] @ flat[:s]).reshape(m, k)
+        dy *= h
+        dy += y
+        Ka[s] = fun(t + _C[s] * h, dy)
+    y_new = (_B @ flat[:_NS]).reshape(m, k)
+    y_new *= h
+    y_new += y
+    Ka[_NS] = fun(t + h, y_new)
+    scale = atol + np.maximum(np.abs(y), np.abs(y_new)) * np.asarray(rtol)
+    err = _error_norm(Ka, h, scale)
+    err = np.where(np.all(np.isfinite(y_new), axis=0), err, np.inf)
+    return y_new, err
+
+
 def initial_step(fun, t, y, f, direction, rtol, atol):
     """Hairer's starting step size, per column (as :func:`scipy.integrate._ivp.common.select_initial_step`)."""
     m = y.shape[0]
@@ -122,27 +143,37 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
         h = np.broadcast_to(np.asarray(h0, dtype=float), t.shape).copy()
     active = np.arange(n)
     while active.size:
-        ta, ya, fa, ha, da, tea = t[active], y[:, active], f[:, active], h[active], direction[active], t_end[active]
+        if active.size == n:  # all trajectories still running: views, no gathering
+            ta, ya, fa, ha, da, tea = t, y, f, h, direction, t_end
+            atol_a, rtol_a = atol, rtol
+        else:
+            ta, ya, fa, ha = t[active], y[:, active], f[:, active], h[active]
+            da, tea, atol_a, rtol_a = direction[active], t_end[active], atol[:, active], rtol[active]
         span = np.abs(tea - ta)
         last = ha >= span
         ha = np.where(last, span, ha)
         hs = ha * da
         k = active.size
         Ka = np.empty((_NS + 1, m, k))
+        flat = Ka.reshape(_NS + 1, -1)
         Ka[0] = fa
         for s in range(1, _NS):
-            dy = (_A[s, :s] @ Ka[:s].reshape(s, -1)).reshape(m, k) * hs
-            Ka[s] = fun(ta + _C[s] * hs, ya + dy)
-        y_new = ya + (_B @ Ka[:_NS].reshape(_NS, -1)).reshape(m, k) * hs
+            dy = (_A[s, :s] @ flat[:s]).reshape(m, k)
+            dy *= hs
+            dy += ya
+            Ka[s] = fun(ta + _C[s] * hs, dy)
+        y_new = (_B @ flat[:_NS]).reshape(m, k)
+        y_new *= hs
+        y_new += ya
         t_new = np.where(last, tea, ta + hs)
         f_new = fun(t_new, y_new)
         Ka[_NS] = f_new
-        scale = atol[:, active] + np.maximum(np.abs(ya), np.abs(y_new)) * rtol[active]
+        scale = atol_a + np.maximum(np.abs(ya), np.abs(y_new)) * rtol_a
         err = _error_norm(Ka, hs, scale)
         finite = np.all(np.isfinite(y_new), axis=0) & np.all(np.isfinite(f_new), axis=0)
         accepted = (err <= 1.0) & finite
         grow = _SAFETY * np.where(err > 0, err, 1.0) ** _ERROR_EXPONENT
-        factor = np.where(err == 0, _MAX_FACTOR, np.clip(grow, _MIN_FACTOR, _MAX_FACTOR))
+        factor = np.where(err == 0, _MAX_FACTOR, np.minimum(np.maximum(grow, _MIN_FACTOR), _MAX_FACTOR))
         factor = np.where(accepted, factor, np.minimum(1.0, factor))
         factor = np.where(finite, factor, 0.25)
         steps[active] += 1

@@ -105,6 +105,10 @@ class MembraneModel:
         """Right-hand side ``(λ1', λ2', θ', V̂', Q̂', Ψ̂', ẑ')`` of the membrane equations."""
         return self._built["rhs"](R, l1, l2, theta, p, phi)
 
+    def rhs_into(self, R, l1, l2, theta, p, phi, out):
+        """:meth:`rhs` written into the first seven rows of ``out`` (the integrator's hot path)."""
+        return self._built["rhs_into"](R, l1, l2, theta, p, phi, out)
+
     def pole(self, l0, phi=0.0):
         """Pole quantities ``(T0, α, β, W0, q0)``: tension, its stretch derivatives, energy, charge density."""
         return self._built["pole"](l0, phi)
@@ -169,6 +173,7 @@ def _build(model: MembraneModel) -> dict:
                     "rhs": ca.vertcat(dl1, dl2, dth, dV, dQ, dPsi, dz)},
         "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole},
         "rhs": numpy_function(rhs),
+        "rhs_into": numpy_function(rhs, into=True),
         "aux": numpy_function(aux),
         "energy": numpy_function(energy),
         "pole": numpy_function(pole),

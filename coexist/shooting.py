@@ -274,9 +274,9 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
     rows = [] if shapes is not None else None
 
     def f_radius(R, y):
-        out = np.zeros_like(y)
-        out[:7] = model.rhs(R, y[0], y[1], y[2], y[7], y[8])
-        return out
+        out = np.empty_like(y)
+        out[7:] = 0.0
+        return model.rhs_into(R, y[0], y[1], y[2], y[7], y[8], out)
 
     def check(R, y, cols):
         T1, T2, T11, _, margin, E = (np.broadcast_to(np.asarray(x, dtype=float), (cols.size,))
@@ -328,11 +328,18 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
             return out
 
         atol_h = np.vstack([np.full(go.size, settings.atol), atol[0, go], atol[2:, go]])
-        hop = _int.integrate(f_hoop, yh[1], z0, np.full(go.size, lam_clamp), rtol[go], atol_h,
-                             settings.max_steps, h0=np.abs(yh[1] - lam_clamp))
-        steps[live[go]] += hop.steps
-        landed = hop.status == _int.REACHED_END
-        zf = hop.y
+        # usually one step of the size of the remaining stretch lands on the clamp within tolerance;
+        # the few that do not are integrated adaptively
+        zf, err = _int.single_step(f_hoop, yh[1], z0, lam_clamp - yh[1], rtol[go][None, :], atol_h)
+        landed = err <= 1.0
+        steps[live[go]] += 1
+        redo = np.flatnonzero(~landed)
+        if redo.size:
+            hop = _int.integrate(f_hoop, yh[1][redo], z0[:, redo], np.full(redo.size, lam_clamp), rtol[go][redo],
+                                 atol_h[:, redo], settings.max_steps, h0=0.5 * np.abs(yh[1][redo] - lam_clamp))
+            steps[live[go][redo]] += hop.steps
+            zf[:, redo] = hop.y
+            landed[redo] = hop.status == _int.REACHED_END
         bad_turn = ~landed | np.any(~np.isfinite(zf), axis=0) | (zf[0] <= Rh)
         code[go[bad_turn]] = NOT_FINITE
         good = go[~bad_turn]

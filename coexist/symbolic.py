@@ -50,7 +50,7 @@ _UNARY = {
 }
 
 
-def numpy_source(fun: ca.Function, name: str = "generated") -> str:
+def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) -> str:
     """Python source of a numpy function equivalent to a scalar-input CasADi SX function.
 
     Every input and output of ``fun`` must be a scalar (1x1); the generated function takes one
@@ -107,6 +107,12 @@ def numpy_source(fun: ca.Function, name: str = "generated") -> str:
             raise NotImplementedError(f"CasADi operation {op} has no numpy translation")
         body.append(f"    {var} = " + template.format(*[ref(i) for i in ins[: 2 if op in _BINARY else 1]]))
         slot[outs[0]] = ("var", var)
+    if into:
+        # write output k into row k of a caller's array (no temporaries for the result)
+        lines = [f"def {name}({', '.join(args)}, out):"] + body
+        lines += [f"    out[{k}] = {o}" for k, o in enumerate(outputs)]
+        lines.append("    return out")
+        return "\n".join(lines) + "\n"
     # an output that is a constant (an effect switched off) still gets the broadcast shape of the inputs
     zeros = f"_np.zeros_like({' + '.join(args)}, dtype=float)" if args else "0.0"
     outputs = [o if o.startswith(("v", "i")) else f"{o} + {zeros}" for o in outputs]
@@ -130,11 +136,12 @@ def _eliminate_common_subexpressions(fun: ca.Function) -> ca.Function:
     return ca.Function(fun.name(), ins, ca.vertsplit(outs), fun.name_in(), fun.name_out())
 
 
-def numpy_function(fun: ca.Function):
-    """Compile :func:`numpy_source` of ``fun`` into a callable."""
+def numpy_function(fun: ca.Function, into: bool = False):
+    """Compile :func:`numpy_source` of ``fun`` into a callable (``into=True``: it takes a last
+    argument ``out`` and fills its rows with the outputs)."""
     name = "_" + "".join(c if c.isalnum() else "_" for c in fun.name())
     namespace = {"_np": np}
-    exec(compile(numpy_source(fun, name), f"<coexist generated {fun.name()}>", "exec"), namespace)
+    exec(compile(numpy_source(fun, name, into), f"<coexist generated {fun.name()}>", "exec"), namespace)
     generated = namespace[name]
     generated.__doc__ = f"numpy translation of CasADi function {fun.name()!r}"
     return generated
