@@ -84,7 +84,8 @@ def _defaults():
         "curve_points": DEFAULT_CURVE_POINTS,
         "spline_points": int(_default_of(phase_diagram, "points")),
         "n_u": int(_default_of(prepare, "n_u")),
-        "n_s": int(_default_of(prepare, "n_s")),
+        # None means automatic: 17 nodes up to Φ̂ = 0.3, which covers the default scene
+        "n_s": int(_default_of(prepare, "n_s") or 17),
     }
 
 

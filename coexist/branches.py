@@ -326,7 +326,17 @@ class ZoneFamily:
         """Largest error (relative to the curve's largest magnitude) of the family's curve at ``Φ̂``
         (default: midway between the two top voltage nodes), at grid and mid-grid points, against
         direct shooting: the error of the voltage interpolation and the spline together."""
-        if phi_hat is None:
-            phi_hat = float(np.sqrt(0.5 * (self.s[-1] + self.s[-2]))) if self.s.size > 1 else 0.0
-        c = self.curve(phi_hat)
-        return c.interpolation_error(self.model, self.settings)
+        if phi_hat is not None:
+            return self.curve(phi_hat).interpolation_error(self.model, self.settings)
+        # the highest voltage midway between two nodes at which a curve exists
+        for j in range(self.s.size - 1, 0, -1):
+            phi = float(np.sqrt(0.5 * (self.s[j] + self.s[j - 1])))
+            try:
+                curve = self.curve(phi)
+            except ModelRangeError:
+                continue
+            if curve.grid.size >= 5:
+                out = curve.interpolation_error(self.model, self.settings)
+                out["phi_hat"] = phi
+                return out
+        return self.curve(0.0).interpolation_error(self.model, self.settings)

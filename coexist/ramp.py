@@ -60,14 +60,21 @@ CONTINUATION_TOLERANCE = 0.05
 
 def _continue(state: Equilibrium, candidates: list, stable_only=True):
     """The equilibrium at the next voltage that continues ``state``: same number of bulged zones,
-    nearest in zone-volume space, and within :data:`CONTINUATION_TOLERANCE` of it. Branch indices
-    are not compared: the curve's branch structure can change with the voltage."""
+    nearest in zone-volume space, within :data:`CONTINUATION_TOLERANCE` of it — or within four times
+    that when it is also the nearest of all candidates (a state moving fast near a fold, on a
+    coarse voltage path). Branch indices are not compared: the curve's branch structure can change
+    with the voltage."""
     scale = max(max(state.zone_volumes), 1e-12)
-    same = [e for e in candidates if e.k == state.k and (e.stable or not stable_only)
-            and e.distance(state) <= CONTINUATION_TOLERANCE * scale]
-    if not same:
+    pool = [e for e in candidates if e.stable or not stable_only]
+    if not pool:
         return None
-    return min(same, key=lambda e: e.distance(state))
+    nearest = min(pool, key=lambda e: e.distance(state))
+    same = [e for e in pool if e.k == state.k and e.distance(state) <= CONTINUATION_TOLERANCE * scale]
+    if same:
+        return min(same, key=lambda e: e.distance(state))
+    if nearest.k == state.k and nearest.distance(state) <= 4 * CONTINUATION_TOLERANCE * scale:
+        return nearest
+    return None
 
 
 def _initial_state(eqs: list):
