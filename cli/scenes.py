@@ -38,8 +38,12 @@ def show(name):
 @click.command()
 @click.argument("scene", metavar="FILE_OR_NAME")
 @click.option("--json", "as_json", is_flag=True, help="Print the validated scene as JSON on stdout.")
-def check(scene, as_json):
-    """Validate a scene (a .toml file, a built-in name, or - for stdin) without solving anything.
+@click.option("--no-solve", is_flag=True, help="Skip the one quick solve that checks the closing pressure.")
+def check(scene, as_json, no_solve):
+    """Validate a scene (a .toml file, a built-in name, or - for stdin).
+
+    Besides the fields, one quick solve (the zero-voltage pressure–volume curve, ~0.1 s) checks
+    that the zones can hold the closing pressure (it must lie below their snap-through pressure).
 
     Prints the effects the scene selects and its dimensionless groups (PHYSICS.md):
     p̂ = pA/(μH), V̂ = V/A³, Φ̂ = (Φ/H)√(ε/μ), Q̂ = Q/(A²√(εμ)), Ψ̂ = Ψ/(μHA²).
@@ -57,10 +61,25 @@ def check(scene, as_json):
             loaded = load_scene(scene)
     except SceneError as exc:
         raise InputError(f"{scene}: {exc}" if exc.field else str(exc)) from None
+    p_max = None
+    if loaded.chamber is not None and not no_solve:
+        from coexist.simulate import snap_through_pressure
+
+        p_max = snap_through_pressure(loaded)
+        try:
+            loaded.check_closing_pressure(p_max)
+        except SceneError as exc:
+            raise InputError(f"{scene}: {exc}") from None
     if as_json:
-        write_json(loaded.to_dict())
+        data = loaded.to_dict()
+        if p_max is not None:
+            data["snap_through_pressure_hat"] = p_max
+        write_json(data)
         return
     _print_scene(loaded)
+    if p_max is not None:
+        click.echo(f"closing pressure: p̂ = {loaded.closing_pressure_hat:.6g}, below the zones' snap-through "
+                   f"p̂max = {p_max:.6g} ({loaded.pressure(p_max) / 100:.4g} mbar): a stable start")
 
 
 def _print_scene(scene):

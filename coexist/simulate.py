@@ -36,6 +36,21 @@ def pole_stretch_max(scene: Scene) -> float:
     return NEO_HOOKEAN_STRETCH_MAX * scene.prestretch
 
 
+def snap_through_pressure(scene: Scene) -> float:
+    """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``)."""
+    from .curves import pressure_volume_curve
+    from .effects import Gent, NeoHookean, NoElectrostatics
+    from .model import MembraneModel
+
+    model = MembraneModel(Gent(scene.jlim) if scene.material == "gent" else NeoHookean(), NoElectrostatics(),
+                          scene.prestretch)
+    grid = scene.prestretch * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(pole_stretch_max(scene) / scene.prestretch - 1),
+                                               80) ** 2)
+    curve = pressure_volume_curve(model, 0.0, grid, scene.settings)
+    maxima = [lp.p_hat for lp in curve.limit_points if lp.kind == "pressure_max"]
+    return float(maxima[0]) if maxima else float(np.max(curve.states.p_hat))
+
+
 @dataclass
 class Prepared:
     """A scene made ready to solve: model, family of zone curves, and the voltage path."""
