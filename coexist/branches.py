@@ -21,7 +21,7 @@ from scipy.optimize import brentq
 from .errors import ModelRangeError
 from .model import MembraneModel
 from .settings import SolverSettings
-from .shooting import reason_tag, reason_text, solve_states
+from .shooting import first_valid_run, reason_tag, reason_text, solve_states
 
 
 class FastCubic:
@@ -130,15 +130,12 @@ class ZoneCurve:
         if not ok.any():
             code = states.status[0]
             raise ModelRangeError(f"no valid state at Φ̂ = {phi_hat:.6g}: {reason_text(code)}", reason_tag(code))
-        first = int(np.argmax(ok))
-        last = first
-        while last + 1 < ok.size and ok[last + 1]:
-            last += 1
+        sl = first_valid_run(ok)
+        last = sl.stop - 1
         stopped = None
         if last + 1 < ok.size:
             code = states.status[last + 1]
             stopped = f"{reason_tag(code)} beyond pole stretch {states.pole_stretch[last]:.6g}"
-        sl = slice(first, last + 1)
         return cls(states.pole_stretch[sl], states.p_hat[sl], states.v_hat[sl], states.psi_hat[sl],
                    states.q_hat[sl], phi_hat, stopped, prestretch)
 
@@ -306,16 +303,13 @@ class ZoneFamily:
             bad = self.status[nearest][self.status[nearest] != 0]
             code = bad[0] if bad.size else self.status[self.status != 0][0]
             raise ModelRangeError(f"no valid state at Φ̂ = {phi_hat:.6g}: {reason_text(code)}", reason_tag(code))
-        first = int(np.argmax(valid))
-        last = first
-        while last + 1 < valid.size and valid[last + 1]:
-            last += 1
+        sl = first_valid_run(valid)
+        last = sl.stop - 1
         stopped = None
         if last + 1 < valid.size:
             column = self.status[:, last + 1]
             code = self.status[nearest, last + 1] or column[column != 0][0]
             stopped = f"{reason_tag(code)} beyond pole stretch {self.model.prestretch + self.u[last] ** 2:.6g}"
-        sl = slice(first, last + 1)
         curve = ZoneCurve(self.model.prestretch + self.u[sl] ** 2, values["p_hat"][sl], values["v_hat"][sl],
                           values["psi_hat"][sl], values["q_hat"][sl], phi_hat, stopped, self.model.prestretch)
         if len(self._cache) < 4096:

@@ -15,7 +15,7 @@ import numpy as np
 from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
 from .settings import SolverSettings
-from .shooting import OK, MembraneStates, reason_tag, reason_text, solve_states
+from .shooting import OK, MembraneStates, first_valid_run, reason_tag, reason_text, solve_states
 
 _STATE_FIELDS = ("pole_stretch", "phi_hat", "p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field",
                  "min_tension")
@@ -131,10 +131,8 @@ def _valid_run(states: MembraneStates, pole_stretch):
             f" (at {pole_stretch[i]:.4g}: {reason_text(states.status[i])})",
             reason_tag(states.status[i]),
         )
-    first = int(np.argmax(ok))
-    last = first
-    while last + 1 < ok.size and ok[last + 1]:
-        last += 1
+    run = first_valid_run(ok)
+    first, last = run.start, run.stop - 1
     starts = None
     if first > 0:
         code = states.status[first - 1]
@@ -145,7 +143,7 @@ def _valid_run(states: MembraneStates, pole_stretch):
         code = states.status[last + 1]
         stopped = (f"{reason_tag(code)}: beyond pole stretch {pole_stretch[last]:.6g} "
                    f"{reason_text(code)}")
-    return slice(first, last + 1), starts, stopped
+    return run, starts, stopped
 
 
 def refine_extrema(evaluate, brackets, settings: SolverSettings, nodes: int = 9):

@@ -60,24 +60,30 @@ def _error_norm(K, h, scale):
     return np.abs(h) * e5 / np.sqrt(denom * m)
 
 
-def single_step(fun, t, y, h, rtol, atol):
-    """One DOP853 step of size ``h`` (per column) from ``(t, y)``, and its error norm (≤ 1: accepted)."""
+def _stages(fun, t, y, f, h):
+    """The DOP853 stages of one step of size ``h`` (per column): returns ``(K, y_new)``, with the
+    last stage ``K[12]`` left for the caller (it is ``fun`` at the new point)."""
     m, k = y.shape
-    Ka = np.empty((_NS + 1, m, k))
-    flat = Ka.reshape(_NS + 1, -1)
-    Ka[0] = fun(t, y)
+    K = np.empty((_NS + 1, m, k))
+    flat = K.reshape(_NS + 1, -1)
+    K[0] = f
     for s in range(1, _NS):
         dy = (_A[s, :s] @ flat[:s]).reshape(m, k)
         dy *= h
         dy += y
-        Ka[s] = fun(t + _C[s] * h, dy)
+        K[s] = fun(t + _C[s] * h, dy)
     y_new = (_B @ flat[:_NS]).reshape(m, k)
     y_new *= h
     y_new += y
-    Ka[_NS] = fun(t + h, y_new)
+    return K, y_new
+
+
+def single_step(fun, t, y, h, rtol, atol):
+    """One DOP853 step of size ``h`` (per column) from ``(t, y)``, and its error norm (≤ 1: accepted)."""
+    K, y_new = _stages(fun, t, y, fun(t, y), h)
+    K[_NS] = fun(t + h, y_new)
     scale = atol + np.maximum(np.abs(y), np.abs(y_new)) * np.asarray(rtol)
-    err = _error_norm(Ka, h, scale)
-    err = np.where(np.all(np.isfinite(y_new), axis=0), err, np.inf)
+    err = np.where(np.all(np.isfinite(y_new), axis=0), _error_norm(K, h, scale), np.inf)
     return y_new, err
 
 
@@ -154,17 +160,7 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
         ha = np.where(last, span, ha)
         hs = ha * da
         k = active.size
-        Ka = np.empty((_NS + 1, m, k))
-        flat = Ka.reshape(_NS + 1, -1)
-        Ka[0] = fa
-        for s in range(1, _NS):
-            dy = (_A[s, :s] @ flat[:s]).reshape(m, k)
-            dy *= hs
-            dy += ya
-            Ka[s] = fun(ta + _C[s] * hs, dy)
-        y_new = (_B @ flat[:_NS]).reshape(m, k)
-        y_new *= hs
-        y_new += ya
+        Ka, y_new = _stages(fun, ta, ya, fa, hs)
         t_new = np.where(last, tea, ta + hs)
         f_new = fun(t_new, y_new)
         Ka[_NS] = f_new

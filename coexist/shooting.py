@@ -68,6 +68,14 @@ REASONS = {
 }
 
 
+def first_valid_run(ok) -> slice:
+    """The first contiguous run of True in ``ok`` (which must hold at least one True)."""
+    ok = np.asarray(ok, dtype=bool)
+    first = int(np.argmax(ok))
+    rest = np.flatnonzero(~ok[first:])
+    return slice(first, first + int(rest[0]) if rest.size else ok.size)
+
+
 def reason_tag(code: int) -> str:
     return REASONS[int(code)][0]
 
