@@ -76,12 +76,16 @@ def plot_ramp_volumes(report, path, title=None):
                 series.setdefault(key, []).append((i, report.voltage_kV(s.phi_hat), report.volume_ml(v), e.stable))
     for pts in series.values():
         pts.sort()
-        for (i0, x0, y0, s0), (i1, x1, y1, s1) in zip(pts[:-1], pts[1:]):
-            if i1 - i0 != 1 or abs(y1 - y0) > 0.1 * max(abs(y0), abs(y1), 1e-9):
+        # polylines of neighbouring points with one stability, so that dashes show
+        run = [pts[0]]
+        for prev, cur in zip(pts[:-1], pts[1:]):
+            near = 0 < cur[0] - prev[0] <= 6 and abs(cur[2] - prev[2]) <= 0.1 * max(abs(prev[2]), abs(cur[2]), 1e-9)
+            if near and cur[3] == prev[3]:
+                run.append(cur)
                 continue
-            stable = s0 and s1
-            ax.plot([x0, x1], [y0, y1], "-" if stable else "--", color="0.55" if stable else "0.75",
-                    lw=1.0 if stable else 0.8, zorder=1)
+            _draw_run(ax, run, near)
+            run = [prev, cur] if near else [cur]
+        _draw_run(ax, run, False)
     for direction, color, size in (("down", "tab:blue", 2.0), ("up", "tab:red", 3.5)):
         pts = [(report.voltage_kV(s.phi_hat), [report.volume_ml(v) for v in s.state.zone_volumes])
                for s in res.steps if s.direction == direction and s.state is not None]
@@ -112,6 +116,14 @@ def plot_ramp_volumes(report, path, title=None):
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return Path(path)
+
+
+def _draw_run(ax, run, _):
+    if len(run) < 2:
+        return
+    stable = all(p[3] for p in run)
+    ax.plot([p[1] for p in run], [p[2] for p in run], "-" if stable else "--", color="0.55" if stable else "0.7",
+            lw=1.0 if stable else 0.9, zorder=1)
 
 
 def plot_coexisting_states(curve, state, scale_title, path):

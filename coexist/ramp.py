@@ -12,11 +12,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import numpy as np
-
 from .branches import ZoneFamily
 from .errors import ModelRangeError
-from .zones import Equilibrium, equilibria
+from .zones import Equilibrium, continue_equilibrium, equilibria
 
 
 @dataclass
@@ -120,6 +118,11 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
                 notes.append(f"Φ̂ = {phi:.6g}: {exc}")
         return cache[key]
 
+    # every equilibrium (for the figure and the equal-free-energy scan) on every 4th distinct voltage;
+    # the path itself is followed at every voltage by continuing its own state
+    distinct = sorted({round(p, 14) for p in phi_path})
+    full_grid = set(distinct[::4]) | {distinct[-1]}
+
     steps, transitions, notes = [], [], []
     state = _initial_state(eqs_at(phi_path[0]))
     if state is None:
@@ -127,6 +130,13 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
                               "no_equilibrium")
     for i, phi in enumerate(phi_path):
         direction = "up" if i == 0 or phi >= phi_path[i - 1] else "down"
+        local = _local(family, gas, state, phi) if (i > 0 and state is not None) else None
+        if local is not None and round(phi, 14) not in full_grid:
+            steps.append(RampStep(phi, local, [local], direction, None))
+            state = local
+            if progress is not None:
+                progress(i)
+            continue
         eqs = eqs_at(phi)
         note = None
         if i > 0 and state is None:
@@ -139,13 +149,13 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
                                               (phi_path[i - 1], phi)))
                 notes.append(note)
         elif i > 0:
-            nxt = _continue(state, eqs)
+            nxt = local if local is not None else _continue(state, eqs)
             if nxt is None:
                 stable = [e for e in eqs if e.stable]
                 target = min(stable, key=lambda e: e.distance(state)) if stable else None
                 lo, hi = phi_path[i - 1], phi
                 if refine:
-                    lo, hi = _bisect_loss(eqs_at_exact(family, gas, zones), state, lo, hi)
+                    lo, hi = _bisect_loss(family, gas, zones, state, lo, hi)
                 try:
                     stopped = family.curve(phi).stopped_because
                 except ModelRangeError as exc:
@@ -165,8 +175,20 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
         steps.append(RampStep(phi, state, eqs, direction, note))
         if progress is not None:
             progress(i)
-    equal = _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine)
+    equal = _equal_free_energy(family, gas, zones, sorted(full_grid), eqs_at, refine)
     return RampResult(steps, transitions, equal, zones, notes)
+
+
+def _local(family, gas, state, phi):
+    """``state`` continued to ``Φ̂`` by Newton on the curve there, if it stays stable and close."""
+    try:
+        nxt = continue_equilibrium(family.curve(phi), gas, state)
+    except ModelRangeError:
+        return None
+    if nxt is None or not nxt.stable:
+        return None
+    scale = max(max(state.zone_volumes), 1e-12)
+    return nxt if nxt.distance(state) <= CONTINUATION_TOLERANCE * scale else None
 
 
 def eqs_at_exact(family, gas, zones):
@@ -179,14 +201,16 @@ def eqs_at_exact(family, gas, zones):
     return at
 
 
-def _bisect_loss(eqs_of, state, lo, hi, tol=1e-8):
-    """Shrink [lo, hi] around the voltage where ``state``'s configuration stops being stable."""
+def _bisect_loss(family, gas, zones, state, lo, hi, tol=1e-8):
+    """Shrink [lo, hi] around the voltage where ``state``'s configuration stops being stable (or
+    stops existing), following it by local continuation, else by all equilibria."""
     ref = state
+    find_all = eqs_at_exact(family, gas, zones)
     for _ in range(60):
         if abs(hi - lo) <= tol:
             break
         mid = 0.5 * (lo + hi)
-        nxt = _continue(ref, eqs_of(mid))
+        nxt = _local(family, gas, ref, mid) or _continue(ref, find_all(mid))
         if nxt is not None:
             lo, ref = mid, nxt
         else:
@@ -194,52 +218,66 @@ def _bisect_loss(eqs_of, state, lo, hi, tol=1e-8):
     return lo, hi
 
 
+def _delta_k(eqs, k):
+    """``G(k bulged, stable) − G(homogeneous)`` among ``eqs``, or None where either is missing."""
+    hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
+    mix = [e.free_energy for e in eqs if e.k == k and e.stable]
+    if not hom or not mix:
+        return None
+    return min(mix) - min(hom, key=lambda e: e.v_unbulged).free_energy
+
+
 def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
-    """Voltages where a stable mixed configuration has the same total free energy as the homogeneous one."""
+    """Voltages where a stable configuration with k bulged zones has the total free energy of the
+    homogeneous one: sign changes of their difference along the grid, and configurations that appear
+    (between two grid voltages) already lower, bisected to 1e-8 in Φ̂."""
     grid = sorted(set(round(p, 14) for p in phi_path))
+    find_all = eqs_at_exact(family, gas, zones)
+
+    def delta(phi, k):
+        return _delta_k(find_all(phi), k)
+
     found = []
     prev = None
     for phi in grid:
         eqs = eqs_at(phi)
-        hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
-        diffs = {}
-        if hom:
-            h = min(hom, key=lambda e: e.v_unbulged)
-            for e in eqs:
-                if e.k > 0 and e.stable:
-                    key = (e.k, e.branch_unbulged, e.branch_bulged)
-                    diffs[key] = min(diffs.get(key, np.inf), e.free_energy - h.free_energy)
-        if prev is not None:
-            for key, d in diffs.items():
-                if key in prev[1] and np.sign(d) != np.sign(prev[1][key]):
-                    lo, hi = prev[0], phi
-                    if refine:
-                        lo, hi = _bisect_sign(family, gas, zones, key, lo, hi, prev[1][key])
-                    found.append(Transition(0.5 * (lo + hi), "equal_free_energy", "homogeneous",
-                                            f"{key[0]} of {zones} bulged", "either", (lo, hi)))
+        diffs = {k: d for k in range(1, zones) if (d := _delta_k(eqs, k)) is not None}
+        for k, d in diffs.items():
+            if prev is None or d > 0:
+                continue
+            lo, hi = prev[0], phi
+            if k in prev[1]:
+                if prev[1][k] <= 0:
+                    continue
+            else:
+                # the configuration appears inside (lo, hi): locate where, then compare there
+                for _ in range(60):
+                    if hi - lo <= 1e-8:
+                        break
+                    mid = 0.5 * (lo + hi)
+                    lo, hi = (lo, mid) if delta(mid, k) is not None else (mid, hi)
+                d_app = delta(hi, k)
+                if d_app is None or d_app <= 0:
+                    found.append(Transition(hi, "equal_free_energy", "homogeneous", f"{k} of {zones} bulged",
+                                            "either", (lo, hi)))
+                    continue
+                lo, hi = hi, phi
+            if refine:
+                lo, hi = _bisect_sign(delta, k, lo, hi)
+            found.append(Transition(0.5 * (lo + hi), "equal_free_energy", "homogeneous",
+                                    f"{k} of {zones} bulged", "either", (lo, hi)))
         prev = (phi, diffs)
     return found
 
 
-def _bisect_sign(family, gas, zones, key, lo, hi, d_lo, tol=1e-8):
-    def delta(phi):
-        eqs = eqs_at_exact(family, gas, zones)(phi)
-        hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
-        mix = [e for e in eqs if (e.k, e.branch_unbulged, e.branch_bulged) == key and e.stable]
-        if not hom or not mix:
-            return None
-        h = min(hom, key=lambda e: e.v_unbulged)
-        return min(m.free_energy for m in mix) - h.free_energy
-
+def _bisect_sign(delta, k, lo, hi, tol=1e-8):
+    """Bisect the sign change of ``delta(Φ̂, k)`` (positive at ``lo``) in [lo, hi]."""
     for _ in range(60):
         if hi - lo <= tol:
             break
         mid = 0.5 * (lo + hi)
-        d = delta(mid)
+        d = delta(mid, k)
         if d is None:
             break
-        if np.sign(d) == np.sign(d_lo):
-            lo = mid
-        else:
-            hi = mid
+        lo, hi = (mid, hi) if d > 0 else (lo, mid)
     return lo, hi

@@ -280,37 +280,35 @@ def polish(model, gas, states: list, settings=None, iterations: int = 8) -> list
     mixed = k > 0
     done = np.zeros(n, dtype=bool)
     failed = np.zeros(n, dtype=bool)
+    final = {key: np.full(n, np.nan) for key in ("pu", "vu", "psiu", "vb", "psib")}
     rel = 1e-7
     for _ in range(iterations):
         act = np.flatnonzero(~done & ~failed)
         if act.size == 0:
             break
         mx = act[mixed[act]]
-        lam = np.concatenate([lu[act], lu[act] * (1 + rel), lb[mx], lb[mx] * (1 + rel)])
-        ph = np.concatenate([phi[act], phi[act], phi[mx], phi[mx]])
-        st = solve_states(model, lam, ph, settings)
         m = act.size
         j = mx.size
+        # the states and, for the Newton matrix by forward differences, the states shifted by rel
+        lam = np.concatenate([lu[act], lb[mx], lu[act] * (1 + rel), lb[mx] * (1 + rel)])
+        ph = np.concatenate([phi[act], phi[mx], phi[act], phi[mx]])
+        st = solve_states(model, lam, ph, settings)
         ok = st.ok
-        okU = ok[:m] & ok[m:2 * m]
-        okB = np.ones(m, dtype=bool)
         pos = {i: t for t, i in enumerate(act)}
-        okB[[pos[i] for i in mx]] = ok[2 * m:2 * m + j] & ok[2 * m + j:]
+        idx = np.array([pos[i] for i in mx], dtype=int)
+        okU = ok[:m] & ok[m + j:2 * m + j]
+        okB = np.ones(m, dtype=bool)
+        okB[idx] = ok[m:m + j] & ok[2 * m + j:]
         bad = ~(okU & okB)
         failed[act[bad]] = True
         pu, vu = st.p_hat[:m], st.v_hat[:m]
-        dpu = (st.p_hat[m:2 * m] - pu) / (lu[act] * rel)
-        dvu = (st.v_hat[m:2 * m] - vu) / (lu[act] * rel)
-        pb = np.full(m, np.nan)
-        vb = np.full(m, np.nan)
-        dpb = np.full(m, np.nan)
-        dvb = np.full(m, np.nan)
-        idx = np.array([pos[i] for i in mx], dtype=int)
-        if j:
-            pb[idx] = st.p_hat[2 * m:2 * m + j]
-            vb[idx] = st.v_hat[2 * m:2 * m + j]
-            dpb[idx] = (st.p_hat[2 * m + j:] - pb[idx]) / (lb[mx] * rel)
-            dvb[idx] = (st.v_hat[2 * m + j:] - vb[idx]) / (lb[mx] * rel)
+        pb, vb, dpb, dvb = (np.full(m, np.nan) for _ in range(4))
+        pb[idx], vb[idx] = st.p_hat[m:m + j], st.v_hat[m:m + j]
+        dpu = (st.p_hat[m + j:2 * m + j] - pu) / (lu[act] * rel)
+        dvu = (st.v_hat[m + j:2 * m + j] - vu) / (lu[act] * rel)
+        dpb[idx] = (st.p_hat[2 * m + j:] - pb[idx]) / (lb[mx] * rel)
+        dvb[idx] = (st.v_hat[2 * m + j:] - vb[idx]) / (lb[mx] * rel)
+
         kk, nn = k[act], zones[act]
         total = (nn - kk) * vu + np.where(kk > 0, kk * np.nan_to_num(vb), 0.0)
         pg = gas.pressure(total)
@@ -327,29 +325,91 @@ def polish(model, gas, states: list, settings=None, iterations: int = 8) -> list
         with np.errstate(all="ignore"):
             du = np.where(is_mix, (r1 * a22 - a12 * r2) / det, step_u)
             db = np.where(is_mix, (a11 * r2 - a21 * r1) / det, 0.0)
-        good = ~bad & np.isfinite(du) & np.isfinite(db)
-        failed[act[~good & ~bad]] = True
+        # converged where the conditions already hold at the shot states: keep those, no further step
+        tol = 1e-9 * np.maximum(1.0, np.abs(pu))
+        conv = ~bad & (np.abs(r2) <= tol) & (np.abs(r1) <= tol)
+        ci = act[conv]
+        done[ci] = True
+        final["pu"][ci], final["vu"][ci], final["psiu"][ci] = pu[conv], vu[conv], st.psi_hat[:m][conv]
+        if j:
+            psib = np.full(m, np.nan)
+            psib[idx] = st.psi_hat[m:m + j]
+            final["vb"][ci], final["psib"][ci] = vb[conv], psib[conv]
+        good = ~bad & ~conv & np.isfinite(du) & np.isfinite(db)
+        failed[act[~good & ~bad & ~conv]] = True
         lu[act[good]] -= du[good]
         lb[act[good & is_mix]] -= db[good & is_mix]
-        tol = 1e-9 * np.maximum(1.0, np.abs(pu))
-        conv = good & (np.abs(r2) <= tol) & (np.abs(r1) <= tol)
-        done[act[conv]] = True
-    final = solve_states(model, np.concatenate([lu, np.where(mixed, lb, lu)]), np.concatenate([phi, phi]), settings)
     out = []
     for i, s in enumerate(states):
-        if not done[i] or not final.ok[i] or (mixed[i] and not final.ok[n + i]):
+        if not done[i]:
             out.append(_replace(s, notes=s.notes + ["not polished: kept the interpolated state"]))
             continue
-        vu_i = float(final.v_hat[i])
-        vb_i = float(final.v_hat[n + i]) if mixed[i] else None
+        vu_i = float(final["vu"][i])
+        vb_i = float(final["vb"][i]) if mixed[i] else None
         total = (s.zones - s.k) * vu_i + (s.k * vb_i if s.k else 0.0)
-        G = (s.zones - s.k) * float(final.psi_hat[i]) + (s.k * float(final.psi_hat[n + i]) if s.k else 0.0) \
+        G = (s.zones - s.k) * float(final["psiu"][i]) + (s.k * float(final["psib"][i]) if s.k else 0.0) \
             + float(gas.free_energy(total))
         out.append(_replace(
             s, pole_stretch_unbulged=float(lu[i]), pole_stretch_bulged=(float(lb[i]) if s.k else None),
             u_unbulged=float(np.sqrt(lu[i] - model.prestretch)),
             u_bulged=(float(np.sqrt(lb[i] - model.prestretch)) if s.k else None),
-            p_hat=float(final.p_hat[i]), v_unbulged=vu_i, v_bulged=vb_i, free_energy=G,
+            p_hat=float(final["pu"][i]), v_unbulged=vu_i, v_bulged=vb_i, free_energy=G,
             notes=s.notes + ["polished"],
         ))
     return out
+
+
+def continue_equilibrium(curve: ZoneCurve, gas, state: Equilibrium, iterations: int = 12):
+    """The equilibrium of ``state``'s configuration on a new ``curve`` (the next voltage), by Newton's
+    method on the spline from ``state``'s pole stretches; None if it does not converge there.
+
+    Homogeneous: ``p̂(u) = p̂_gas(N V̂(u))``. Mixed: ``p̂(u_u) = p̂(u_b) = p̂_gas((N−k)V̂(u_u) + kV̂(u_b))``.
+    Far cheaper than :func:`equilibria` (which finds every configuration); the ramp uses it to
+    follow the state it is in and falls back to :func:`equilibria` when it fails.
+    """
+    N, k = state.zones, state.k
+    lo, hi = curve.grid[0], curve.grid[-1]
+    uu = float(curve.to_u(state.pole_stretch_unbulged))
+    ub = float(curve.to_u(state.pole_stretch_bulged)) if k else 0.0
+    if not (lo <= uu <= hi and (k == 0 or lo <= ub <= hi)):
+        return None
+    for _ in range(iterations):
+        pu, vu, dpu, dvu = float(curve.p(uu)), float(curve.v(uu)), float(curve.dp(uu)), float(curve.dv(uu))
+        if k:
+            pb, vb, dpb, dvb = float(curve.p(ub)), float(curve.v(ub)), float(curve.dp(ub)), float(curve.dv(ub))
+            total = (N - k) * vu + k * vb
+        else:
+            total = N * vu
+        s = float(gas.stiffness(total))
+        r2 = pu - float(gas.pressure(total))
+        if k == 0:
+            d = dpu + s * N * dvu
+            if d == 0:
+                return None
+            step_u, step_b, r1 = r2 / d, 0.0, 0.0
+        else:
+            r1 = pu - pb
+            a11, a12, a21, a22 = dpu, -dpb, dpu + s * (N - k) * dvu, s * k * dvb
+            det = a11 * a22 - a12 * a21
+            if det == 0 or not np.isfinite(det):
+                return None
+            step_u = (r1 * a22 - a12 * r2) / det
+            step_b = (a11 * r2 - a21 * r1) / det
+        uu, ub = uu - step_u, ub - step_b
+        if not (lo <= uu <= hi and (k == 0 or lo <= ub <= hi)):
+            return None
+        if abs(step_u) + abs(step_b) <= 1e-12 * max(1.0, abs(uu) + abs(ub)) and abs(r1) + abs(r2) <= 1e-9:
+            break
+    else:
+        return None
+
+    def on(u):
+        for b in curve.branches:
+            if b.start <= u <= b.stop:
+                return b
+        return None
+
+    a, b = on(uu), (on(ub) if k else None)
+    if a is None or (k and b is None) or not a.usable or (k and not b.usable):
+        return None
+    return _make(curve, gas, N, k, a, b, uu, ub if k else None)
