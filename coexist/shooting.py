@@ -287,15 +287,20 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
         return model.rhs_into(R, y[0], y[1], y[2], y[7], y[8], out)
 
     def check(R, y, cols):
-        T1, T2, T11, _, margin, E = (np.broadcast_to(np.asarray(x, dtype=float), (cols.size,))
-                                     for x in model.tensions(y[0], y[1], y[8]))
+        # generated functions return arrays shaped like their inputs (constants included)
+        T1, T2, T11, _, margin, E = model.tensions(y[0], y[1], y[8])
         crossed = y[1] <= lam_clamp
         # a step that crosses the clamp is discarded: its state lies outside the membrane
-        keep = cols[~crossed]
-        local_min_T[keep] = np.minimum(local_min_T[keep], np.minimum(T1, T2)[~crossed])
-        local_max_E[keep] = np.maximum(local_max_E[keep], np.abs(E)[~crossed])
+        t_min = np.minimum(T1, T2)
+        local_min_T[cols] = np.minimum(local_min_T[cols], np.where(crossed, np.inf, t_min))
+        local_max_E[cols] = np.maximum(local_max_E[cols], np.where(crossed, 0.0, np.abs(E)))
+        if rows is not None:
+            rows.append((cols.copy(), R.copy(), y[1] * R, y[6].copy()))
+        valid = crossed | ((t_min > 0) & (margin > 0) & (T11 > 0) & (np.abs(y[2]) <= math.pi))
+        if valid.all():  # the common case: nothing to report
+            return np.where(crossed, _int.CROSSED, _int.CONTINUE)
         code = np.zeros(cols.size, dtype=int)
-        code[(T1 <= 0) | (T2 <= 0)] = WRINKLED
+        code[t_min <= 0] = WRINKLED
         code[crossed] = 0
         code[(code == 0) & (margin <= 0)] = LOCKED
         code[(code == 0) & (T11 <= 0)] = LOST_ELLIPTICITY
@@ -305,8 +310,6 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
         local_code[cols[hit]] = code[hit]
         result = np.where(hit, _int.FAILED, _int.CONTINUE)
         result[crossed] = _int.CROSSED
-        if rows is not None:
-            rows.append((cols.copy(), R.copy(), y[1] * R, y[6].copy()))
         return result
 
     R_end = np.full(m, settings.max_radius_factor)
