@@ -26,6 +26,7 @@ class RampStep:
     equilibria: list
     direction: str
     note: str | None = None
+    max_field: float | None = None  # V/m, set when the scene checks for breakdown
 
 
 @dataclass

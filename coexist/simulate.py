@@ -133,6 +133,7 @@ class RampReport:
                 "bulged_zones": None if st is None else st.k,
                 "stable": False if st is None else bool(st.stable),
                 "polished": st is not None and "polished" in st.notes,
+                **({"max_field_MV_per_m": s.max_field / 1e6} if s.max_field is not None else {}),
                 **({"note": s.note} if s.note else {}),
             })
         trans = [{
@@ -161,6 +162,8 @@ def simulate_ramp(scene: Scene, progress=None, prep: Prepared | None = None) -> 
     gas = closed_gas(prep, scene)
     result = run_ramp(prep.family, gas, scene.zone_count, scene.voltage_hat_path, progress=progress)
     _polish_path(prep, gas, result)
+    if scene.breakdown_field is not None:  # the breakdown effect: only when the scene asks for it
+        _check_breakdown(prep, scene, result)
     err = prep.family.interpolation_error()
     return RampReport(scene, result, gas, err, scene.effects(), dict(scene.fitted))
 
@@ -176,6 +179,41 @@ def _polish_path(prep: Prepared, gas, result: RampResult) -> None:
     polished = dict(zip(unique, polish(prep.model, gas, list(unique.values()), prep.scene.settings)))
     for s in on_path:
         s.state = polished[id(s.state)]
+
+
+def _check_breakdown(prep: Prepared, scene: Scene, result: RampResult) -> None:
+    """End the path where the largest true field in any zone exceeds the breakdown field (in place).
+
+    The field ``E = Ê √(μ/ε)`` with ``Ê = Φ̂ λ1λ2`` largest over each zone (from shooting the path's
+    states). Every step keeps its field in ``max_field`` (V/m); after breakdown the membrane is gone.
+    """
+    from .ramp import Transition
+    from .shooting import solve_states
+
+    on_path = [s for s in result.steps if s.state is not None]
+    lam = [x for s in on_path for x in ([s.state.pole_stretch_unbulged]
+                                         + ([s.state.pole_stretch_bulged] if s.state.k else []))]
+    phi = [s.phi_hat for s in on_path for _ in range(2 if s.state.k else 1)]
+    if not lam:
+        return
+    shot = solve_states(prep.model, lam, phi, scene.settings)
+    fields = iter(np.where(shot.ok, shot.max_field, np.inf) * scene.field_scale)
+    broken = None
+    for step in result.steps:
+        if broken is not None:
+            step.state, step.note, step.equilibria = None, f"the membrane broke down at {broken:.4g} kV", []
+            continue
+        if step.state is None:
+            continue
+        step.max_field = max(next(fields) for _ in range(2 if step.state.k else 1))
+        if step.max_field > scene.breakdown_field:
+            broken = scene.voltage_of(step.phi_hat) / 1e3
+            result.transitions.append(Transition(step.phi_hat, "breakdown", step.state.label, "broken down",
+                                                 step.direction, (step.phi_hat, step.phi_hat)))
+            note = (f"electric breakdown: the field reaches {step.max_field / 1e6:.4g} MV/m, above the "
+                    f"breakdown field {scene.breakdown_field / 1e6:.4g} MV/m")
+            result.notes.append(note)
+            step.note, step.state, step.equilibria = note, None, []
 
 
 def transition_voltage(prep: Prepared, scene: Scene, kind: str = "spinodal") -> float:

@@ -119,7 +119,7 @@ class Equilibrium:
     @property
     def label(self) -> str:
         if self.k == 0:
-            return "homogeneous" if self.branch_unbulged == 0 else f"homogeneous (branch {self.branch_unbulged})"
+            return "homogeneous"
         return f"{self.k} of {self.zones} bulged"
 
     def distance(self, other: Equilibrium) -> float:

@@ -162,3 +162,23 @@ def test_neo_hookean_tricircle_bulges_without_bound():
     kinds = [t.kind for t in report.result.transitions]
     assert "no_stable_state" in kinds
     assert not any(s.state is not None and s.state.k > 0 for s in report.result.steps)
+
+
+def test_breakdown_effect_ends_the_ramp_only_when_asked_for():
+    """single-zone with a 15 MV/m breakdown field: the path ends where the largest field passes it
+    (fields measured 8.6 MV/m at 2 kV, 22.6 MV/m at 4 kV); without the field nothing is checked."""
+    from coexist.scene import builtin_scene_text, parse_scene
+
+    text = builtin_scene_text("single-zone").replace("breakdown_field_MV_per_m = 100", "breakdown_field_MV_per_m = 15")
+    scene = parse_scene(text)
+    assert "breakdown-check" in scene.effects()
+    report = simulate_ramp(scene)
+    (bd,) = [t for t in report.result.transitions if t.kind == "breakdown"]
+    assert 2.0 < report.voltage_kV(bd.phi_hat) < 4.0
+    after = [s for s in report.result.steps if s.phi_hat > bd.phi_hat or s.direction == "down"]
+    assert after and all(s.state is None for s in after)
+    fields = [s.max_field for s in report.result.steps if s.max_field is not None]
+    assert max(fields) > 15e6 and all(np.isfinite(fields))
+    plain = simulate_ramp(load_scene("tricircle"))
+    assert all(s.max_field is None for s in plain.result.steps)
+    assert "breakdown-check" not in load_scene("tricircle").effects()
