@@ -113,8 +113,10 @@ class Scene:
         Breakdown field in V/m; ``None``: no breakdown check.
     zone_count : int
         Number ``N`` of identical zones sharing one gas and one voltage.
+    controlled_pressure : float or None
+        Gauge pressure in Pa held directly (pressure control), when there is no chamber.
     chamber : Chamber or None
-        ``None``: the pressure is controlled directly.
+        ``None``: the pressure is controlled directly (at ``controlled_pressure``).
     voltage : VoltagePath or None
         ``None``: no voltage, the electrostatic terms are not built at all.
     settings : SolverSettings
@@ -134,6 +136,7 @@ class Scene:
     jlim: float | None = None
     breakdown_field: float | None = None
     zone_count: int = DEFAULTS["count"]
+    controlled_pressure: float | None = None
     chamber: Chamber | None = None
     voltage: VoltagePath | None = None
     settings: SolverSettings = field(default_factory=SolverSettings)
@@ -252,6 +255,8 @@ class Scene:
             groups["chamber_volume_hat"] = self.chamber_volume_hat
             groups["atmospheric_pressure_hat"] = self.atmospheric_pressure_hat
             groups["closing_pressure_hat"] = self.closing_pressure_hat
+        if self.controlled_pressure is not None:
+            groups["controlled_pressure_hat"] = self.p_hat(self.controlled_pressure)
         if self.voltage is not None:
             groups["voltage_hat_max"] = self.phi_hat(self.voltage.peak)
         if self.breakdown_field is not None:
@@ -335,7 +340,7 @@ class Scene:
             "description": self.description,
             "source": self.source,
             "membrane": membrane,
-            "zones": {"count": self.zone_count},
+            "zones": {"count": self.zone_count, "controlled_pressure_Pa": self.controlled_pressure},
             "chamber": chamber,
             "voltage": voltage,
             "solver": {"relative_tolerance": self.settings.rtol},

@@ -12,7 +12,8 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
               ``shear_modulus_*`` [45 kPa], ``relative_permittivity`` [4.7], ``thickness_*`` [0.5 mm],
               ``zone_radius_*`` [10 mm], ``prestretch`` [1, no prestretch], ``breakdown_field_*``
               [absent: no breakdown check]
-[zones]       ``count`` [1], a whole number 1..1000: identical zones sharing one gas and one voltage
+[zones]       ``count`` [1], a whole number 1..1000: identical zones sharing one gas and one voltage;
+              ``pressure_*``: the gauge pressure held directly when there is no [chamber]
 [chamber]     ``volume_*`` (required), ``closing_pressure_*`` (required, gauge),
               ``atmospheric_pressure_*`` [101.325 kPa]; absent: the pressure is controlled directly
 [voltage]     a ramp ``start_*`` [0], ``stop_*`` (required), ``step_*`` [(stop − start)/100], which goes
@@ -80,7 +81,7 @@ SCHEMA = {
         "prestretch": _Key("number", "at_least_one"),
         "breakdown_field": _Key("field", "positive", "MV_per_m"),
     },
-    "zones": {"count": _Key("integer")},
+    "zones": {"count": _Key("integer"), "pressure": _Key("pressure", "positive", "mbar")},
     "chamber": {
         "volume": _Key("volume", "positive", "ml"),
         "closing_pressure": _Key("pressure", "positive", "mbar"),
@@ -246,6 +247,10 @@ def read_document(doc: dict, source: str) -> dict:
     count = zones.get("count", DEFAULTS["count"])
     if not 1 <= count <= MAX_ZONES:
         raise SceneError(f"must be a whole number from 1 to {MAX_ZONES}, got {count}", zones.where("count"))
+    pressure = zones.get("pressure")
+    if pressure is not None and chamber.present:
+        raise SceneError("the chamber's gas sets the pressure: give either [chamber] or a controlled pressure, "
+                         "not both", zones.where("pressure"))
     return dict(
         shear_modulus=membrane.get("shear_modulus", DEFAULTS["shear_modulus"]),
         relative_permittivity=membrane.get("relative_permittivity", DEFAULTS["relative_permittivity"]),
@@ -256,6 +261,7 @@ def read_document(doc: dict, source: str) -> dict:
         jlim=jlim,
         breakdown_field=membrane.get("breakdown_field"),
         zone_count=count,
+        controlled_pressure=pressure,
         chamber=_chamber(chamber),
         voltage=_voltage(voltage),
         settings=_settings(solver),

@@ -21,7 +21,7 @@ from .branches import ZoneFamily
 from .errors import ModelRangeError, SceneError
 from .ramp import RampResult, _continue, _initial_state, run_ramp
 from .scene import Scene
-from .zones import GasChamber, equilibria
+from .zones import GasChamber, PressureReservoir, equilibria
 
 #: the pole-stretch grid ends at this fraction of the Gent locking stretch
 LOCKING_MARGIN = 0.95
@@ -81,11 +81,21 @@ def prepare(scene: Scene, phi_margin: float = 1.0, n_u: int = 128, n_s: int | No
     return Prepared(scene, model, family, np.asarray(phi_path, dtype=float), p_max)
 
 
-def closed_gas(prep: Prepared, scene: Scene | None = None) -> GasChamber:
-    """The gas when the valves close: all zones on the rising branch at the closing pressure, 0 V."""
+def closed_gas(prep: Prepared, scene: Scene | None = None):
+    """What holds the zones' pressure: the gas when the valves close (all zones on the rising branch
+    at the closing pressure, 0 V) — or, in a scene without a chamber, a pressure reservoir at the
+    scene's controlled pressure (``[zones].pressure_*``)."""
     scene = scene or prep.scene
     if scene.chamber is None:
-        raise SceneError("this computation needs a [chamber]: the gas that the zones share", "[chamber]")
+        if scene.controlled_pressure is None:
+            raise SceneError("this computation needs a [chamber] (a gas the zones share) or a controlled "
+                             "pressure [zones].pressure_mbar", "[chamber]")
+        p_hat = scene.p_hat(scene.controlled_pressure)
+        if not p_hat < prep.p_hat_max:
+            raise SceneError(f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar (p̂ = {p_hat:.4g}): "
+                             f"it is at or above their snap-through pressure p̂max = {prep.p_hat_max:.4g}",
+                             "[zones].pressure")
+        return PressureReservoir(float(p_hat))
     scene.check_closing_pressure(prep.p_hat_max)
     c0 = prep.family.curve(0.0)
     pc = scene.closing_pressure_hat
@@ -147,7 +157,7 @@ class RampReport:
             "fitted_parameters": self.fitted,
             "relative_tolerance": self.scene.settings.rtol,
             "curve_interpolation_error": self.family_error,
-            "gas_amount_hat": self.gas.gas_amount,
+            "gas_amount_hat": getattr(self.gas, "gas_amount", None),
             "steps": steps,
             "transitions": trans,
             "notes": self.result.notes,

@@ -182,3 +182,35 @@ def test_breakdown_effect_ends_the_ramp_only_when_asked_for():
     plain = simulate_ramp(load_scene("tricircle"))
     assert all(s.max_field is None for s in plain.result.steps)
     assert "breakdown-check" not in load_scene("tricircle").effects()
+
+
+def test_pressure_control_equal_free_energy_is_the_maxwell_voltage():
+    """Without a chamber the zones are pressure-controlled (the gas effect is off). Then the voltage at
+    which bulged zones have the free energy of unbulged ones must be where the CasADi Maxwell
+    construction on the single-zone curve gives exactly the controlled pressure: two independent
+    routes to one number (agreement to the curve interpolation error)."""
+    from coexist.scene import parse_scene
+    from coexist.zones import PressureReservoir
+
+    text = ('[membrane]\nmaterial = "gent"\njlim = 97\nzone_radius_mm = 21.4165\n[zones]\ncount = 3\n'
+            'pressure_mbar = 17\n[voltage]\nstop_kV = 5\nstep_kV = 0.05\n')
+    scene = parse_scene(text)
+    assert "pressure-control" in scene.effects() and "gas:isothermal-ideal-gas" not in scene.effects()
+    report = simulate_ramp(scene)
+    assert isinstance(report.gas, PressureReservoir)
+    eq = [t for t in report.result.equal_free_energy if t.to_label == "1 of 3 bulged"]
+    assert len(eq) == 1
+    phi = eq[0].phi_hat
+    model = scene.model()
+    u = np.linspace(np.sqrt(0.002), np.sqrt(0.95 * np.sqrt(100 / 2) - 1), 256)
+    co = maxwell_coexistence(ZoneCurve.compute(model, phi, 1 + u**2))
+    assert co.p_hat == pytest.approx(scene.p_hat(17 * 100), rel=2e-4)
+
+
+def test_scene_with_chamber_and_controlled_pressure_is_rejected():
+    from coexist.errors import SceneError
+    from coexist.scene import parse_scene
+
+    with pytest.raises(SceneError) as info:
+        parse_scene("[zones]\npressure_mbar = 10\n[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\n")
+    assert info.value.field == "[zones].pressure_mbar"
