@@ -62,7 +62,8 @@ def check(scene, as_json, no_solve):
     except SceneError as exc:
         raise InputError(f"{scene}: {exc}" if exc.field else str(exc)) from None
     p_max = None
-    if loaded.chamber is not None and not no_solve:
+    held = loaded.chamber is not None or loaded.controlled_pressure is not None
+    if held and not no_solve:
         from coexist.simulate import snap_through_pressure
 
         p_max = snap_through_pressure(loaded)
@@ -70,6 +71,10 @@ def check(scene, as_json, no_solve):
             loaded.check_closing_pressure(p_max)
         except SceneError as exc:
             raise InputError(f"{scene}: {exc}") from None
+        if loaded.controlled_pressure is not None and not loaded.p_hat(loaded.controlled_pressure) < p_max:
+            raise InputError(f"{scene}: [zones].pressure: the zones cannot hold "
+                             f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their snap-through "
+                             f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)")
     if as_json:
         data = loaded.to_dict()
         if p_max is not None:
@@ -78,7 +83,10 @@ def check(scene, as_json, no_solve):
         return
     _print_scene(loaded)
     if p_max is not None:
-        click.echo(f"closing pressure: p̂ = {loaded.closing_pressure_hat:.6g}, below the zones' snap-through "
+        held_hat = (loaded.closing_pressure_hat if loaded.chamber is not None
+                    else loaded.p_hat(loaded.controlled_pressure))
+        what = "closing pressure" if loaded.chamber is not None else "controlled pressure"
+        click.echo(f"{what}: p̂ = {held_hat:.6g}, below the zones' snap-through "
                    f"p̂max = {p_max:.6g} ({loaded.pressure(p_max) / 100:.4g} mbar): a stable start")
 
 
