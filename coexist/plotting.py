@@ -18,39 +18,41 @@ _MARKERS = {"pressure_max": "v", "pressure_min": "^", "volume_max": "s", "volume
             "voltage_max": "v", "voltage_min": "^", "charge_max": "D", "charge_min": "D"}
 
 
-def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None):
-    """The ``p̂–V̂`` family (left) and the ``Φ̂–Q̂`` family (right), limit points marked."""
-    plt = _pyplot()
-    panels = 2 if vq_curves else 1
-    fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.2), squeeze=False)
-    ax = axes[0, 0]
-    for c in pv_curves:
-        (line,) = ax.plot(c.states.v_hat, c.states.p_hat, lw=1.6, label=f"Φ̂ = {c.fixed:g}")
+def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
+    """One family of curves (attributes ``x`` against ``y`` of states and limit points), labelled."""
+    for c in curves:
+        (line,) = ax.plot(getattr(c.states, x), getattr(c.states, y), lw=1.6, label=label.format(c.fixed))
         for lp in c.limit_points:
-            ax.plot(lp.v_hat, lp.p_hat, _MARKERS.get(lp.kind, "o"), color=line.get_color(), ms=6, mec="k", mew=0.6)
-    ax.set_xlabel("volume  V̂ = V/A³")
-    ax.set_ylabel("pressure  p̂ = pA/(μH)")
-    ax.set_title("pressure–volume at fixed voltage")
+            ax.plot(getattr(lp, x), getattr(lp, y), _MARKERS.get(lp.kind, "o"), color=line.get_color(), ms=6,
+                    mec="k", mew=0.6)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    if vq_curves:
-        ax = axes[0, 1]
-        for c in vq_curves:
-            (line,) = ax.plot(c.states.q_hat, c.states.phi_hat, lw=1.6, label=f"p̂ = {c.fixed:g}")
-            for lp in c.limit_points:
-                ax.plot(lp.q_hat, lp.phi_hat, _MARKERS.get(lp.kind, "o"), color=line.get_color(), ms=6, mec="k",
-                        mew=0.6)
-        ax.set_xlabel("charge  Q̂ = Q/(A²√(εμ))")
-        ax.set_ylabel("voltage  Φ̂ = (Φ/H)√(ε/μ)")
-        ax.set_title("voltage–charge at fixed pressure")
-        ax.grid(alpha=0.3)
-        ax.legend(fontsize=8)
+
+
+def _save(fig, path, title=None):
+    plt = _pyplot()
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=130)
     plt.close(fig)
     return Path(path)
+
+
+def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None):
+    """The ``p̂–V̂`` family (left) and the ``Φ̂–Q̂`` family (right), limit points marked."""
+    plt = _pyplot()
+    panels = 2 if vq_curves else 1
+    fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.2), squeeze=False)
+    _family_panel(axes[0, 0], pv_curves, "v_hat", "p_hat", "Φ̂ = {:g}", "volume  V̂ = V/A³",
+                  "pressure  p̂ = pA/(μH)", "pressure–volume at fixed voltage")
+    if vq_curves:
+        _family_panel(axes[0, 1], vq_curves, "q_hat", "phi_hat", "p̂ = {:g}", "charge  Q̂ = Q/(A²√(εμ))",
+                      "voltage  Φ̂ = (Φ/H)√(ε/μ)", "voltage–charge at fixed pressure")
+    return _save(fig, path, title)
 
 
 def plot_ramp_volumes(report, path, title=None):
