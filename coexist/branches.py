@@ -106,7 +106,7 @@ class ZoneCurve:
         self.dp = self.p.derivative()
         self.dv = self.v.derivative()
         self.stopped_because = stopped_because
-        self.branches = self._branches()
+        self._branch_list = None
 
     @property
     def q(self):
@@ -158,6 +158,13 @@ class ZoneCurve:
         roots = spline.derivative().roots(extrapolate=False)
         lo, hi = self.span
         return np.sort(roots[(roots > lo) & (roots < hi)])
+
+    @property
+    def branches(self) -> list:
+        """Monotone pieces of the curve (built on first use: following a state does not need them)."""
+        if self._branch_list is None:
+            self._branch_list = self._branches()
+        return self._branch_list
 
     def _branches(self):
         lo, hi = self.span

@@ -403,13 +403,11 @@ def continue_equilibrium(curve: ZoneCurve, gas, state: Equilibrium, iterations: 
     else:
         return None
 
-    def on(u):
-        for b in curve.branches:
-            if b.start <= u <= b.stop:
-                return b
+    # a state past a volume fold is unstable even under volume control: not a continuation
+    if float(curve.dv(uu)) <= 0 or (k and float(curve.dv(ub)) <= 0):
         return None
-
-    a, b = on(uu), (on(ub) if k else None)
-    if a is None or (k and b is None) or not a.usable or (k and not b.usable):
-        return None
+    # the branches keep their indices from the state continued (no need to cut the new curve into
+    # branches for that: the labels follow the state)
+    a = Branch(state.branch_unbulged, lo, hi, bool(curve.dp(uu) > 0), True, (0.0, 0.0))
+    b = Branch(state.branch_bulged, lo, hi, bool(curve.dp(ub) > 0), True, (0.0, 0.0)) if k else None
     return _make(curve, gas, N, k, a, b, uu, ub if k else None)
