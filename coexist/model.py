@@ -34,6 +34,10 @@ from .effects import (
 from .errors import SceneError
 from .symbolic import numpy_function
 
+#: constant factors of the quadratures V̂, Q̂, Ψ̂, ẑ: the right-hand side integrates V̂/π, Q̂/2π,
+#: Ψ̂/2π and ẑ (one multiplication fewer per stage each), the shooting multiplies them back
+QUADRATURE_FACTORS = (math.pi, 2 * math.pi, 2 * math.pi, 1.0)
+
 #: rows of the integrated state (the last two are constant parameters carried per column)
 STATE_ROWS = ("stretch_meridional", "stretch_hoop", "angle", "volume", "charge", "potential", "height",
               "pressure", "voltage")
@@ -102,7 +106,8 @@ class MembraneModel:
         return self._built["aux"](l1, l2, phi)
 
     def rhs(self, R, l1, l2, theta, p, phi):
-        """Right-hand side ``(λ1', λ2', θ', V̂', Q̂', Ψ̂', ẑ')`` of the membrane equations."""
+        """Right-hand side ``(λ1', λ2', θ', V̂'/π, Q̂'/2π, Ψ̂'/2π, ẑ')`` of the membrane equations
+        (the quadratures without their constant factors, :data:`QUADRATURE_FACTORS`)."""
         return self._built["rhs"](R, l1, l2, theta, p, phi)
 
     def rhs_into(self, R, l1, l2, theta, p, phi, out):
@@ -154,9 +159,10 @@ def _build(model: MembraneModel) -> dict:
     dl2 = R_dl2 / R
     dl1 = (T2 * c - T1 - T12 * R_dl2) / (R * T11)
     dth = (p * l1 * l2 * R - T2 * s) / (R * T1)
-    dV = math.pi * (l2 * R) ** 2 * l1 * s
-    dQ = 2 * math.pi * q * R
-    dPsi = 2 * math.pi * W * R
+    # quadratures without their constant factors (QUADRATURE_FACTORS restores them after integration)
+    dV = (l2 * R) ** 2 * l1 * s
+    dQ = q * R
+    dPsi = W * R
     dz = l1 * s
     l0 = ca.SX.sym("l0")
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from . import integrate as _int
 from .errors import ModelRangeError, SceneError
-from .model import MembraneModel
+from .model import QUADRATURE_FACTORS, MembraneModel
 from .settings import SolverSettings
 
 #: pole stretches closer than this (relative) to the clamp stretch are below double-precision resolution
@@ -262,15 +262,15 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
     R0 = settings.series_radius
     y0 = np.vstack([
         l0 + a * R0**2, l0 + b * R0**2, c * R0,
-        math.pi * l0**3 * c * R0**4 / 4, math.pi * q0 * R0**2, math.pi * W0 * R0**2, l0 * c * R0**2 / 2,
+        l0**3 * c * R0**4 / 4, q0 * R0**2 / 2, W0 * R0**2 / 2, l0 * c * R0**2 / 2,  # quadratures / factors
         p, phi,
     ])
     m = live.size
     # absolute tolerances that follow each trajectory's own scale (series values at R̂ = 1): a barely
     # inflated membrane has θ ~ δ, V̂ ~ δ, Ψ̂ ~ δ² for an apex deflection δ, and a fixed absolute
     # tolerance would swallow them
-    size = np.vstack([np.ones(m), np.ones(m), np.abs(c), math.pi * l0**3 * np.abs(c) / 4, math.pi * np.abs(q0),
-                      math.pi * np.abs(W0), l0 * np.abs(c) / 2, np.ones(m), np.ones(m)])
+    size = np.vstack([np.ones(m), np.ones(m), np.abs(c), l0**3 * np.abs(c) / 4, np.abs(q0) / 2,
+                      np.abs(W0) / 2, l0 * np.abs(c) / 2, np.ones(m), np.ones(m)])
     atol = settings.atol * np.maximum(size, 1e-30)
     # roundoff bounds what can be asked of a barely inflated membrane: its tensions are differences
     # of O(1) numbers that are O(λ0 − λpre), so their relative precision is ~ε/(λ0 − λpre)
@@ -358,9 +358,10 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
         idx = live[good]
         out["R"][idx] = zg[0]
         out["p"][idx] = zg[7]
-        out["V"][idx] = zg[3]
-        out["Q"][idx] = zg[4]
-        out["Psi"][idx] = zg[5]
+        fV, fQ, fPsi, _ = QUADRATURE_FACTORS
+        out["V"][idx] = fV * zg[3]
+        out["Q"][idx] = fQ * zg[4]
+        out["Psi"][idx] = fPsi * zg[5]
         out["z"][idx] = zg[6]
         T1, T2 = model.tensions(zg[1], lam_clamp, zg[8])[:2]
         local_min_T[good] = np.minimum(local_min_T[good], np.minimum(T1, T2))

@@ -32,7 +32,7 @@ from coexist.branches import ZoneCurve, ZoneFamily
 from coexist.coexistence import maxwell_coexistence, phase_diagram
 from coexist.curves import pressure_volume_curve, voltage_at_pressure, voltage_charge_curve
 from coexist.errors import CoexistError, ModelRangeError, SceneError
-from coexist.model import build_model
+from coexist.model import QUADRATURE_FACTORS, build_model
 from coexist.scene import parse_scene
 from coexist.settings import SolverSettings
 from coexist.shooting import (
@@ -120,7 +120,9 @@ def reference_shot(model, l0, phi, p_hat, R0=1e-6, samples=4001):
           math.pi * W0 * R0**2, 0.5 * l0 * c * R0**2]
 
     def rhs(R, y):
-        return np.array([float(np.ravel(v)[0]) for v in model.rhs(R, y[0], y[1], y[2], p_hat, phi)])
+        out = np.array([float(np.ravel(v)[0]) for v in model.rhs(R, y[0], y[1], y[2], p_hat, phi)])
+        out[3:7] *= QUADRATURE_FACTORS  # the model integrates the quadratures without their constants
+        return out
 
     sol = solve_ivp(rhs, (R0, 1.0), y0, method="DOP853", rtol=1e-12, atol=1e-14, dense_output=True)
     assert sol.success, sol.message
