@@ -149,16 +149,15 @@ class MembraneStates:
 
 def _cap_angle(l0):
     """Half-angle α of a spherical cap whose arc, ``λ0`` times the unit radius, spans a unit chord:
-    ``sin α / α = 1/λ0`` on ``(0, π)``, by bisection (vectorised)."""
-    lo = np.zeros_like(l0)
-    hi = np.full_like(l0, math.pi)
+    ``sin α / α = 1/λ0`` on ``(0, π)``, by Newton's method from ``α ≈ √(6(1 − 1/λ0))`` (exact as
+    ``λ0 → 1``; vectorised). Only an estimate is needed (it scales the trial pressure)."""
     target = 1.0 / l0
-    for _ in range(48):
-        mid = 0.5 * (lo + hi)
-        greater = np.sinc(mid / math.pi) > target  # sinc(x/π) = sin x / x
-        lo = np.where(greater, mid, lo)
-        hi = np.where(greater, hi, mid)
-    return 0.5 * (lo + hi)
+    a = np.minimum(np.sqrt(6.0 * (1.0 - target)), 3.0)
+    for _ in range(8):
+        s, c = np.sin(a), np.cos(a)
+        g = s - target * a  # sin α − α/λ0, whose root is the same and better behaved
+        a = np.clip(a - g / (c - target), 1e-300, math.pi * (1 - 1e-12))
+    return a
 
 
 def trial_pressure(model: MembraneModel, l0, phi):
