@@ -104,9 +104,9 @@ def _table(data, every):
     err = data["curve_interpolation_error"]
     polished = all(s["polished"] for s in data["steps"] if s["configuration"] != "none")
     how = "re-solved by shooting to" if polished else "NOT all re-solved (see 'polished' in --json); solver"
-    click.echo(f"(states {how}"
-               f" rtol {data['relative_tolerance']:.0e}; transitions bisected on the interpolated curves, whose "
-               f"error is p̂ {err['p_hat']:.1e}, V̂ {err['v_hat']:.1e}, Ψ̂ {err['psi_hat']:.1e})")
+    click.echo(f"(states {how} rtol {data['relative_tolerance']:.0e}; transitions bisected to 1e-7 in Φ̂ on "
+               f"the interpolated curves, whose error is p̂ {err['p_hat']:.1e}, V̂ {err['v_hat']:.1e}, "
+               f"Ψ̂ {err['psi_hat']:.1e})")
     for note in data["notes"]:
         click.echo(f"note: {note}")
     if data["fitted_parameters"]:

@@ -52,6 +52,10 @@ class RampResult:
     notes: list = field(default_factory=list)
 
 
+#: transitions are located to this in Φ̂ (≈ 2e-6 kV for the default scene): well below the
+#: interpolation error of the curves they are found on (~1e-5 relative, see ``coexist ramp``)
+BISECTION_TOLERANCE = 1e-7
+
 #: largest relative jump of any zone volume between two path voltages that still counts as the
 #: same state continued (a larger change is a jump to another state)
 CONTINUATION_TOLERANCE = 0.05
@@ -96,7 +100,7 @@ def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True,
     phi_path : sequence of float
         Normalised voltages in the order applied (up and back down for a ramp).
     refine : bool
-        Locate each transition between its two path voltages by bisection (to 1e-8 in Φ̂).
+        Locate each transition between its two path voltages by bisection (to :data:`BISECTION_TOLERANCE`).
     progress : callable, optional
         Called with the step index after each step.
 
@@ -202,16 +206,17 @@ def eqs_at_exact(family, gas, zones):
     return at
 
 
-def _bisect_loss(family, gas, zones, state, lo, hi, tol=1e-8):
+def _bisect_loss(family, gas, zones, state, lo, hi, tol=None):
     """Shrink [lo, hi] around the voltage where ``state``'s configuration stops being stable (or
-    stops existing), following it by local continuation, else by all equilibria."""
+    stops existing), following it by local continuation: Newton from the last voltage where it held
+    either converges to a stable state close by, or the state is lost (unstable, or at its fold)."""
     ref = state
-    find_all = eqs_at_exact(family, gas, zones)
+    tol = BISECTION_TOLERANCE if tol is None else tol
     for _ in range(60):
         if abs(hi - lo) <= tol:
             break
         mid = 0.5 * (lo + hi)
-        nxt = _local(family, gas, ref, mid) or _continue(ref, find_all(mid))
+        nxt = _local(family, gas, ref, mid)
         if nxt is not None:
             lo, ref = mid, nxt
         else:
@@ -231,7 +236,7 @@ def _delta_k(eqs, k):
 def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
     """Voltages where a stable configuration with k bulged zones has the total free energy of the
     homogeneous one: sign changes of their difference along the grid, and configurations that appear
-    (between two grid voltages) already lower, bisected to 1e-8 in Φ̂."""
+    (between two grid voltages) already lower, bisected to :data:`BISECTION_TOLERANCE`."""
     grid = sorted(set(round(p, 14) for p in phi_path))
     find_all = eqs_at_exact(family, gas, zones)
 
@@ -253,7 +258,7 @@ def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
             else:
                 # the configuration appears inside (lo, hi): locate where, then compare there
                 for _ in range(60):
-                    if hi - lo <= 1e-8:
+                    if hi - lo <= BISECTION_TOLERANCE:
                         break
                     mid = 0.5 * (lo + hi)
                     lo, hi = (lo, mid) if delta(mid, k) is not None else (mid, hi)
@@ -271,8 +276,9 @@ def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
     return found
 
 
-def _bisect_sign(delta, k, lo, hi, tol=1e-8):
+def _bisect_sign(delta, k, lo, hi, tol=None):
     """Bisect the sign change of ``delta(Φ̂, k)`` (positive at ``lo``) in [lo, hi]."""
+    tol = BISECTION_TOLERANCE if tol is None else tol
     for _ in range(60):
         if hi - lo <= tol:
             break

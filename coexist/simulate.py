@@ -182,13 +182,18 @@ def _polish_path(prep: Prepared, gas, result: RampResult) -> None:
     """Replace every state on the path by its directly shot, Newton-polished version (in place)."""
     from .zones import polish
 
+    def key(st):
+        # the same configuration at the same voltage, reached going up and coming down, is one state
+        return (round(st.phi_hat, 12), st.k, round(st.pole_stretch_unbulged, 7),
+                None if st.pole_stretch_bulged is None else round(st.pole_stretch_bulged, 7))
+
     on_path = [s for s in result.steps if s.state is not None]
     unique = {}
     for s in on_path:
-        unique.setdefault(id(s.state), s.state)
+        unique.setdefault(key(s.state), s.state)
     polished = dict(zip(unique, polish(prep.model, gas, list(unique.values()), prep.scene.settings)))
     for s in on_path:
-        s.state = polished[id(s.state)]
+        s.state = polished[key(s.state)]
 
 
 def _check_breakdown(prep: Prepared, scene: Scene, result: RampResult) -> None:
