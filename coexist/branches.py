@@ -52,6 +52,21 @@ class FastCubic:
         return self.ppoly.roots(extrapolate=extrapolate)
 
 
+_BASES: dict = {}
+
+
+def _spline_basis(x):
+    """Coefficients (4, n−1, n) of the not-a-knot cubic splines through the unit vectors on grid ``x``."""
+    key = (x.size, float(x[0]), float(x[-1]), hash(x.tobytes()))
+    basis = _BASES.get(key)
+    if basis is None:
+        basis = CubicSpline(x, np.eye(x.size)).c
+        if len(_BASES) > 256:
+            _BASES.clear()
+        _BASES[key] = basis
+    return basis
+
+
 @dataclass(frozen=True)
 class Branch:
     """A piece of the curve on which ``p̂(λ0)`` is monotone.
@@ -97,9 +112,11 @@ class ZoneCurve:
         self.phi_hat = float(phi_hat)
         self.grid = x
         self.pole_stretch = l0
-        # one not-a-knot spline fit for the three quantities together, split into three evaluators
-        joint = CubicSpline(x, np.column_stack([p_hat, v_hat, psi_hat]))
-        self.p, self.v, self.psi = (FastCubic(PPoly.construct_fast(np.ascontiguousarray(joint.c[:, :, j]), x))
+        # not-a-knot spline coefficients are linear in the data: one basis per grid, reused by every
+        # curve on that grid (the voltage family shares its grid), then one product per quantity
+        basis = _spline_basis(x)
+        coef = np.tensordot(basis, np.column_stack([p_hat, v_hat, psi_hat]), axes=1)  # (4, n-1, 3)
+        self.p, self.v, self.psi = (FastCubic(PPoly.construct_fast(np.ascontiguousarray(coef[:, :, j]), x))
                                     for j in range(3))
         self._q_values = np.asarray(q_hat, dtype=float)
         self._q = None
