@@ -20,6 +20,9 @@ def coexistence(scene, as_json, accuracy, rtol):
     sc = scene_with_settings(load_scene_arg(scene), accuracy, rtol)
     info("shooting the zone curves ...")
     prep = prepare(sc)
+    if sc.voltage is None:
+        _without_voltage(sc, prep, as_json)
+        return
     rows = coexistence_table(prep, sc)
     out = []
     for r in rows:
@@ -50,3 +53,25 @@ def coexistence(scene, as_json, accuracy, rtol):
                        f"(λ0 {o['unbulged_pole_stretch']:.4f}), bulged {o['bulged_volume_ml']:.4f} ml "
                        f"(λ0 {o['bulged_pole_stretch']:.4f})")
     click.echo(f"(solver rtol {sc.settings.rtol:.0e}; voltages bisected to 1e-9 kV on the interpolated curves)")
+
+
+def _without_voltage(sc, prep, as_json):
+    """A scene without voltage (e.g. two-balloons): every equilibrium of its zones at 0 V, with stability."""
+    from coexist.simulate import closed_gas
+    from coexist.zones import equilibria, polish
+
+    gas = closed_gas(prep, sc)
+    eqs = polish(prep.model, gas, equilibria(prep.family.curve(0.0), gas, sc.zone_count), sc.settings)
+    out = [{"configuration": e.label, "bulged_zones": e.k, "stable": e.stable,
+            "pressure_mbar": sc.pressure(e.p_hat) / 100,
+            "zone_volumes_ml": [sc.volume(v) * 1e6 for v in e.zone_volumes],
+            "free_energy_hat": e.free_energy} for e in sorted(eqs, key=lambda e: (e.k, e.free_energy))]
+    if as_json:
+        write_json({"scene": sc.to_dict(), "relative_tolerance": sc.settings.rtol, "equilibria_at_0V": out})
+        return
+    click.echo(f"{sc.name}: no voltage; the equilibria of {sc.zone_count} zones on the closed gas:")
+    for o in out:
+        vols = " ".join(f"{v:.4f}" for v in o["zone_volumes_ml"])
+        click.echo(f"  {o['configuration']:<16} {'stable' if o['stable'] else 'unstable':<9} "
+                   f"{o['pressure_mbar']:.4f} mbar  volumes {vols} ml")
+    click.echo(f"(states re-solved by shooting to rtol {sc.settings.rtol:.0e})")

@@ -76,3 +76,13 @@ def test_ramp_bad_scene_is_exit_2(tmp_path):
 def test_ramp_scene_without_voltage_is_exit_2():
     r = CliRunner().invoke(cli, ["ramp", "two-balloons"])
     assert r.exit_code == 2 and "[voltage]" in r.output
+
+
+def test_coexistence_without_voltage_lists_the_equilibria():
+    """two-balloons (no voltage): the closed gas at 30 mbar holds both balloons equal and stable."""
+    r = run("coexistence", "two-balloons", "--json")
+    data = json.loads(r.stdout)
+    (eq,) = data["equilibria_at_0V"]
+    assert eq["configuration"] == "homogeneous" and eq["stable"]
+    assert eq["pressure_mbar"] == pytest.approx(30.0, rel=1e-6)
+    assert eq["zone_volumes_ml"][0] == pytest.approx(eq["zone_volumes_ml"][1], rel=1e-12)
