@@ -114,10 +114,7 @@ def plot_ramp_volumes(report, path, title=None):
     ax.legend(fontsize=8, loc="upper left")
     if title:
         ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return Path(path)
+    return _save(fig, path)
 
 
 def _draw_run(ax, run, _):
@@ -147,10 +144,7 @@ def plot_coexisting_states(curve, state, scale_title, path):
     ax.set_title(scale_title, fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return Path(path)
+    return _save(fig, path)
 
 
 def plot_phase_diagram(diagram, path, title=None):
@@ -179,7 +173,4 @@ def plot_phase_diagram(diagram, path, title=None):
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title, fontsize=10)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return Path(path)
+    return _save(fig, path)
