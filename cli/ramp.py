@@ -30,21 +30,23 @@ from .common import (
 def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
     """Ramp the voltage of SCENE (default: tricircle) up and back down, following a slow experiment.
 
-    At each voltage the zones stay in the stable state they are in until it loses stability
-    (a spinodal), then jump to the nearest stable state; the table marks the jumps, and the
-    voltages where a bulged configuration has the free energy of the homogeneous one.
+    The zones stay in the stable state they are in until the voltage reaches the end of its stable
+    range (an event located on the exact equilibrium equations: a fold, a symmetric branch point, the
+    onset of wrinkling, ...); then they jump to the state a gradient flow of the total potential
+    reaches, or leave the model's range. Every printed state is converged on the exact equations;
+    every transition voltage carries its measured error (located again at rtol/100).
     """
-    from coexist.simulate import prepare, simulate_ramp
+    from coexist.simulation import Simulation
 
     sc = scene_with_settings(load_scene_arg(scene), accuracy, rtol)
     plot_path = check_output_path(plot, overwrite, "--plot")
     states_path = check_output_path(states_plot, overwrite, "--states-plot")
     info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
-    info("shooting the zone curves for every voltage of the ramp ...")
-    prep = prepare(sc)
+    info("following the stable states along the voltage path ...")
+    sim = Simulation.from_scene(sc)
     n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
     with stderr_progress(n, "ramp") as bar:
-        report = simulate_ramp(sc, progress=lambda i: bar.update(1), prep=prep)
+        report = sim.ramp(progress=lambda i: bar.update(1))
     data = report.to_dict()
     if plot_path is not None:
         from coexist.plotting import plot_ramp_volumes
@@ -52,7 +54,7 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
         plot_ramp_volumes(report, plot_path, title=_title(sc))
         info(f"wrote {plot_path}")
     if states_path is not None:
-        _states_figure(report, prep, states_path)
+        _states_figure(report, sim, states_path)
     if as_json:
         write_json(data)
         return
@@ -65,12 +67,17 @@ def _title(sc):
             f"H = {sc.thickness * 1e3:g} mm, μ = {sc.shear_modulus / 1e3:g} kPa")
 
 
-def _states_figure(report, prep, path):
+def _states_figure(report, sim, path):
+    from coexist.branches import ZoneCurve
     from coexist.plotting import plot_coexisting_states
 
     for s in report.result.steps:
         if s.state is not None and s.state.k > 0:
-            curve = prep.family.curve(s.phi_hat)
+            import numpy as np
+
+            pre = sim.model.prestretch
+            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(sim.lam_max - pre), 240)
+            curve = ZoneCurve.compute(sim.model, s.phi_hat, pre + u**2, sim.scene.settings)
             kv = report.voltage_kV(s.phi_hat)
             plot_coexisting_states(curve, s.state, f"{report.scene.name}: coexisting states at {kv:.3g} kV, "
                                    f"{report.pressure_mbar(s.state.p_hat):.4g} mbar", path)
@@ -79,11 +86,15 @@ def _states_figure(report, prep, path):
     info(f"note: no bulged state on the path; {path} not written")
 
 
+def format_voltage(kv: float, err_kv: float) -> str:
+    """A voltage in kV with the digits its error supports, and the error."""
+    import math
+
+    digits = 3 if not err_kv > 0 else int(min(10, max(3, math.ceil(-math.log10(err_kv)))))
+    return f"{kv:.{digits}f} kV ± {err_kv:.0e}"
+
+
 def _table(data, every):
-    trans = {}
-    for t in data["transitions"]:
-        if t["kind"] != "equal_free_energy":
-            trans.setdefault((t["direction"], round(t["voltage_kV"], 2)), []).append(t)
     click.echo(f"{'voltage_kV':>10} {'dir':>4} {'pressure_mbar':>13}  {'zone_volumes_ml':<28} "
                f"{'configuration':<18} stable")
     prev = None
@@ -98,17 +109,13 @@ def _table(data, every):
         click.echo(f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {vols:<28} {s['configuration']:<18} "
                    f"{'yes' if s['stable'] else 'no'}{mark}")
     click.echo("")
-    click.echo("transitions:")
+    click.echo("transitions (voltage ± its error, measured by locating it again at rtol/100):")
     for t in data["transitions"]:
-        click.echo(f"  {t['kind']:<18} {t['direction']:<6} {t['voltage_kV']:.6f} kV  {t['from']} -> {t['to']}")
-    err = data["curve_interpolation_error"]
-    polished = all(s["polished"] for s in data["steps"] if s["configuration"] != "none")
-    how = "re-solved by shooting to" if polished else "NOT all re-solved (see 'polished' in --json); solver"
-    click.echo(f"(states {how} rtol {data['relative_tolerance']:.0e}; transitions bisected to 1e-7 in Φ̂ on "
-               f"the interpolated curves, whose error is p̂ {err['p_hat']:.1e}, V̂ {err['v_hat']:.1e}, "
-               f"Ψ̂ {err['psi_hat']:.1e})")
+        click.echo(f"  {t['kind']:<18} {t['direction']:<6} {format_voltage(t['voltage_kV'], t['voltage_error_kV']):<26}"
+                   f" {t['from']} -> {t['to']}  [{t['event']}]")
+    click.echo(f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e})")
     for note in data["notes"]:
-        click.echo(f"note: {note}")
+        info(f"note: {note}")
     if data["fitted_parameters"]:
         for k, v in data["fitted_parameters"].items():
-            click.echo(f"fitted: {k}: {v}")
+            info(f"fitted: {k}: {v}")

@@ -106,6 +106,8 @@ def _take(states: MembraneStates, index) -> MembraneStates:
             kw[name] = value[index]
         elif name == "shapes" and value is not None:
             kw[name] = [value[i] for i in np.arange(len(value))[index]]
+        elif name == "derivatives" and value is not None:
+            kw[name] = value.take(index)
         else:
             kw[name] = value
     return MembraneStates(**kw)

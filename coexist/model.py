@@ -102,7 +102,7 @@ class MembraneModel:
         return self._built["energy"](l1, l2, phi)[0]
 
     def tensions(self, l1, l2, phi=0.0):
-        """``(T̂1, T̂2, ∂T̂1/∂λ1, ∂T̂1/∂λ2, locking margin, Ê)`` at given stretches and voltage."""
+        """``(T̂1, T̂2, ∂T̂1/∂λ1, ∂T̂1/∂λ2, locking margin, Ê, ∂T̂2/∂λ2)`` at given stretches and voltage."""
         return self._built["aux"](l1, l2, phi)
 
     def rhs(self, R, l1, l2, theta, p, phi):
@@ -113,6 +113,28 @@ class MembraneModel:
     def rhs_into(self, R, l1, l2, theta, p, phi, out):
         """:meth:`rhs` written into the first seven rows of ``out`` (the integrator's hot path)."""
         return self._built["rhs_into"](R, l1, l2, theta, p, phi, out)
+
+    def rhs_sensitivities_into(self, R, l1, l2, theta, p, phi, s_l0, s_phi, out):
+        """:meth:`rhs` and the variational equations, written into the first 17 rows of ``out``.
+
+        ``s_l0`` and ``s_phi`` are the sensitivities ``∂(λ1, λ2, θ)/∂λ0`` and ``∂(λ1, λ2, θ)/∂Φ̂`` of the
+        trajectory (three rows each); rows 7–11 of ``out`` receive ``d/dR̂ ∂(λ1, λ2, θ, V̂/π, Q̂/2π)/∂λ0``
+        and rows 12–16 the same for ``Φ̂``: ``S' = (∂f/∂y) S`` and ``S' = (∂f/∂y) S + ∂f/∂Φ̂``.
+        """
+        return self._built["rhs_sens_into"](R, l1, l2, theta, p, phi, *s_l0, *s_phi, out)
+
+    def series_start(self, l0, p_trial, phi, R0):
+        """The series start at the pole and its derivatives (docs/physics.md).
+
+        Returns 17 arrays: the seven integrated rows at ``R̂0`` for trial pressure ``p̂t``
+        (``λ1, λ2, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ``), then ``∂/∂λ0`` and ``∂/∂Φ̂`` of the first five.
+        """
+        return self._built["series"](l0, p_trial, phi, R0)
+
+    @property
+    def casadi_functions(self) -> dict:
+        """The CasADi functions the numpy code is generated from (``rhs``, ``rhs_sens``, ``aux``, ...)."""
+        return self._built["casadi"]
 
     def pole(self, l0, phi=0.0):
         """Pole quantities ``(T0, α, β, W0, q0)``: tension, its stretch derivatives, energy, charge density."""
@@ -170,16 +192,46 @@ def _build(model: MembraneModel) -> dict:
         return ca.substitute(expr, ca.vertcat(l1, l2), ca.vertcat(l0, l0))
 
     rhs = ca.Function("membrane_rhs", [R, l1, l2, th, p, phi], [dl1, dl2, dth, dV, dQ, dPsi, dz])
-    aux = ca.Function("membrane_aux", [l1, l2, phi], [T1, T2, T11, T12, margin, E])
+    # variational equations: S' = (∂f/∂x) S (+ ∂f/∂Φ̂) for the sensitivities S = ∂(λ1, λ2, θ, V̂, Q̂)/∂a of
+    # the trajectory to the pole stretch (a = λ0, through the start only) and to the voltage (a = Φ̂);
+    # V̂ and Q̂ are quadratures and do not feed back, so only (λ1, λ2, θ) enter the products
+    x = ca.vertcat(l1, l2, th)
+    sens_rows = ca.vertcat(dl1, dl2, dth, dV, dQ)
+    s_l0 = [ca.SX.sym(f"s_l0_{n}") for n in ("l1", "l2", "theta")]
+    s_phi = [ca.SX.sym(f"s_phi_{n}") for n in ("l1", "l2", "theta")]
+    ds_l0 = ca.jtimes(sens_rows, x, ca.vertcat(*s_l0))
+    ds_phi = ca.jtimes(sens_rows, x, ca.vertcat(*s_phi)) + ca.jacobian(sens_rows, phi)
+    # (densified: without electrostatics the voltage derivatives are structural zeros)
+    rhs_sens = ca.Function("membrane_rhs_sensitivities", [R, l1, l2, th, p, phi, *s_l0, *s_phi],
+                           [dl1, dl2, dth, dV, dQ, dPsi, dz, *ca.vertsplit(ca.densify(ds_l0)),
+                            *ca.vertsplit(ca.densify(ds_phi))])
+    # the series start at the pole (derived in docs/physics.md): θ = cR, λ1 = λ0 + aR², λ2 = λ0 + bR²,
+    # with its derivatives to λ0 and Φ̂ (the sensitivities' initial values)
+    pt, R0 = ca.SX.sym("p_trial"), ca.SX.sym("R0")
+    T0, al, be, W0, q0 = sub(T1), sub(T11), sub(T12), sub(W), sub(q)
+    c_ = pt * l0**2 / (2 * T0)
+    b_ = -(c_**2) * (T0 + (3 * al - be) * l0) / (16 * al)
+    a_ = l0 * c_**2 / 2 + 3 * b_
+    y0 = ca.vertcat(l0 + a_ * R0**2, l0 + b_ * R0**2, c_ * R0, l0**3 * c_ * R0**4 / 4, q0 * R0**2 / 2,
+                    W0 * R0**2 / 2, l0 * c_ * R0**2 / 2)
+    y0_s = y0[:5]
+    series = ca.Function("membrane_series", [l0, pt, phi, R0],
+                         [*ca.vertsplit(ca.densify(y0)), *ca.vertsplit(ca.densify(ca.jacobian(y0_s, l0))),
+                          *ca.vertsplit(ca.densify(ca.jacobian(y0_s, phi)))])
+    T22 = ca.gradient(T2, l2)  # for the slope of the hoop tension along the meridian (dT2/dR)
+    aux = ca.Function("membrane_aux", [l1, l2, phi], [T1, T2, T11, T12, margin, E, T22])
     energy = ca.Function("membrane_energy", [l1, l2, phi], [W])
     pole = ca.Function("membrane_pole", [l0, phi], [sub(T1), sub(T11), sub(T12), sub(W), sub(q)])
     return {
         "symbols": {"l1": l1, "l2": l2, "theta": th, "R": R, "p": p, "phi": phi, "W": W, "T1": T1,
                     "T2": T2, "T11": T11, "T12": T12, "q": q, "E": E,
                     "rhs": ca.vertcat(dl1, dl2, dth, dV, dQ, dPsi, dz)},
-        "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole},
+        "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole, "rhs_sens": rhs_sens,
+                   "series": series},
         "rhs": numpy_function(rhs),
         "rhs_into": numpy_function(rhs, into=True),
+        "rhs_sens_into": numpy_function(rhs_sens, into=True),
+        "series": numpy_function(series),
         "aux": numpy_function(aux),
         "energy": numpy_function(energy),
         "pole": numpy_function(pole),

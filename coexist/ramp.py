@@ -1,290 +1,541 @@
-"""A slow voltage ramp up and back down: which configuration the zones are in at each voltage.
+"""A slow voltage ramp: the stable state the zones are in at every voltage, and where it changes.
 
-A slow experiment stays on the stable equilibrium it is in until that equilibrium loses stability
-or ceases to exist (a spinodal), then jumps to a stable equilibrium (the nearest one in zone-volume
-space, the one the unstable mode leads to); the path therefore shows hysteresis. Beside the
-path, the voltages where each configuration's total free energy equals the homogeneous one's are
-reported: where an ideal, fluctuating system would switch (the equal-free-energy or Maxwell
-voltage of that configuration).
+The voltage moves slowly and continuously through the path's values (a list of voltages is
+traversed as a continuous ramp between them). The zones stay on the stable segment they are on
+(:class:`~coexist.continuation.StableSegment`) until the voltage reaches one of its ends, an
+event located exactly on the equilibrium equations:
+
+- ``fold`` (the configuration's spinodal) or ``split`` (a group of zones can move against each other):
+  the state is lost and the zones **jump** to the stable state that a gradient flow of the total
+  potential reaches from the lost state pushed along its unstable mode (:func:`gradient_flow`);
+- ``merge``: the groups meet and the zones continue, without a jump, in the coarser configuration;
+- ``range_end``: the state leaves the model's range (a tension vanishes, the chains lock, ...): the
+  path has no state until the voltage comes back to that event, where it re-enters the same segment;
+- ``breakdown``: the field reaches the breakdown field: the membrane is destroyed.
+
+The path's voltages only decide where states are printed: every printed state is a converged solution
+of the exact equations at that voltage, and every transition voltage is an event of the continuation,
+independent of the ramp's step. Beside the path, the voltages where two stable configurations have
+equal total free energy (where a fluctuating system would switch) are located on the exact states.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from .branches import ZoneFamily
-from .errors import ModelRangeError
-from .zones import Equilibrium, continue_equilibrium, equilibria
+import numpy as np
+
+from .continuation import Event, EquilibriumMap, StableSegment
+from .equilibria import Configuration, Equilibrium, merged
+from .errors import ModelRangeError, SolverError
 
 
 @dataclass
 class RampStep:
-    """One voltage of the path: the state the zones are in and every equilibrium at that voltage."""
+    """One voltage of the path: the state the zones are in (None outside the model or after breakdown)."""
 
     phi_hat: float
     state: Equilibrium | None
-    equilibria: list
     direction: str
     note: str | None = None
-    max_field: float | None = None  # V/m, set when the scene checks for breakdown
+    segment: StableSegment | None = field(default=None, repr=False)
+
+    @property
+    def max_field(self) -> float | None:
+        return None if self.state is None else max(self.state.max_field)
 
 
 @dataclass
 class Transition:
-    """A change of configuration along the path (``spinodal``) or an equal-free-energy voltage."""
+    """A change along the path (or, for ``equal_free_energy``, beside it) at voltage ``phi_hat``.
+
+    ``kind``: ``spinodal`` (stability lost, a jump), ``merge`` (continuous return to a coarser
+    configuration), ``no_stable_state`` (leaves the model's range), ``re_entry``, ``breakdown``,
+    ``equal_free_energy``. ``event`` names the event of the continuation (``fold``, ``split``, ...),
+    ``phi_hat_error`` the estimated error of ``phi_hat``.
+    """
 
     phi_hat: float
     kind: str
     from_label: str
     to_label: str
     direction: str
-    phi_hat_bracket: tuple = ()
+    event: str = ""
+    phi_hat_error: float = 0.0
+    reason: str = ""
+    mode: str = ""
+    state_before: Equilibrium | None = field(default=None, repr=False)
+    state_after: Equilibrium | None = field(default=None, repr=False)
+    measured: bool = False  # True once phi_hat_error is measured by re-locating at a tighter tolerance
+    source: Event | None = field(default=None, repr=False)  # the continuation's event
+    source_counts: tuple = ()  # group sizes of the traced system the event belongs to
+    segments: tuple = field(default=(), repr=False)  # for equal_free_energy: the two segments
+
+    @property
+    def phi_hat_bracket(self) -> tuple:
+        return (self.phi_hat - self.phi_hat_error, self.phi_hat + self.phi_hat_error)
 
 
 @dataclass
 class RampResult:
-    """The path, its transitions and the equal-free-energy voltages."""
+    """The path, its transitions and the equal-free-energy voltages of the configurations it visits."""
 
     steps: list
     transitions: list
     equal_free_energy: list
     zones: int
+    segments: list = field(default_factory=list, repr=False)
     notes: list = field(default_factory=list)
 
 
-#: transitions are located to this in Φ̂ (≈ 2e-6 kV for the default scene): well below the
-#: interpolation error of the curves they are found on (~1e-5 relative, see ``coexist ramp``)
-BISECTION_TOLERANCE = 1e-7
+# --- the jump ----------------------------------------------------------------------------------------
+@dataclass
+class Landing:
+    """Where a jump ends: a stable equilibrium (and its segment), or None with the reason."""
 
-#: largest relative jump of any zone volume between two path voltages that still counts as the
-#: same state continued (a larger change is a jump to another state)
-CONTINUATION_TOLERANCE = 0.05
+    state: Equilibrium | None
+    segment: StableSegment | None
+    reason: str = ""
+    mode: str = ""
 
 
-def _continue(state: Equilibrium, candidates: list, stable_only=True):
-    """The equilibrium at the next voltage that continues ``state``: same number of bulged zones,
-    nearest in zone-volume space, within :data:`CONTINUATION_TOLERANCE` of it — or within four times
-    that when it is also the nearest of all candidates (a state moving fast near a fold, on a
-    coarse voltage path). Branch indices are not compared: the curve's branch structure can change
-    with the voltage."""
-    scale = max(max(state.zone_volumes), 1e-12)
-    pool = [e for e in candidates if e.stable or not stable_only]
-    if not pool:
+def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8):
+    """Follow ``dV̂j/dt = −(p̂(V̂j) − p̂_gas(Σ nk V̂k))`` for groups of ``nj`` zones from ``u0``.
+
+    This is the gradient flow of the total potential ``G`` in the zone volumes: air flows from the
+    chamber into each zone through equal resistances, and each membrane keeps an equilibrium shape at
+    its volume (its shape relaxes fast compared with the flow). When a zone reaches a volume fold of
+    its curve while the flow still inflates it, that shape stops being stable at its volume: the
+    membrane snaps, at that volume, to the other shape of equal volume that is stable (one zone of
+    the group; the others follow only if the flow takes them there), and the flow goes on.
+
+    Each group moves on ``curve`` (a :class:`~coexist.branches.ZoneCurve` at the jump's voltage, used
+    only to decide *which* state the flow reaches; that state is then solved exactly). Returns
+    ``(counts, u, status, snaps)``; status ``"converged"``, ``"volume_fold"`` (a zone reaches its
+    largest volume and no other stable shape holds it), ``"range_end"`` (a zone leaves the curve's
+    valid range) or ``"stalled"``.
+    """
+    from scipy.integrate import solve_ivp
+
+    counts = [int(c) for c in counts]
+    u = np.asarray(u0, dtype=float).copy()
+    lo, hi = float(curve.grid[0]), float(curve.grid[-1])
+    p_scale = max(abs(float(np.max(curve.p(u)))), 1e-3)
+    dv_floor = 1e-6 * max(float(np.max(np.abs(curve.dv(curve.grid)))), 1e-12)
+    tol = 1e-10 * p_scale
+    snaps = []
+    for _ in range(max_snaps + 1):
+        n = np.asarray(counts, dtype=float)
+
+        def rhs(t, x, n=n):
+            x = np.clip(x, lo, hi)
+            pg = gas.pressure(float(n @ curve.v(x)))
+            return -(curve.p(x) - pg) / np.maximum(curve.dv(x), dv_floor)
+
+        def settled(t, x, n=n):
+            x = np.clip(x, lo, hi)
+            pg = gas.pressure(float(n @ curve.v(x)))
+            return float(np.max(np.abs(curve.p(x) - pg))) - tol
+
+        def vfold(t, x):
+            return float(np.min(curve.dv(np.clip(x, lo, hi)))) - 10 * dv_floor
+
+        def out_of_range(t, x):
+            return float(min(np.min(x) - lo, hi - np.max(x)))
+
+        for ev in (settled, vfold, out_of_range):
+            ev.terminal = True
+            ev.direction = -1
+        sol = solve_ivp(rhs, (0.0, t_max), u, method="LSODA", rtol=1e-10, atol=1e-13,
+                        events=(settled, vfold, out_of_range))
+        u = sol.y[:, -1]
+        if sol.t_events[2].size:
+            return counts, u, "range_end", snaps
+        if sol.t_events[1].size:
+            j = int(np.argmin(curve.dv(u)))
+            target = _equal_volume_shape(curve, u[j])
+            if target is None:
+                return counts, u, "volume_fold", snaps
+            snaps.append((float(u[j]), float(target)))
+            # one zone of the group snaps; the rest of the group stays
+            if counts[j] > 1:
+                counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1:]
+                u = np.concatenate([u[:j + 1], [target], u[j + 1:]])
+            else:
+                u[j] = target
+            continue
+        if sol.t_events[0].size or settled(0, u) <= 0:
+            return counts, u, "converged", snaps
+        return counts, u, "stalled", snaps
+    return counts, u, "stalled", snaps
+
+
+def _equal_volume_shape(curve, u_fold):
+    """Another state of the zone with the volume of the fold at ``u_fold`` that is stable at fixed volume
+    (index 0 by Maddocks' rule), the nearest in ``u``; None if there is none."""
+    v0 = float(curve.v(u_fold))
+    g = curve.grid
+    vals = curve.v(g) - v0
+    cands = []
+    for i in np.flatnonzero(vals[:-1] * vals[1:] < 0):
+        from scipy.optimize import brentq
+
+        x = brentq(lambda s: float(curve.v(s)) - v0, g[i], g[i + 1], xtol=1e-14)
+        if abs(x - u_fold) < 1e-6 or curve.dv(x) <= 0:
+            continue
+        if _zone_index_on_curve(curve, x) == 0:
+            cands.append(x)
+    if not cands:
         return None
-    nearest = min(pool, key=lambda e: e.distance(state))
-    same = [e for e in pool if e.k == state.k and e.distance(state) <= CONTINUATION_TOLERANCE * scale]
-    if same:
-        return min(same, key=lambda e: e.distance(state))
-    if nearest.k == state.k and nearest.distance(state) <= 4 * CONTINUATION_TOLERANCE * scale:
-        return nearest
-    return None
+    return float(min(cands, key=lambda x: abs(x - u_fold)))
 
 
-def _initial_state(eqs: list):
-    """The homogeneous stable state on the first rising branch (the state when the valves close)."""
-    start = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0 and e.stable]
-    if not start:
-        start = [e for e in eqs if e.stable]
-    return min(start, key=lambda e: e.v_unbulged) if start else None
-
-
-def run_ramp(family: ZoneFamily, gas, zones: int, phi_path, refine: bool = True, progress=None) -> RampResult:
-    """Follow the zones along a voltage path.
+class Ramp:
+    """Walks a voltage path over the stable segments of an :class:`EquilibriumMap`.
 
     Parameters
     ----------
-    family : ZoneFamily
-        Zone curves for every voltage of the path.
-    gas : GasChamber or PressureReservoir
-    zones : int
-    phi_path : sequence of float
-        Normalised voltages in the order applied (up and back down for a ramp).
-    refine : bool
-        Locate each transition between its two path voltages by bisection (to :data:`BISECTION_TOLERANCE`).
-    progress : callable, optional
-        Called with the step index after each step.
-
-    Returns
-    -------
-    RampResult
+    emap : EquilibriumMap
+    pole_stretch_max : float
+        Upper end of the zone curves the jumps are decided on.
     """
-    phi_path = [float(p) for p in phi_path]
-    if not phi_path:
-        raise ModelRangeError("empty voltage path", "out_of_range")
-    cache = {}
 
-    def eqs_at(phi):
-        key = round(phi, 14)
-        if key not in cache:
+    def __init__(self, emap: EquilibriumMap, pole_stretch_max: float):
+        self.emap = emap
+        self.lam_max = float(pole_stretch_max)
+        self._curves = {}
+
+    # ---------------------------------------------------------------------------------------------
+    def _curve(self, phi):
+        from .branches import ZoneCurve
+
+        key = round(phi, 15)
+        if key not in self._curves:
+            pre = self.emap.model.prestretch
+            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), 240)
+            self._curves[key] = ZoneCurve.compute(self.emap.model, abs(phi), pre + u**2, self.emap.settings)
+        return self._curves[key]
+
+    def _push(self, end: Event, seg: StableSegment):
+        """The lost state split into groups, and the push along its unstable mode (in volume), with the
+        mode's description."""
+        eq = end.eq
+        counts = list(eq.configuration.counts)
+        u = list(np.sqrt(np.asarray(eq.pole_stretch) - self.emap.model.prestretch))
+        dv = np.zeros(len(counts))
+        if end.kind == "split":
+            # the group at its pressure extremum: one of its zones inflates, the others deflate (the
+            # antisymmetric mode that keeps the group's volume; it leads to one zone bulging)
+            j = _group_of(end, eq, self.emap.model)
+            nj = counts[j]
+            counts[j:j + 1] = [nj - 1, 1]
+            u[j:j + 1] = [u[j], u[j]]
+            dv = np.zeros(len(counts))
+            dv[j], dv[j + 1] = -1.0 / (nj - 1), 1.0
+            mode = f"one zone of the group of {nj} inflates, the other {nj - 1} deflate"
+        elif end.kind == "merge":
+            finer = list(seg.configuration.counts)
+            counts = finer
+            base = u[0] if len(u) == 1 else None
+            u = [base if base is not None else x for x in np.interp(range(len(finer)), [0, len(finer) - 1],
+                                                                        [u[0], u[-1]])]
+            dv = np.linspace(-1.0, 1.0, len(finer))
+            mode = "the groups, met, separate as they came"
+        else:  # fold: the whole groups move along the null mode of B
+            from .equilibria import group_block
+
+            B = group_block(counts, eq.dp_dv, self.emap.gas.stiffness(sum(n * v for n, v in zip(counts, eq.v_hat))))
+            vals, vecs = np.linalg.eigh(B)
+            e = vecs[:, 0] / np.sqrt(np.asarray(counts, dtype=float))
+            # towards the more bulged states (the direction the unstable branch takes them)
+            dv = e if e[-1] >= 0 else -e
+            mode = "the groups move as wholes along the vanishing eigenvector of the group Hessian"
+        return counts, np.asarray(u, dtype=float), np.asarray(dv, dtype=float), mode
+
+    def jump(self, seg: StableSegment, end: Event, direction: int) -> Landing:
+        """Where the zones go when the state of ``seg`` is lost at ``end`` while the voltage moves in
+        ``direction``."""
+        if end.kind == "range_end":
+            return Landing(None, None, f"{seg.label} leaves the model's range: {end.note}")
+        if end.kind == "breakdown":
+            return Landing(None, None, "electric breakdown")
+        phi_e = end.phi_hat
+        counts, u, dv, mode = self._push(end, seg)
+        last_err = ""
+        for eps in (1e-5, 1e-4, 1e-3):
+            phi_f = phi_e + direction * eps * max(abs(phi_e), 0.01)
             try:
-                cache[key] = equilibria(family.curve(phi), gas, zones)
-            except ModelRangeError as exc:  # nothing valid at this voltage: no equilibrium at all
-                cache[key] = []
-                notes.append(f"Φ̂ = {phi:.6g}: {exc}")
-        return cache[key]
-
-    # every equilibrium (for the figure and the equal-free-energy scan) on every 4th distinct voltage;
-    # the path itself is followed at every voltage by continuing its own state
-    distinct = sorted({round(p, 14) for p in phi_path})
-    full_grid = set(distinct[::4]) | {distinct[-1]}
-
-    steps, transitions, notes = [], [], []
-    state = _initial_state(eqs_at(phi_path[0]))
-    if state is None:
-        raise ModelRangeError(f"no stable equilibrium at the start of the path (Φ̂ = {phi_path[0]:.6g})",
-                              "no_equilibrium")
-    for i, phi in enumerate(phi_path):
-        direction = "up" if i == 0 or phi >= phi_path[i - 1] else "down"
-        local = _local(family, gas, state, phi) if (i > 0 and state is not None) else None
-        if local is not None and round(phi, 14) not in full_grid:
-            steps.append(RampStep(phi, local, [local], direction, None))
-            state = local
-            if progress is not None:
-                progress(i)
-            continue
-        eqs = eqs_at(phi)
-        note = None
-        if i > 0 and state is None:
-            stable = [e for e in eqs if e.stable]
-            if stable:
-                # back inside the model's range: the zones that left it were the most bulged
-                state = max(stable, key=lambda e: (e.k, max(e.zone_volumes)))
-                note = f"a stable state exists again: {state.label} (re-entering the model's range)"
-                transitions.append(Transition(phi, "re_entry", "none", state.label, direction,
-                                              (phi_path[i - 1], phi)))
-                notes.append(note)
-        elif i > 0:
-            nxt = local if local is not None else _continue(state, eqs)
-            if nxt is None:
-                stable = [e for e in eqs if e.stable]
-                target = min(stable, key=lambda e: e.distance(state)) if stable else None
-                lo, hi = phi_path[i - 1], phi
-                if refine:
-                    lo, hi = _bisect_loss(family, gas, zones, state, lo, hi)
-                try:
-                    stopped = family.curve(phi).stopped_because
-                except ModelRangeError as exc:
-                    stopped = str(exc)
-                kind = "spinodal"
-                why = "loses stability" if _continue(state, eqs, stable_only=False) else "ceases to exist"
-                if target is None:
-                    kind = "no_stable_state"
-                    reason = stopped or "no stable equilibrium in the model's range"
-                    note = (f"{state.label} {why} and no stable state remains: a zone bulges without bound "
-                            f"or leaves the model's range ({reason})")
-                    notes.append(note)
-                transitions.append(Transition(0.5 * (lo + hi), kind, state.label,
-                                              target.label if target else "none", direction, (lo, hi)))
-                nxt = target
-            state = nxt
-        steps.append(RampStep(phi, state, eqs, direction, note))
-        if progress is not None:
-            progress(i)
-    equal = _equal_free_energy(family, gas, zones, sorted(full_grid), eqs_at, refine)
-    return RampResult(steps, transitions, equal, zones, notes)
-
-
-def _local(family, gas, state, phi):
-    """``state`` continued to ``Φ̂`` by Newton on the curve there, if it stays stable and close."""
-    try:
-        nxt = continue_equilibrium(family.curve(phi), gas, state)
-    except ModelRangeError:
-        return None
-    if nxt is None or not nxt.stable:
-        return None
-    scale = max(max(state.zone_volumes), 1e-12)
-    return nxt if nxt.distance(state) <= CONTINUATION_TOLERANCE * scale else None
-
-
-def eqs_at_exact(family, gas, zones):
-    """Equilibria at any voltage (not cached: used by the bisections); none where nothing is valid."""
-    def at(phi):
-        try:
-            return equilibria(family.curve(phi), gas, zones)
-        except ModelRangeError:
-            return []
-    return at
-
-
-def _bisect_loss(family, gas, zones, state, lo, hi, tol=None):
-    """Shrink [lo, hi] around the voltage where ``state``'s configuration stops being stable (or
-    stops existing), following it by local continuation: Newton from the last voltage where it held
-    either converges to a stable state close by, or the state is lost (unstable, or at its fold)."""
-    ref = state
-    tol = BISECTION_TOLERANCE if tol is None else tol
-    for _ in range(60):
-        if abs(hi - lo) <= tol:
-            break
-        mid = 0.5 * (lo + hi)
-        nxt = _local(family, gas, ref, mid)
-        if nxt is not None:
-            lo, ref = mid, nxt
-        else:
-            hi = mid
-    return lo, hi
-
-
-def _delta_k(eqs, k):
-    """``G(k bulged, stable) − G(homogeneous)`` among ``eqs``, or None where either is missing."""
-    hom = [e for e in eqs if e.k == 0 and e.branch_unbulged == 0]
-    mix = [e.free_energy for e in eqs if e.k == k and e.stable]
-    if not hom or not mix:
-        return None
-    return min(mix) - min(hom, key=lambda e: e.v_unbulged).free_energy
-
-
-def _equal_free_energy(family, gas, zones, phi_path, eqs_at, refine):
-    """Voltages where a stable configuration with k bulged zones has the total free energy of the
-    homogeneous one: sign changes of their difference along the grid, and configurations that appear
-    (between two grid voltages) already lower, bisected to :data:`BISECTION_TOLERANCE`."""
-    grid = sorted(set(round(p, 14) for p in phi_path))
-    find_all = eqs_at_exact(family, gas, zones)
-
-    def delta(phi, k):
-        return _delta_k(find_all(phi), k)
-
-    found = []
-    prev = None
-    for phi in grid:
-        eqs = eqs_at(phi)
-        diffs = {k: d for k in range(1, zones) if (d := _delta_k(eqs, k)) is not None}
-        for k, d in diffs.items():
-            if prev is None or d > 0:
+                curve = self._curve(phi_f)
+            except ModelRangeError as exc:
+                last_err = str(exc)
                 continue
-            lo, hi = prev[0], phi
-            if k in prev[1]:
-                if prev[1][k] <= 0:
+            v_scale = max(float(np.max(np.abs(curve.v(u)))), 1e-9)
+            du = 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12)
+            counts_end, u_end, status, snaps = gradient_flow(curve, self.emap.gas, counts, u + du)
+            if snaps:
+                mode += f"; on the way {len(snaps)} zone{'s' if len(snaps) > 1 else ''} snapped at fixed volume " \
+                        f"past a volume fold (pole stretch {', '.join(f'{1 + a*a:.4g} -> {1 + b*b:.4g}' for a, b in snaps)})"
+            if status == "volume_fold":
+                return Landing(None, None, f"a zone of {seg.label} reaches its largest volume (a volume fold of "
+                                           "its curve): past it no axisymmetric state is stable", mode)
+            if status == "range_end":
+                return Landing(None, None, f"a zone leaves the model's range on the way from {seg.label} "
+                                           f"({curve.stopped_because or 'end of the computed curve'})", mode)
+            if status != "converged":
+                last_err = f"the gradient flow did not settle ({status})"
+                continue
+            conf, uc = merged(Configuration(tuple(counts_end)), u_end)
+            conf, uc = _merge_loose(conf, uc, 1e-4)
+            eq = self._polish(conf, uc, phi_f)
+            if eq is None:
+                last_err = f"no exact equilibrium of {conf.label} near the flow's end at Φ̂ = {phi_f:.8g}"
+                continue
+            if _same_state(eq, end.eq, self.emap.model) and end.kind != "merge":
+                continue  # still in the lost state's basin on the interpolated curve: go further
+            if not eq.stable:
+                last_err = f"the flow ended on {eq.label}, which is not stable on the exact equations"
+                continue
+            seg_new = self.emap.segment_of(eq, eq.zone_index)
+            return Landing(eq, seg_new, "", mode)
+        raise SolverError(f"jump from {seg.label} at Φ̂ = {phi_e:.10g}: {last_err or 'no landing found'}")
+
+    def _polish(self, conf: Configuration, u, phi) -> Equilibrium | None:
+        from .continuation import correct
+        from .equilibria import make_equilibrium
+
+        tr = self.emap.tracer(conf.counts)
+        M = conf.groups
+        z = np.concatenate([u, [phi * tr.w]])
+        n = np.zeros(M + 1)
+        n[M] = 1.0
+        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
+        if not corr.ok[0]:
+            return None
+        eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
+        idx = tuple(_zone_index_on_curve(self._curve(phi), x) for x in np.sort(corr.z[0, :M]))
+        eq.zone_index = idx
+        return eq
+
+    # ---------------------------------------------------------------------------------------------
+    def run(self, phi_path, start: StableSegment, progress=None) -> RampResult:
+        """Walk ``phi_path`` (starting from 0 V on ``start``); returns the steps and transitions."""
+        phi_path = [float(p) for p in phi_path]
+        if not phi_path:
+            raise ModelRangeError("empty voltage path", "out_of_range")
+        seg = start
+        cur = 0.0
+        exited = None  # (segment, event, direction) when the state left the model's range
+        broken = None
+        transitions = []
+        visits = []  # (step index, segment or None, note)
+        notes = []
+        prev_phi = 0.0
+        for i, target in enumerate([0.0] + phi_path):
+            step_index = i - 1
+            direction = 1 if target >= prev_phi else -1
+            label_dir = "up" if direction > 0 else "down"
+            cur = prev_phi
+            note = None
+            while True:
+                if broken is not None:
+                    break
+                if seg is None:
+                    # re-entry where the state left, when the voltage comes back over that event
+                    esg, eev, edir = exited
+                    if direction != edir and (min(cur, target) <= eev.phi_hat <= max(cur, target)):
+                        seg = esg
+                        cur = eev.phi_hat
+                        transitions.append(Transition(cur, "re_entry", "none", esg.label, label_dir, "range_end",
+                                                      eev.error, "back inside the model's range where it left it",
+                                                      state_after=eev.eq, source=eev,
+                                                      source_counts=esg.tracer.system.configuration.counts))
+                        note = f"re-enters {esg.label}"
+                        exited = None
+                        continue
+                    break
+                end = seg.end(direction)
+                phi_end = seg.end_phi(direction)
+                if not isinstance(end, Event) or end.kind == "window" or direction * (phi_end - target) > 0:
+                    break
+                if direction * (phi_end - cur) < 0:
+                    break  # numerically at the end already (re-entry exactly at the event)
+                # the state is lost at the event
+                if end.kind == "breakdown":
+                    transitions.append(Transition(phi_end, "breakdown", seg.label, "broken down", label_dir,
+                                                  "breakdown", end.error, "the largest field reaches the breakdown "
+                                                  "field", state_before=end.eq, source=end,
+                                                  source_counts=seg.tracer.system.configuration.counts))
+                    broken = phi_end
+                    seg = None
+                    note = "electric breakdown"
+                    break
+                land = self.jump(seg, end, direction)
+                if land.state is None:
+                    transitions.append(Transition(phi_end, "no_stable_state", seg.label, "none", label_dir, end.kind,
+                                                  end.error, land.reason, land.mode, state_before=end.eq, source=end,
+                                                  source_counts=seg.tracer.system.configuration.counts))
+                    notes.append(f"{seg.label} at {phi_end:.10g}: {land.reason}")
+                    exited = (seg, end, direction)
+                    seg = None
+                    note = land.reason
+                    cur = phi_end
                     continue
-            else:
-                # the configuration appears inside (lo, hi): locate where, then compare there
-                for _ in range(60):
-                    if hi - lo <= BISECTION_TOLERANCE:
-                        break
-                    mid = 0.5 * (lo + hi)
-                    lo, hi = (lo, mid) if delta(mid, k) is not None else (mid, hi)
-                d_app = delta(hi, k)
-                if d_app is None or d_app <= 0:
-                    found.append(Transition(hi, "equal_free_energy", "homogeneous", f"{k} of {zones} bulged",
-                                            "either", (lo, hi)))
-                    continue
-                lo, hi = hi, phi
-            if refine:
-                lo, hi = _bisect_sign(delta, k, lo, hi)
-            found.append(Transition(0.5 * (lo + hi), "equal_free_energy", "homogeneous",
-                                    f"{k} of {zones} bulged", "either", (lo, hi)))
-        prev = (phi, diffs)
-    return found
+                kind = "merge" if end.kind == "merge" else "spinodal"
+                transitions.append(Transition(phi_end, kind, seg.label, land.state.label, label_dir, end.kind,
+                                              end.error, _loss_reason(end), land.mode, state_before=end.eq,
+                                              state_after=land.state, source=end,
+                                              source_counts=seg.tracer.system.configuration.counts))
+                seg = land.segment
+                cur = phi_end
+                note = "transition"
+            if step_index >= 0:
+                visits.append((step_index, seg, target, label_dir, note))
+            prev_phi = target
+            if progress is not None and step_index >= 0:
+                progress(step_index)
+        steps = self._states(visits, broken)
+        equal = equal_free_energy(list({id(s): s for s in ([start] + [v[1] for v in visits if v[1] is not None])}
+                                       .values()))
+        segs = list({id(s): s for s in [start] + [v[1] for v in visits if v[1] is not None]}.values())
+        return RampResult(steps, transitions, equal, self.emap.zones, segs, notes)
+
+    def _states(self, visits, broken) -> list:
+        """Solve every printed state, batched per segment (a voltage visited twice on one segment is one state)."""
+        per = {}
+        for _, seg, phi, _, _ in visits:
+            if seg is not None:
+                per.setdefault(id(seg), (seg, set()))[1].add(round(phi, 14))
+        solved = {}
+        for key, (seg, phis) in per.items():
+            phis = sorted(phis)
+            for phi, eq in zip(phis, seg.states(np.array(phis))):
+                solved[(key, phi)] = eq
+        steps = []
+        for _, seg, phi, d, note in visits:
+            st = solved[(id(seg), round(phi, 14))] if seg is not None else None
+            steps.append(RampStep(phi, st, d, note, seg))
+        return steps
 
 
-def _bisect_sign(delta, k, lo, hi, tol=None):
-    """Bisect the sign change of ``delta(Φ̂, k)`` (positive at ``lo``) in [lo, hi]."""
-    tol = BISECTION_TOLERANCE if tol is None else tol
-    for _ in range(60):
-        if hi - lo <= tol:
+def _loss_reason(end: Event) -> str:
+    return {"fold": "a fold of the configuration's branch: its spinodal",
+            "split": "a group's zones reach a pressure extremum and can move against each other",
+            "merge": "the groups meet (a symmetric branch point)"}.get(end.kind, end.note)
+
+
+def _group_of(end: Event, eq: Equilibrium, model) -> int:
+    """The group (in ``eq``'s order) that sits at its pressure extremum at a split event."""
+    counts = eq.configuration.counts
+    cands = [j for j, n in enumerate(counts) if n >= 2]
+    if len(cands) == 1:
+        return cands[0]
+    # the one whose dp/dV is closest to zero
+    return min(cands, key=lambda j: abs(eq.dp_dv[j]))
+
+
+def _merge_loose(conf: Configuration, u, tol):
+    """Join groups closer than ``tol`` in ``u`` (the flow runs on interpolated curves)."""
+    counts, us = [conf.counts[0]], [u[0]]
+    for c, x in zip(conf.counts[1:], u[1:]):
+        if abs(x - us[-1]) <= tol:
+            us[-1] = (counts[-1] * us[-1] + c * x) / (counts[-1] + c)
+            counts[-1] += c
+        else:
+            counts.append(c)
+            us.append(x)
+    return Configuration(tuple(counts)), np.asarray(us)
+
+
+def _same_state(a: Equilibrium, b: Equilibrium, model) -> bool:
+    if a.configuration.counts != b.configuration.counts:
+        return False
+    return bool(np.max(np.abs(np.asarray(a.pole_stretch) - np.asarray(b.pole_stretch))) < 1e-3)
+
+
+def _zone_index_on_curve(curve, u) -> int:
+    """Unstable modes of one zone at fixed volume at ``u``, counted on ``curve`` by Maddocks' rule."""
+    grid = curve.grid[curve.grid < u]
+    if grid.size < 2:
+        return 0
+    x = np.append(grid, u)
+    dv = curve.dv(x)
+    dp = curve.dp(x)
+    index = 0
+    for i in range(x.size - 1):
+        if dv[i] * dv[i + 1] < 0:
+            k = i if abs(dv[i]) < abs(dv[i + 1]) else i + 1
+            index += -int(np.sign(dp[k] * np.sign(dv[i])))
+    return max(index, 0)
+
+
+# --- equal free energy ---------------------------------------------------------------------------------
+def _g_of(seg: StableSegment):
+    """Free energy along a segment as (Φ̂, Ĝ, dĜ/dΦ̂ = −Σ nj Q̂j) at its points, sorted by Φ̂."""
+    pts = sorted(seg.points, key=lambda p: p.phi)
+    phi = np.array([p.phi for p in pts])
+    G = np.array([p.eq.free_energy for p in pts])
+    dG = np.array([-p.eq.total_charge for p in pts])
+    return phi, G, dG
+
+
+def _hermite_at(x, xs, ys, ds):
+    k = int(np.clip(np.searchsorted(xs, x) - 1, 0, xs.size - 2))
+    h = xs[k + 1] - xs[k]
+    t = (x - xs[k]) / h
+    return ((2 * t**3 - 3 * t**2 + 1) * ys[k] + (t**3 - 2 * t**2 + t) * h * ds[k] + (-2 * t**3 + 3 * t**2) * ys[k + 1]
+            + (t**3 - t**2) * h * ds[k + 1])
+
+
+def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
+    """Voltages where two stable segments have equal total free energy, located on exact states.
+
+    For every pair of segments that overlap in voltage, sign changes of ``ΔĜ`` (cubic Hermite in ``Φ̂``
+    from the points, using ``dĜ/dΦ̂ = −Σ nj Q̂j``) bracket the crossings; each is then solved by Newton's
+    method on ``ΔĜ(Φ̂)`` with both states converged exactly at every iterate (slope ``−ΔQ̂``).
+    """
+    out = []
+    for ia, A in enumerate(segments):
+        for B in segments[ia + 1:]:
+            if A.configuration.counts == B.configuration.counts and A is B:
+                continue
+            lo = max(A.phi_range[0], B.phi_range[0])
+            hi = min(A.phi_range[1], B.phi_range[1])
+            if not hi > lo:
+                continue
+            pa, Ga, dGa = _g_of(A)
+            pb, Gb, dGb = _g_of(B)
+            if pa.size < 2 or pb.size < 2:
+                continue
+            grid = np.unique(np.concatenate([pa, pb, [lo, hi]]))
+            grid = grid[(grid >= lo) & (grid <= hi)]
+            d = np.array([_hermite_at(x, pa, Ga, dGa) - _hermite_at(x, pb, Gb, dGb) for x in grid])
+            for k in np.flatnonzero(d[:-1] * d[1:] < 0):
+                t = _crossing(A, B, grid[k], grid[k + 1], d[k], d[k + 1])
+                if t is not None:
+                    out.append(t)
+    return sorted(out, key=lambda t: t.phi_hat)
+
+
+def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transition | None:
+    phi = lo - dlo * (hi - lo) / (dhi - dlo)
+    tol = 10 * A.tracer.system.settings.rtol * max(abs(phi), 1e-3)
+    step = np.inf
+    for _ in range(12):
+        ea, eb = A.states([phi])[0], B.states([phi])[0]
+        dG = ea.free_energy - eb.free_energy
+        slope = -(ea.total_charge - eb.total_charge)
+        if slope == 0:
+            return None
+        step = -dG / slope
+        phi_new = float(np.clip(phi + step, lo, hi))
+        if abs(step) <= tol:
             break
-        mid = 0.5 * (lo + hi)
-        d = delta(mid, k)
-        if d is None:
-            break
-        lo, hi = (mid, hi) if d > 0 else (lo, mid)
-    return lo, hi
+        phi = phi_new
+    else:
+        raise SolverError(f"equal free energy of {A.label} and {B.label} did not converge near Φ̂ = {phi:.10g}")
+    # label: from the configuration lower in G below the crossing to the one lower above it
+    below = A if (dlo < 0) else B
+    above = B if below is A else A
+    return Transition(phi, "equal_free_energy", below.label, above.label, "either", "equal_free_energy",
+                      abs(step), "equal total free energy", state_before=ea if below is A else eb,
+                      state_after=eb if below is A else ea, segments=(A, B))

@@ -36,6 +36,15 @@ class SolverSettings:
         (in units of the estimated clamp radius) has no equilibrium at that pole stretch.
     limit_point_xtol : float
         Tolerance on the pole stretch when a pressure or voltage extremum is located.
+    sensitivity_error_control : bool
+        Whether the variational equations (exact derivatives of a state to ``λ0`` and ``Φ̂``) take part
+        in the integrator's step-size control. Off (default): they are integrated on the steps the
+        states choose, which makes them the exact derivatives of the discrete solution; measured
+        against ``rtol = 1e-13``, they then carry the relative error of the states themselves (see
+        ``tests/test_sensitivities.py``) at half the cost.
+    error_estimates : bool
+        Measure the error of every transition voltage by locating it again at ``rtol/100`` (at least
+        1e-13); off, a transition carries only its location bracket.
     """
 
     rtol: float = 1e-10
@@ -44,6 +53,8 @@ class SolverSettings:
     max_steps: int = 4000
     max_radius_factor: float = 1000.0
     limit_point_xtol: float = 1e-9
+    sensitivity_error_control: bool = False
+    error_estimates: bool = True
 
     def __post_init__(self):
         if not (1e-14 <= self.rtol <= 1e-2):

@@ -68,6 +68,29 @@ REASONS = {
 }
 
 
+def hermite_minimum(xa, ya, da, xb, yb, db):
+    """Smallest value on ``[xa, xb]`` of the cubic Hermite interpolant with values ``ya, yb`` and slopes
+    ``da, db`` at the ends (vectorised): the ends, and the interior stationary points that are minima.
+    Used to refine a tension's minimum between two integration nodes (error O(h⁴))."""
+    with np.errstate(all="ignore"):
+        h = xb - xa
+        # p(s) on s in [0, 1]: p'(s) = A s² + B s + C
+        A = 6 * (ya - yb) + 3 * h * (da + db)
+        B = -6 * (ya - yb) - 4 * h * da - 2 * h * db
+        C = h * da
+        disc = B * B - 4 * A * C
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        best = np.minimum(ya, yb)
+        for sgn in (-1.0, 1.0):
+            s = np.where(np.abs(A) > 1e-300, (-B + sgn * sq) / (2 * A), -C / np.where(B != 0, B, 1.0))
+            ok = (disc >= 0) & (s > 0) & (s < 1) & np.isfinite(s)
+            s2, s3 = s * s, s * s * s
+            p = (ya * (2 * s3 - 3 * s2 + 1) + h * da * (s3 - 2 * s2 + s) + yb * (-2 * s3 + 3 * s2)
+                 + h * db * (s3 - s2))
+            best = np.where(ok & (p < best), p, best)
+    return best
+
+
 def first_valid_run(ok) -> slice:
     """The first contiguous run of True in ``ok`` (which must hold at least one True)."""
     ok = np.asarray(ok, dtype=bool)
@@ -82,6 +105,25 @@ def reason_tag(code: int) -> str:
 
 def reason_text(code: int) -> str:
     return REASONS[int(code)][1]
+
+
+@dataclass
+class StateDerivatives:
+    """Exact first derivatives of the clamped states, from the variational equations.
+
+    ``dp_dl0 = ∂p̂/∂λ0|Φ̂``, ``dv_dl0``, ``dq_dl0`` and ``dp_dphi = ∂p̂/∂Φ̂|λ0``, ``dv_dphi``,
+    ``dq_dphi``; those of ``Ψ̂`` follow from ``dΨ̂ = p̂ dV̂ − Q̂ dΦ̂`` (:meth:`dpsi_dl0`, :meth:`dpsi_dphi`).
+    """
+
+    dp_dl0: np.ndarray
+    dv_dl0: np.ndarray
+    dq_dl0: np.ndarray
+    dp_dphi: np.ndarray
+    dv_dphi: np.ndarray
+    dq_dphi: np.ndarray
+
+    def take(self, index) -> StateDerivatives:
+        return StateDerivatives(**{k: v[index] for k, v in self.__dict__.items()})
 
 
 @dataclass
@@ -113,6 +155,8 @@ class MembraneStates:
         Integration steps taken per state (a diagnostic of cost).
     shapes : list or None
         With ``shape=True``: per state an array ``(R̂, r̂, ẑ)`` of the meridian.
+    derivatives : StateDerivatives or None
+        With ``derivatives=True``: exact first derivatives to ``λ0`` and ``Φ̂``.
     """
 
     pole_stretch: np.ndarray
@@ -129,6 +173,7 @@ class MembraneStates:
     fail_radius: np.ndarray
     steps: np.ndarray
     shapes: list | None = field(default=None, repr=False)
+    derivatives: StateDerivatives | None = field(default=None, repr=False)
 
     @property
     def ok(self) -> np.ndarray:
@@ -185,8 +230,90 @@ def _check_inputs(model, l0, phi):
         raise SceneError("this model has no electrostatics: Φ̂ must be 0", "phi_hat")
 
 
+#: a tension's minimum between two integration nodes is located exactly (the step re-taken to where its
+#: slope vanishes) when its interpolated estimate is below this: where the onset of wrinkling is decided
+REFINE_MINIMUM_BELOW = 0.02
+
+#: batches of at most this many live trajectories are integrated by the CasADi step function, larger ones by
+#: numpy (measured crossover on this machine: ~50; see benchmarks/bench_curve.py)
+CASADI_BATCH_LIMIT = 48
+
+
+class _Integrators:
+    """The right-hand sides a model is shot with, numpy and CasADi, built once per model on first use.
+
+    ``radius``: the membrane equations in ``R̂`` (rows λ1, λ2, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ, p̂t, Φ̂);
+    ``radius_sens``: the same with the variational equations (rows 7–16: ∂(λ1, λ2, θ, V̂/π, Q̂/2π) to
+    λ0, then to Φ̂; p̂t and Φ̂ in rows 17 and 18); ``hoop``: the last step, with ``λ2`` as the
+    independent variable (rows R̂, λ1, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ, p̂t, Φ̂).
+    """
+
+    def __init__(self, model: MembraneModel):
+        self.model = model
+        self._casadi = {}
+
+    # numpy right-hand sides (large batches)
+    def radius(self, R, y):
+        out = np.empty_like(y)
+        out[7:] = 0.0
+        return self.model.rhs_into(R, y[0], y[1], y[2], y[7], y[8], out)
+
+    def radius_sens(self, R, y):
+        out = np.empty_like(y)
+        out[17:] = 0.0
+        return self.model.rhs_sensitivities_into(R, y[0], y[1], y[2], y[17], y[18], y[7:10], y[12:15], out)
+
+    def hoop(self, l2, z):
+        d = np.empty((7, l2.size))
+        d[:] = self.model.rhs(z[0], z[1], l2, z[2], z[7], z[8])
+        inv = 1.0 / d[1]
+        out = np.zeros_like(z)
+        out[0] = inv
+        out[1] = d[0] * inv
+        out[2:7] = d[2:] * inv
+        return out
+
+    def stepper(self, kind: str, n: int):
+        """A stepper for ``n`` trajectories of the right-hand side ``kind``."""
+        fun = getattr(self, kind)
+        if n > CASADI_BATCH_LIMIT:
+            return _int.NumpyStepper(fun)
+        st = self._casadi.get(kind)
+        if st is None:
+            rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
+            st = self._casadi[kind] = _int.CasadiStepper(_int.casadi_step_function(self._casadi_rhs(kind), rows,
+                                                                                   f"dop853_{kind}"), fun, rows)
+        return st
+
+    def _casadi_rhs(self, kind):
+        import casadi as ca
+
+        f = self.model.casadi_functions
+        t = ca.SX.sym("t")
+        if kind == "radius":
+            y = ca.SX.sym("y", 9)
+            d = f["rhs"](t, y[0], y[1], y[2], y[7], y[8])
+            return ca.Function("rhs", [t, y], [ca.vertcat(*d, 0, 0)])
+        if kind == "radius_sens":
+            y = ca.SX.sym("y", 19)
+            d = f["rhs_sens"](t, y[0], y[1], y[2], y[17], y[18], y[7], y[8], y[9], y[12], y[13], y[14])
+            return ca.Function("rhs", [t, y], [ca.vertcat(*d, 0, 0)])
+        z = ca.SX.sym("z", 9)
+        d = f["rhs"](z[0], z[1], t, z[2], z[7], z[8])
+        inv = 1 / d[1]
+        return ca.Function("rhs", [t, z], [ca.vertcat(inv, d[0] * inv, d[2] * inv, d[3] * inv, d[4] * inv,
+                                                      d[5] * inv, d[6] * inv, 0, 0)])
+
+
+def _integrators(model: MembraneModel) -> _Integrators:
+    built = model._built
+    if "integrators" not in built:
+        built["integrators"] = _Integrators(model)
+    return built["integrators"]
+
+
 def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: SolverSettings | None = None,
-                 shape: bool = False) -> MembraneStates:
+                 shape: bool = False, derivatives: bool = False, formal: bool = False) -> MembraneStates:
     """Equilibrium states of a clamped zone at the given pole stretches and voltages.
 
     Parameters
@@ -199,6 +326,15 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
     settings : SolverSettings, optional
     shape : bool
         Also return the meridian ``(R̂, r̂, ẑ)`` of every state (costs extra output steps).
+    derivatives : bool
+        Also return the exact first derivatives of ``p̂, V̂, Q̂`` (and ``Ψ̂``) with respect to the pole
+        stretch and the voltage, from the variational equations integrated with the state
+        (:class:`StateDerivatives`; about twice the cost of the states alone).
+    formal : bool
+        Continue through a non-positive hoop tension instead of stopping with ``wrinkling``: the taut
+        equations stay regular while the meridional tension is positive, and ``min_tension`` then goes
+        smoothly through zero. Such a state is *not* a membrane equilibrium (it would wrinkle); this is
+        only for locating the onset of wrinkling as the root of a smooth function.
 
     Returns
     -------
@@ -218,7 +354,9 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
 
     with np.errstate(all="ignore"):
         T0, alpha, beta, W0, q0 = (np.broadcast_to(np.asarray(x, dtype=float), (n,)) for x in model.pole(l0, phi))
-        margin0 = np.broadcast_to(np.asarray(model.tensions(l0, l0, phi)[4], dtype=float), (n,))
+        aux0 = model.tensions(l0, l0, phi)
+        margin0 = np.broadcast_to(np.asarray(aux0[4], dtype=float), (n,))
+        max_field = np.abs(np.asarray(aux0[5], dtype=float) * np.ones(n))
     status[l0 - model.prestretch < FLAT_LIMIT * model.prestretch] = BELOW_RESOLUTION
     status[(status == OK) & (margin0 <= LOCKING_LIMIT)] = LOCKED
     status[(status == OK) & ((T0 <= 0) | ~np.isfinite(T0))] = WRINKLED_AT_POLE
@@ -226,51 +364,69 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
     fail_radius[status != OK] = 0.0
 
     live = np.flatnonzero(status == OK)
-    out = {k: np.full(n, np.nan) for k in ("p", "V", "Q", "Psi", "z", "R")}
+    keys = ("p", "V", "Q", "Psi", "z", "R") + (("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi")
+                                               if derivatives else ())
+    out = {k: np.full(n, np.nan) for k in keys}
     min_tension = np.where(status == OK, T0, np.nan)
-    with np.errstate(all="ignore"):
-        max_field = np.abs(np.asarray(model.tensions(l0, l0, phi)[5], dtype=float) * np.ones(n))
     steps = np.zeros(n, dtype=int)
     shapes = [None] * n if shape else None
     if live.size:
         with np.errstate(all="ignore"):
-            _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, status, fail_radius,
-                   out, min_tension, max_field, steps, shapes)
+            _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius,
+                   out, min_tension, max_field, steps, shapes, derivatives, formal)
     bad = status != OK
     for k in out:
         out[k][bad] = np.nan
     R = out["R"]
+    p_trial = out["p"]
+    p_hat, v_hat, q_hat = p_trial * R, out["V"] / R**3, out["Q"] / R**2
+    deriv = None
+    if derivatives:
+        parts = {}
+        for a in ("l0", "phi"):
+            dR = out[f"dR_d{a}"]
+            parts[f"dp_d{a}"] = p_trial * dR
+            parts[f"dv_d{a}"] = out[f"dV_d{a}"] / R**3 - 3 * v_hat * dR / R
+            parts[f"dq_d{a}"] = out[f"dQ_d{a}"] / R**2 - 2 * q_hat * dR / R
+        deriv = StateDerivatives(**parts)
     return MembraneStates(
         pole_stretch=l0, phi_hat=phi,
-        p_hat=out["p"] * R, v_hat=out["V"] / R**3, q_hat=out["Q"] / R**2, psi_hat=out["Psi"] / R**2,
+        p_hat=p_hat, v_hat=v_hat, q_hat=q_hat, psi_hat=out["Psi"] / R**2,
         apex_height=out["z"] / R, max_field=np.where(bad, np.nan, max_field),
         min_tension=np.where(bad, np.nan, min_tension), clamp_radius=R, status=status,
-        fail_radius=fail_radius, steps=steps, shapes=shapes,
+        fail_radius=fail_radius, steps=steps, shapes=shapes, derivatives=deriv,
     )
 
 
-def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, status, fail_radius, out,
-           min_tension, max_field, steps, shapes):
+def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, out, min_tension, max_field,
+           steps, shapes, derivatives, formal=False):
     """Integrate the live trajectories; fills ``out`` and the diagnostics in place."""
-    l0, phi, T0, alpha, beta, W0, q0 = (a[live] for a in (l0, phi, T0, alpha, beta, W0, q0))
-    p = trial_pressure(model, l0, phi)
-    # series start at the pole: θ = cR, λ1 = λ0 + aR², λ2 = λ0 + bR² (derived in docs/series)
-    c = p * l0**2 / (2 * T0)
-    b = -(c**2) * (T0 + (3 * alpha - beta) * l0) / (16 * alpha)
-    a = l0 * c**2 / 2 + 3 * b
-    R0 = settings.series_radius
-    y0 = np.vstack([
-        l0 + a * R0**2, l0 + b * R0**2, c * R0,
-        l0**3 * c * R0**4 / 4, q0 * R0**2 / 2, W0 * R0**2 / 2, l0 * c * R0**2 / 2,  # quadratures / factors
-        p, phi,
-    ])
+    l0, phi, T0 = (a[live] for a in (l0, phi, T0))
     m = live.size
-    # absolute tolerances that follow each trajectory's own scale (series values at R̂ = 1): a barely
-    # inflated membrane has θ ~ δ, V̂ ~ δ, Ψ̂ ~ δ² for an apex deflection δ, and a fixed absolute
-    # tolerance would swallow them
-    size = np.vstack([np.ones(m), np.ones(m), np.abs(c), l0**3 * np.abs(c) / 4, np.abs(q0) / 2,
-                      np.abs(W0) / 2, l0 * np.abs(c) / 2, np.ones(m), np.ones(m)])
-    atol = settings.atol * np.maximum(size, 1e-30)
+    p = trial_pressure(model, l0, phi)
+    R0 = settings.series_radius
+    # series start at the pole (docs/physics.md) and, for the absolute tolerances, the same series
+    # evaluated at R̂ = 1: each trajectory's tolerance then follows the size of its own quantities (a
+    # barely inflated membrane has θ ~ δ, V̂ ~ δ, Ψ̂ ~ δ² for an apex deflection δ, and a fixed
+    # absolute tolerance would swallow them)
+    start = np.broadcast_arrays(*model.series_start(l0, p, phi, R0), np.empty(m))[:-1]
+    unit = np.broadcast_arrays(*model.series_start(l0, p, phi, 1.0), np.empty(m))[:-1]
+    ones = np.ones(m)
+    size = [ones, ones] + [np.abs(unit[i]) for i in range(2, 7)]
+    rows = list(start[:7])
+    if derivatives:
+        rows += list(start[7:17])
+        if settings.sensitivity_error_control:
+            size += [ones, ones] + [np.abs(unit[i]) for i in (9, 10, 11)]
+            size += [np.maximum(np.abs(unit[i]), 1e-30) for i in range(12, 17)]
+        else:
+            # integrated on the steps the states choose: the derivative of the discrete solution
+            size += [np.full(m, np.inf)] * 10
+    rows += [p, phi]
+    size += [ones, ones]
+    y0 = np.vstack(rows)
+    P = y0.shape[0] - 2  # row of the trial pressure; the voltage is the next
+    atol = settings.atol * np.maximum(np.vstack(size), 1e-30)
     # roundoff bounds what can be asked of a barely inflated membrane: its tensions are differences
     # of O(1) numbers that are O(λ0 − λpre), so their relative precision is ~ε/(λ0 − λpre)
     rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam_clamp - 1))
@@ -278,23 +434,80 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
     local_max_E = max_field[live].copy()
     local_fail_R = np.full(m, np.nan)
     local_code = np.zeros(m, dtype=int)
-    rows = [] if shapes is not None else None
+    trace = [] if shapes is not None else None
+    # the last accepted node of each trajectory (radius, T1, T2, their slopes dT/dR, the state and its
+    # derivative): a tension's minimum between two nodes is first estimated by the cubic Hermite
+    # interpolant of its values and exact slopes (error O(h⁴)); where that estimate comes near zero (where
+    # the onset of wrinkling is decided), the step is taken again to the point where dT/dR = 0, so the
+    # minimum carries the integrator's own accuracy. At the pole the slopes vanish (even in R).
+    node = np.vstack([np.full(m, R0), T0, T0, np.zeros(m), np.zeros(m)])
+    node_y = y0.copy()
+    fns = _integrators(model)
+    kind = "radius_sens" if derivatives else "radius"
 
-    def f_radius(R, y):
-        out = np.empty_like(y)
-        out[7:] = 0.0
-        return model.rhs_into(R, y[0], y[1], y[2], y[7], y[8], out)
+    def slopes(y, f, T11, T12, T22):
+        # dT1/dR = ∂T1/∂λ1 λ1' + ∂T1/∂λ2 λ2',  dT2/dR = ∂T2/∂λ1 λ1' + ∂T2/∂λ2 λ2' (∂T2/∂λ1 = ∂T1/∂λ2)
+        return T11 * f[0] + T12 * f[1], T12 * f[0] + T22 * f[1]
 
-    def check(R, y, cols):
+    def tension_and_slope(y, f, k):
+        T1_, T2_, T11_, T12_, _, _, T22_ = model.tensions(y[0], y[1], y[P + 1])
+        d1_, d2_ = slopes(y, f, T11_, T12_, T22_)
+        return (T1_, d1_) if k == 1 else (T2_, d2_)
+
+    def exact_min(cols, k, Ra, ya, h, da, db):
+        """Minimum of tension k inside the steps (Ra, Ra + h): secant (Illinois) on dT/dR = 0, each
+        iterate one step of the integrator from the last node."""
+        stepper = fns.stepper(kind, cols.size)
+        fa_ = stepper.rhs(Ra, ya)
+        lo, hi = np.zeros(cols.size), h.copy()
+        glo, ghi = da.copy(), db.copy()
+        best = np.full(cols.size, np.inf)
+        for _ in range(10):
+            with np.errstate(all="ignore"):
+                s_ = np.where(ghi != glo, lo - glo * (hi - lo) / (ghi - glo), 0.5 * (lo + hi))
+            s_ = np.where((s_ > lo) & (s_ < hi), s_, 0.5 * (lo + hi))
+            y_s, f_s, _, _ = stepper.step(Ra, ya, fa_, s_)
+            T_s, g_s = tension_and_slope(y_s, f_s, k)
+            best = np.minimum(best, T_s)
+            left = np.sign(g_s) == np.sign(glo)
+            ghi = np.where(left & (np.sign(g_s) == np.sign(glo)), ghi, ghi)
+            lo, glo = np.where(left, s_, lo), np.where(left, g_s, glo)
+            hi, ghi = np.where(left, hi, s_), np.where(left, ghi, g_s)
+            if np.all(np.abs(hi - lo) <= 1e-9 * np.maximum(h, 1e-300)):
+                break
+        return best
+
+    def refine_min(R, T1, T2, d1, d2, cols, y_new=None):
+        a = node[:, cols]
+        est = []
+        for k, (T, d) in enumerate(((T1, d1), (T2, d2)), start=1):
+            e = hermite_minimum(a[0], a[k], a[2 + k], R, T, d)
+            interior = (a[2 + k] < 0) & (d > 0) & (e < np.minimum(a[k], T))
+            near = interior & (e < REFINE_MINIMUM_BELOW) & np.isfinite(e)
+            if y_new is not None and near.any():
+                sub = np.flatnonzero(near)
+                e = e.copy()
+                e[sub] = exact_min(cols[sub], k, a[0][sub], node_y[:, cols[sub]], R[sub] - a[0][sub],
+                                   a[2 + k][sub], d[sub])
+            est.append(e)
+        return np.minimum(est[0], est[1])
+
+    def check(R, y, cols, f):
         # generated functions return arrays shaped like their inputs (constants included)
-        T1, T2, T11, _, margin, E = model.tensions(y[0], y[1], y[8])
+        T1, T2, T11, T12, margin, E, T22 = model.tensions(y[0], y[1], y[P + 1])
         crossed = y[1] <= lam_clamp
+        d1, d2 = slopes(y, f, T11, T12, T22)
         # a step that crosses the clamp is discarded: its state lies outside the membrane
-        t_min = np.minimum(T1, T2)
-        local_min_T[cols] = np.minimum(local_min_T[cols], np.where(crossed, np.inf, t_min))
+        t_min = np.where(crossed, np.inf, refine_min(R, T1, T2, d1, d2, cols, y))
+        keep = cols[~crossed]
+        node[:, keep] = np.vstack([R, T1, T2, d1, d2])[:, ~crossed]
+        node_y[:, keep] = y[:, ~crossed]
+        local_min_T[cols] = np.minimum(local_min_T[cols], t_min)
+        if formal:  # only the meridional tension must stay positive
+            t_min = np.where(crossed, np.inf, T1)
         local_max_E[cols] = np.maximum(local_max_E[cols], np.where(crossed, 0.0, np.abs(E)))
-        if rows is not None:
-            rows.append((cols.copy(), R.copy(), y[1] * R, y[6].copy()))
+        if trace is not None:
+            trace.append((cols.copy(), R.copy(), y[1] * R, y[6].copy()))
         valid = crossed | ((t_min > 0) & (margin > 0) & (T11 > 0) & (np.abs(y[2]) <= math.pi))
         if valid.all():  # the common case: nothing to report
             return np.where(crossed, _int.CROSSED, _int.CONTINUE)
@@ -312,7 +525,7 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
         return result
 
     R_end = np.full(m, settings.max_radius_factor)
-    res = _int.integrate(f_radius, np.full(m, R0), y0, R_end, rtol, atol,
+    res = _int.integrate(fns.stepper(kind, m), np.full(m, R0), y0, R_end, rtol, atol,
                          settings.max_steps, event=check)
     steps[live] += res.steps
     code = np.where(res.status == _int.CROSSED, OK, local_code)
@@ -325,28 +538,19 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
     if go.size:
         yh = res.y[:, go]
         Rh = res.t[go]
-        z0 = np.vstack([Rh, yh[0], yh[2:]])  # R, λ1, θ, V, Q, Ψ, z, p, φ
-
-        def f_hoop(l2, z):
-            d = np.empty((7, l2.size))
-            d[:] = model.rhs(z[0], z[1], l2, z[2], z[7], z[8])
-            inv = 1.0 / d[1]
-            out = np.zeros_like(z)
-            out[0] = inv
-            out[1] = d[0] * inv
-            out[2:7] = d[2:] * inv
-            return out
-
-        atol_h = np.vstack([np.full(go.size, settings.atol), atol[0, go], atol[2:, go]])
+        z0 = np.vstack([Rh, yh[0], yh[2:7], yh[P:P + 2]])  # R, λ1, θ, V, Q, Ψ, z, p, φ
+        atol_h = np.vstack([np.full(go.size, settings.atol), atol[0, go], atol[2:7, go], atol[P:P + 2, go]])
         # usually one step of the size of the remaining stretch lands on the clamp within tolerance;
         # the few that do not are integrated adaptively
-        zf, err = _int.single_step(f_hoop, yh[1], z0, lam_clamp - yh[1], rtol[go][None, :], atol_h)
+        hoop = fns.stepper("hoop", go.size)
+        zf, err = _int.single_step(hoop, yh[1], z0, lam_clamp - yh[1], rtol[go][None, :], atol_h)
         landed = err <= 1.0
         steps[live[go]] += 1
         redo = np.flatnonzero(~landed)
         if redo.size:
-            hop = _int.integrate(f_hoop, yh[1][redo], z0[:, redo], np.full(redo.size, lam_clamp), rtol[go][redo],
-                                 atol_h[:, redo], settings.max_steps, h0=0.5 * np.abs(yh[1][redo] - lam_clamp))
+            hop = _int.integrate(fns.stepper("hoop", redo.size), yh[1][redo], z0[:, redo],
+                                 np.full(redo.size, lam_clamp), rtol[go][redo], atol_h[:, redo], settings.max_steps,
+                                 h0=0.5 * np.abs(yh[1][redo] - lam_clamp))
             steps[live[go][redo]] += hop.steps
             zf[:, redo] = hop.y
             landed[redo] = hop.status == _int.REACHED_END
@@ -362,18 +566,51 @@ def _shoot(model, settings, l0, phi, T0, alpha, beta, W0, q0, live, lam_clamp, s
         out["Q"][idx] = fQ * zg[4]
         out["Psi"][idx] = fPsi * zg[5]
         out["z"][idx] = zg[6]
-        T1, T2 = model.tensions(zg[1], lam_clamp, zg[8])[:2]
-        local_min_T[good] = np.minimum(local_min_T[good], np.minimum(T1, T2))
-        wr = (np.minimum(T1, T2) <= 0)
+        T1, T2, T11, T12, _, _, T22 = model.tensions(zg[1], lam_clamp, zg[8])
+        # the clamp is the last node: a minimum just before it is refined with it
+        f_clamp = model.rhs(zg[0], zg[1], lam_clamp, zg[2], zg[7], zg[8])
+        d1, d2 = slopes(None, f_clamp, T11, T12, T22)
+        last = refine_min(zg[0], T1, T2, d1, d2, good)
+        local_min_T[good] = np.minimum(local_min_T[good], np.minimum(np.minimum(T1, T2), last))
+        wr = (local_min_T[good] <= 0) if not formal else (T1 <= 0)
         code[good[wr]] = WRINKLED
         local_fail_R[good[wr]] = zg[0][wr]
+        if derivatives and good.size:
+            _end_derivatives(fns, res.y[:, good], Rh[~bad_turn], zg, rtol[good], atol[:, good], settings, out,
+                             idx, steps, live[good])
     status[live] = code
     fail_radius[live] = np.where(code == OK, np.nan, local_fail_R / np.where(np.isfinite(out["R"][live]),
                                                                               out["R"][live], 1.0))
     min_tension[live] = local_min_T
     max_field[live] = local_max_E
     if shapes is not None:
-        _collect_shapes(rows, live, out, shapes, lam_clamp)
+        _collect_shapes(trace, live, out, shapes, lam_clamp)
+
+
+def _end_derivatives(fns, y_h, R_h, z_end, rtol, atol, settings, out, idx, steps, step_idx):
+    """Carry the sensitivities from the last step before the clamp onto the clamp, and turn them into
+    total derivatives of the clamped solution.
+
+    The clamp radius ``R*`` moves with the parameter ``a`` (``λ0`` or ``Φ̂``): from ``λ2(R*; a) = λpre``,
+    ``dR*/da = −S_λ2 / λ2'`` and a quadrature ``w`` changes by ``dw/da = S_w + w' dR*/da`` (all at ``R*``).
+    """
+    stepper = fns.stepper("radius_sens", R_h.size)
+    y_end, err = _int.single_step(stepper, R_h, y_h, z_end[0] - R_h, rtol[None, :], atol)
+    redo = np.flatnonzero(~(err <= 1.0))
+    steps[step_idx] += 1
+    if redo.size:
+        hop = _int.integrate(fns.stepper("radius_sens", redo.size), R_h[redo], y_h[:, redo], z_end[0][redo],
+                             rtol[redo], atol[:, redo], settings.max_steps, h0=0.5 * (z_end[0][redo] - R_h[redo]))
+        y_end[:, redo] = hop.y
+        steps[step_idx[redo]] += hop.steps
+    R = z_end[0]
+    f = fns.model.rhs(R, z_end[1], y_end[1], z_end[2], z_end[7], z_end[8])
+    fV, fQ = QUADRATURE_FACTORS[:2]
+    for a, first in (("l0", 7), ("phi", 12)):
+        dR = -y_end[first + 1] / f[1]
+        out[f"dR_d{a}"][idx] = dR
+        out[f"dV_d{a}"][idx] = fV * (y_end[first + 3] + f[3] * dR)
+        out[f"dQ_d{a}"][idx] = fQ * (y_end[first + 4] + f[4] * dR)
 
 
 def _collect_shapes(rows, live, out, shapes, lam_clamp):

@@ -1,0 +1,969 @@
+"""Pseudo-arclength continuation of an equilibrium configuration in the voltage, with exact events.
+
+A configuration's equilibria (:class:`~coexist.equilibria.GroupSystem`) form curves in the space of
+``z = (u1 … uM, w Φ̂)`` (``w`` scales the voltage so that a step means the same in every direction).
+A :class:`Branch` is one such curve traced from a seed in both directions:
+
+- **predictor**: the unit tangent ``t`` (null vector of the Jacobian ``∂r/∂z``, oriented along the
+  trace) times the step ``h``;
+- **corrector**: Newton's method on the exact residuals plus the arclength condition
+  ``t · (z − z_prev) = h``, every residual evaluated by direct shooting and every Jacobian from the
+  variational equations (:mod:`coexist.shooting`), all points of a step evaluated in one call;
+- **adaptive step**: ``h`` grows after quick convergence and halves after slow or failed convergence
+  or a sharp turn (the driver says so in the branch's notes when it gives up).
+
+The curve is traced through folds in ``Φ̂`` (the tangent's voltage component changes sign) and
+through symmetric branch points (two groups' pole stretches cross). Between two accepted points,
+**events** are located exactly, as roots along the curve of a smooth function, each on converged
+states (:func:`locate`):
+
+====================  ==========================================================================
+``fold``              ``tΦ = 0``: a turning point in the voltage (a spinodal of the configuration)
+``split``             ``dp̂/du = 0`` in a group of two or more zones: its zones can move against
+                      each other (a symmetric branch point; the ``k``-bulged branches leave there)
+``volume_fold``       ``dV̂/du = 0`` of a group: a zone passes a volume fold (its own index changes)
+``merge``             two groups' pole stretches cross: the branch meets the homogeneous (or a
+                      coarser) configuration there
+``breakdown``         the largest field reaches the breakdown field (only when a scene gives one)
+``range_end``         the states stop being valid (wrinkling, Gent locking, no equilibrium): the
+                      boundary between the last valid state and the first invalid one is bisected
+``window``            the voltage leaves the window the branch was asked for
+====================  ==========================================================================
+
+Stability is evaluated at every point (closed form, :mod:`coexist.equilibria`); the zone's own
+index is carried along the branch and updated at every ``volume_fold`` by Maddocks' rule.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .equilibria import (
+    Configuration,
+    Equilibrium,
+    GroupSystem,
+    failure_reason,
+    make_equilibrium,
+)
+from .errors import SolverError
+from .shooting import WRINKLED
+
+# --- settings of the driver (derived from the solver tolerance where they are accuracies) -----------
+#: first step in the scaled coordinates z (pole stretches in u = √(λ0 − λpre), voltage times w)
+INITIAL_STEP = 0.02
+#: largest step
+MAX_STEP = 0.25
+#: smallest step before the driver gives up
+MIN_STEP = 1e-7
+#: largest angle (radians) between the tangents of two accepted points
+MAX_TURN = 0.35
+#: Newton iterations per corrector
+MAX_NEWTON = 12
+#: accepted points per branch before the driver stops (a safeguard; the notes say so)
+MAX_POINTS = 600
+
+
+def newton_tolerance(rtol: float) -> float:
+    """Newton step (in ``u``) below which a corrector has converged: the shooting's own precision."""
+    return max(10 * rtol, 1e-13)
+
+
+@dataclass
+class Point:
+    """One converged equilibrium on a branch: ``z``, the unit tangent and the state."""
+
+    z: np.ndarray
+    tangent: np.ndarray
+    eq: Equilibrium
+    dp_du: np.ndarray
+    dv_du: np.ndarray
+    index: tuple
+    stable: bool
+    s: float = 0.0  # arclength coordinate along the branch (seed at 0)
+
+    @property
+    def phi(self) -> float:
+        return self.eq.phi_hat
+
+
+@dataclass
+class Event:
+    """An event located on a branch: between points ``i`` and ``i + 1`` (in branch order)."""
+
+    kind: str
+    phi_hat: float
+    eq: Equilibrium
+    z: np.ndarray
+    s: float
+    group: int | None = None
+    error: float = 0.0  # estimated error of phi_hat
+    note: str = ""
+    stable_before: bool | None = None  # along increasing s
+    stable_after: bool | None = None
+    tangent: np.ndarray | None = field(default=None, repr=False)
+    measured: bool = False  # True once ``error`` includes the re-location at a tighter tolerance
+
+
+@dataclass
+class Branch:
+    """A traced curve of one configuration: points in order of arclength, events between them."""
+
+    system: GroupSystem
+    points: list
+    events: list
+    ends: tuple = (None, None)  # the events (or notes) that end the branch at low and high s
+    notes: list = field(default_factory=list)
+
+    @property
+    def configuration(self) -> Configuration:
+        return self.system.configuration
+
+    def stable_segments(self) -> list:
+        """Maximal runs of stable points, each with its bounding events (``Segment``)."""
+        out = []
+        pts = self.points
+        i = 0
+        while i < len(pts):
+            if not pts[i].stable:
+                i += 1
+                continue
+            j = i
+            while j + 1 < len(pts) and pts[j + 1].stable and not self._stability_event_between(j):
+                j += 1
+            lo = self._bounding_event(i, -1)
+            hi = self._bounding_event(j, +1)
+            out.append(Segment(self, i, j, lo, hi))
+            i = j + 1
+        return out
+
+    def _stability_event_between(self, i) -> bool:
+        return any(e.s > self.points[i].s and e.s < self.points[i + 1].s and e.stable_before != e.stable_after
+                   for e in self.events)
+
+    def _bounding_event(self, i, side):
+        """The event that ends the stable run at point ``i`` on ``side`` (−1: lower s, +1: higher s)."""
+        s0 = self.points[i].s
+        if side > 0:
+            nxt = self.points[i + 1].s if i + 1 < len(self.points) else np.inf
+            cands = [e for e in self.events if s0 < e.s <= nxt and e.stable_before and not e.stable_after]
+            if not cands and i + 1 >= len(self.points):
+                return self.ends[1]
+            return min(cands, key=lambda e: e.s) if cands else None
+        prv = self.points[i - 1].s if i > 0 else -np.inf
+        cands = [e for e in self.events if prv <= e.s < s0 and e.stable_after and not e.stable_before]
+        if not cands and i == 0:
+            return self.ends[0]
+        return max(cands, key=lambda e: e.s) if cands else None
+
+
+@dataclass
+class Segment:
+    """A stable piece of a branch: points ``first..last`` and the events that bound it."""
+
+    branch: Branch
+    first: int
+    last: int
+    low: Event | None
+    high: Event | None
+
+    @property
+    def points(self) -> list:
+        return self.branch.points[self.first:self.last + 1]
+
+    @property
+    def phi_range(self) -> tuple:
+        """``(Φ̂min, Φ̂max)`` over the segment including its bounding events."""
+        phis = [p.phi for p in self.points]
+        for e in (self.low, self.high):
+            if isinstance(e, Event):
+                phis.append(e.phi_hat)
+        return min(phis), max(phis)
+
+    def end_at(self, direction: int):
+        """The bounding event reached when the voltage moves in ``direction`` (+1 up, −1 down)."""
+        pts = self.points
+        rising = pts[-1].phi >= pts[0].phi if len(pts) > 1 else (
+            (self.high.phi_hat if isinstance(self.high, Event) else np.inf) >= pts[0].phi)
+        return self.high if (direction > 0) == rising else self.low
+
+    @property
+    def configuration(self) -> Configuration:
+        return self.points[0].eq.configuration
+
+
+# --- the corrector --------------------------------------------------------------------------------
+@dataclass
+class Corrected:
+    """Result of a batched corrector: per point the converged ``z``, success and, if failed, why."""
+
+    z: np.ndarray
+    ok: np.ndarray
+    reason: list
+    res: object  # Residual at the last evaluation (the converged points)
+    rows: np.ndarray  # row of each point in ``res`` (−1 if failed)
+
+
+def _scaled_jacobian(J, w):
+    Js = J.copy()
+    Js[..., -1] /= w
+    return Js
+
+
+#: Newton step below which a point *along* a branch is accepted (it only serves as the next predictor
+#: and to bracket events; every reported state and every located event is converged tightly)
+LOOSE_TOLERANCE = 1e-6
+
+
+def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int = MAX_NEWTON,
+            loose: bool = False, formal: bool = False) -> Corrected:
+    """Newton's method for ``r(z) = 0``, ``n · z = target`` at ``P`` points at once.
+
+    ``z0`` ``(P, M + 1)`` initial guesses, ``normals`` ``(P, M + 1)`` constraint normals (the previous
+    tangent for pseudo-arclength, the voltage axis for a fixed voltage), ``targets`` ``(P,)``. A point
+    converges when its Newton step is below :func:`newton_tolerance` (``loose``: below
+    :data:`LOOSE_TOLERANCE`), or when its step stops shrinking at the shooting's noise level; it fails
+    when a state is invalid, the step grows, or the iterations run out. The converged state is the
+    last one evaluated (no extrapolation): its residual is what :class:`Equilibrium` reports.
+    """
+    z = np.array(z0, dtype=float, copy=True)
+    P, M1 = z.shape
+    M = M1 - 1
+    normals = np.asarray(normals, dtype=float)
+    targets = np.asarray(targets, dtype=float)
+    tol = LOOSE_TOLERANCE if loose else newton_tolerance(system.settings.rtol)
+    ok = np.zeros(P, dtype=bool)
+    done = np.zeros(P, dtype=bool)
+    reason = [""] * P
+    prev_step = np.full(P, np.inf)
+    rows = np.full(P, -1)
+    last_res = None
+    keep = {}
+    for it in range(max_iter):
+        act = np.flatnonzero(~done)
+        if act.size == 0:
+            break
+        res = system.residual(z[act, :M], z[act, M] / w, formal)
+        st = res.states
+        valid = st.ok
+        for jj, i in enumerate(act):
+            if not valid[jj]:
+                done[i] = True
+                code = int(st.status[jj][st.status[jj] != 0][0])
+                reason[i] = f"invalid state: {failure_reason(code)[1]}"
+                keep[i] = (res, jj, code)
+        A = np.empty((act.size, M1, M1))
+        A[:, :M, :] = _scaled_jacobian(res.J, w)
+        A[:, M, :] = normals[act]
+        b = np.empty((act.size, M1))
+        b[:, :M] = res.r
+        b[:, M] = np.einsum("ij,ij->i", normals[act], z[act]) - targets[act]
+        with np.errstate(all="ignore"):
+            try:
+                step = np.linalg.solve(A, -b[..., None])[..., 0]
+            except np.linalg.LinAlgError:
+                step = np.full_like(b, np.nan)
+                for jj in range(act.size):
+                    try:
+                        step[jj] = np.linalg.solve(A[jj], -b[jj])
+                    except np.linalg.LinAlgError:
+                        pass
+        size = np.max(np.abs(step), axis=1)
+        for jj, i in enumerate(act):
+            if done[i]:
+                continue
+            if not np.isfinite(size[jj]):
+                done[i] = True
+                reason[i] = "singular Newton matrix"
+                continue
+            if size[jj] <= tol or (it >= 2 and size[jj] >= 0.5 * prev_step[i] and size[jj] <= 1e3 * tol):
+                done[i] = ok[i] = True
+                keep[i] = (res, jj, None)
+                continue
+            if it >= 2 and size[jj] > 2 * prev_step[i]:
+                done[i] = True
+                reason[i] = "Newton diverges"
+                continue
+            prev_step[i] = size[jj]
+            z[i] += step[jj]
+        last_res = res
+    for i in np.flatnonzero(~done):
+        reason[i] = "Newton did not converge"
+    # gather the converged points' residual rows into one Residual (cheap views)
+    conv = np.flatnonzero(ok)
+    if conv.size:
+        merged_res = _gather([keep[i] for i in conv])
+        rows[conv] = np.arange(conv.size)
+    else:
+        merged_res = last_res
+    out = Corrected(z, ok, reason, merged_res, rows)
+    out.failed_states = {i: keep[i] for i in keep if not ok[i]}
+    return out
+
+
+def _gather(items):
+    """One :class:`Residual` made of rows of several (each item ``(res, row, _)``)."""
+    from .equilibria import GroupStates, Residual
+
+    def pick(attr_get):
+        return np.stack([attr_get(r)[j] for r, j, _ in items])
+
+    st_fields = {k: pick(lambda r, k=k: getattr(r.states, k)) for k in GroupStates.__dataclass_fields__}
+    states = GroupStates(**st_fields)
+    return Residual(r=pick(lambda r: r.r), J=pick(lambda r: r.J), states=states,
+                    total_volume=pick(lambda r: r.total_volume), gas_pressure=pick(lambda r: r.gas_pressure),
+                    gas_stiffness=pick(lambda r: r.gas_stiffness))
+
+
+def tangents(J, w, orient):
+    """Unit null vectors of the scaled Jacobians ``J`` (``(P, M, M + 1)``), oriented along ``orient``."""
+    Js = _scaled_jacobian(J, w)
+    P, M, M1 = Js.shape
+    A = np.empty((P, M1, M1))
+    A[:, :M, :] = Js
+    A[:, M, :] = orient
+    rhs = np.zeros((P, M1))
+    rhs[:, M] = 1.0
+    with np.errstate(all="ignore"):
+        t = np.linalg.solve(A, rhs[..., None])[..., 0]
+    bad = ~np.all(np.isfinite(t), axis=1)
+    if bad.any():  # orient is itself (nearly) a null direction of nothing: fall back to the SVD
+        for i in np.flatnonzero(bad):
+            t[i] = np.linalg.svd(Js[i])[2][-1]
+    t /= np.linalg.norm(t, axis=1, keepdims=True)
+    flip = np.einsum("ij,ij->i", t, orient) < 0
+    t[flip] *= -1
+    return t
+
+
+# --- the traced branch ----------------------------------------------------------------------------
+def hermite(a_z, a_t, b_z, b_t, tau):
+    """Cubic Hermite point between two branch points (chord parameter ``tau`` in [0, 1])."""
+    L = float(np.linalg.norm(b_z - a_z))
+    t2, t3 = tau * tau, tau * tau * tau
+    return ((2 * t3 - 3 * t2 + 1) * a_z + (t3 - 2 * t2 + tau) * L * a_t + (-2 * t3 + 3 * t2) * b_z
+            + (t3 - t2) * L * b_t)
+
+
+class Tracer:
+    """Traces the branches of one configuration of a scene's zones.
+
+    Parameters
+    ----------
+    system : GroupSystem
+    phi_window : (float, float)
+        Voltages between which the branch is wanted.
+    breakdown_field : float or None
+        Normalised breakdown field ``Êb``; ``None``: no breakdown event.
+    """
+
+    def __init__(self, system: GroupSystem, phi_window, breakdown_field=None):
+        self.system = system
+        self.phi_lo, self.phi_hi = float(phi_window[0]), float(phi_window[1])
+        self.w = 2.0 / max(self.phi_hi, 0.02)
+        self.breakdown = breakdown_field
+        self.M = system.groups
+        self.counts = np.asarray(system.configuration.counts)
+
+    # points -------------------------------------------------------------------------------------------
+    def _point(self, corr: Corrected, i: int, orient, index) -> Point:
+        res = corr.res
+        r = corr.rows[i]
+        t = tangents(res.J[r:r + 1], self.w, np.asarray(orient, dtype=float)[None, :])[0]
+        eq = make_equilibrium(self.system, res, r, index)
+        st = res.states
+        return Point(corr.z[i].copy(), t, eq, st.dp_du[r].copy(), st.dv_du[r].copy(), tuple(index),
+                     _is_stable(eq, index))
+
+    def _solve(self, z_guess, normal, target, orient, index, loose=False) -> Point | None:
+        """One point (loose or tight) on the constraint ``normal · z = target``; None if it fails."""
+        corr = correct(self.system, np.asarray(z_guess, dtype=float)[None, :], np.asarray(normal)[None, :],
+                       np.array([target]), self.w, loose=loose)
+        if not corr.ok[0]:
+            self._last_failure = corr
+            return None
+        return self._point(corr, 0, orient, index)
+
+    def event_values(self, pt: Point) -> dict:
+        """The smooth functions whose roots are events, at one point."""
+        M = self.M
+        u = pt.z[:M]
+        vals = {"fold": pt.tangent[M]}
+        for j in range(M):
+            if self.counts[j] >= 2:
+                vals[f"split:{j}"] = pt.dp_du[j]
+            vals[f"volume_fold:{j}"] = pt.dv_du[j]
+        for j in range(M - 1):
+            vals[f"merge:{j}"] = u[j + 1] - u[j]
+        if self.breakdown is not None:
+            vals["breakdown"] = max(pt.eq.max_field) - self.breakdown
+        return vals
+
+    def seed(self, z, index=None) -> Point:
+        """Converge a seed at fixed voltage (tightly) and return it as a point."""
+        z = np.asarray(z, dtype=float)
+        M = self.M
+        n = np.zeros(M + 1)
+        n[M] = 1.0
+        index = tuple(index) if index is not None else (0,) * M
+        p = self._solve(z, n, z[M], n, index)
+        if p is None:
+            raise SolverError(f"no equilibrium of {self.system.configuration.label} near the seed at "
+                              f"Φ̂ = {z[M] / self.w:.6g}: {self._last_failure.reason[0]}")
+        return p
+
+    def trace(self, seed: Point, stable_only: bool = False) -> Branch:
+        """Trace the branch through ``seed`` in both directions.
+
+        ``stable_only``: stop each direction at the first event where stability is lost (located
+        exactly; it becomes the branch's end), so the branch is one stable segment.
+        """
+        self.stable_only = stable_only
+        fwd, fev, fend, fnotes = self._one_way(seed, +1)
+        bwd, bev, bend, bnotes = self._one_way(seed, -1)
+        for p in bwd:
+            p.s = -p.s
+            p.tangent = -p.tangent
+        for e in bev + ([bend] if isinstance(bend, Event) else []):
+            e.s = -e.s
+            e.stable_before, e.stable_after = e.stable_after, e.stable_before
+        points = list(reversed(bwd)) + [seed] + fwd
+        events = sorted(bev + fev, key=lambda e: e.s)
+        return Branch(self.system, points, events, (bend, fend), bnotes + fnotes)
+
+    def _one_way(self, seed: Point, sign: int):
+        pts, events, notes = [], [], []
+        cur = Point(seed.z.copy(), sign * seed.tangent, seed.eq, seed.dp_du, seed.dv_du, seed.index, seed.stable, 0.0)
+        prev = None
+        h = INITIAL_STEP
+        end = None
+        while True:
+            if len(pts) >= MAX_POINTS:
+                notes.append(f"continuation stopped after {MAX_POINTS} points at Φ̂ = {cur.phi:.8g}")
+                break
+            new = self._solve(self._predict(prev, cur, h), cur.tangent, cur.tangent @ cur.z + h, cur.tangent,
+                              cur.index, loose=True)
+            if new is None:
+                failure = self._last_failure
+                codes = [c[2] for c in getattr(failure, "failed_states", {}).values() if c[2] is not None]
+                invalid = bool(codes)
+                if invalid and (WRINKLED in codes or h < 1e-2):
+                    end = self._range_end(prev, cur, h, failure)
+                    if end is not None:
+                        break
+                if h <= MIN_STEP:
+                    if invalid:
+                        end = self._range_end(prev, cur, 4 * MIN_STEP, failure)
+                    if end is None:
+                        notes.append(f"continuation stopped at Φ̂ = {cur.phi:.8g}: {failure.reason[0]} "
+                                     f"(step {h:.1e})")
+                    break
+                h *= 0.5
+                continue
+            turn = float(np.arccos(np.clip(new.tangent @ cur.tangent, -1, 1)))
+            if turn > MAX_TURN and h > MIN_STEP:
+                h *= 0.5
+                continue
+            new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
+            found = self._events_between(cur, new)
+            if getattr(self, "stable_only", False):
+                stop = [e for e in found if e.stable_before and not e.stable_after or e.kind == "merge"]
+                if stop:
+                    end = min(stop, key=lambda e: e.s)
+                    events.extend(e for e in found if e.s < end.s)
+                    break
+            events.extend(found)
+            if not (self.phi_lo <= new.phi <= self.phi_hi):
+                end = Event(kind="window", phi_hat=self.phi_hi if new.phi > self.phi_hi else self.phi_lo, eq=new.eq,
+                            z=new.z, s=new.s, stable_before=cur.stable, stable_after=cur.stable,
+                            note="the voltage leaves the window asked for")
+                pts.append(new)
+                break
+            pts.append(new)
+            prev, cur = cur, new
+            h = min(MAX_STEP, h * (1.6 if turn < 0.5 * MAX_TURN else 1.0))
+        return pts, events, end, notes
+
+    # events ---------------------------------------------------------------------------------------------
+    def _events_between(self, a: Point, b: Point) -> list:
+        """Sign changes of the event functions between two points. An event where stability changes, a
+        merge or a breakdown is located exactly; the others (on unstable stretches) are recorded where
+        the linear interpolation of their function vanishes, marked approximate."""
+        va, vb = self.event_values(a), self.event_values(b)
+        out = []
+        sig_b = float(a.tangent @ (b.z - a.z))
+        vfolds = []
+        for key, fa in va.items():
+            fb = vb[key]
+            if not (fa != 0 and np.sign(fa) != np.sign(fb)):
+                continue
+            kind, _, grp = key.partition(":")
+            group = int(grp) if grp else None
+            if kind == "volume_fold":
+                vfolds.append(group)
+            out.append((kind, group, key, fa, fb))
+        # the zone's own index first (it decides stability after the step)
+        for j in vfolds:
+            self._update_index(a, b, j)
+        precise = a.stable != b.stable
+        events = []
+        for kind, group, key, fa, fb in out:
+            frac = fa / (fa - fb)
+            if precise or kind in ("merge", "breakdown"):
+                ev = self._locate(a, b, sig_b, key, fa, fb)
+            else:
+                ev = None
+            if ev is None:
+                z = hermite(a.z, a.tangent, b.z, b.tangent, frac)
+                ev = Event(kind=key, phi_hat=float(z[self.M] / self.w), eq=None, z=z, s=a.s + frac * (b.s - a.s),
+                           error=abs(b.phi - a.phi), note="approximate (not on a stability change)")
+            ev.kind, ev.group = kind, group
+            ev.stable_before, ev.stable_after = a.stable, b.stable
+            events.append(ev)
+        return sorted(events, key=lambda e: e.s)
+
+    def _points_at(self, a: Point, b: Point | None, sig_b, sigmas, loose, formal=False) -> list:
+        """Converged points at arclength offsets ``sigmas`` from ``a`` (one batched corrector); None where
+        the corrector fails. ``b`` (or, without it, ``a``'s tangent) gives the predictor."""
+        sigmas = np.asarray(sigmas, dtype=float)
+        if b is not None:
+            Z = np.array([hermite(a.z, a.tangent, b.z, b.tangent, s / sig_b if sig_b else 0.5) for s in sigmas])
+        else:
+            Z = a.z[None, :] + sigmas[:, None] * a.tangent[None, :]
+        N = np.repeat(a.tangent[None, :], sigmas.size, axis=0)
+        corr = correct(self.system, Z, N, a.tangent @ a.z + sigmas, self.w, loose=loose, formal=formal)
+        self._last_failure = corr
+        out = []
+        for i in range(sigmas.size):
+            if not corr.ok[i]:
+                out.append(None)
+                continue
+            p = self._point(corr, i, a.tangent, a.index)
+            p.s = a.s + float(np.linalg.norm(p.z - a.z))
+            out.append(p)
+        return out
+
+    def _root(self, a: Point, b: Point | None, sig_b, f_lo, f_hi, fn, formal=False, stop=None):
+        """Root of ``fn(point)`` along the branch between ``σ = 0`` (``a``, value ``f_lo``) and ``sig_b``
+        (value ``f_hi``): each round evaluates the regula-falsi estimate and two points beside it in one
+        corrector call and keeps the smallest bracket with a sign change; loose correctors while the
+        bracket is wide, tight ones (the states reported) at the end. Returns ``(point, lo, hi)`` with
+        the tightly converged point on the ``a`` side of the final bracket (``a`` itself if none)."""
+        orient = np.sign(sig_b) if sig_b else 1.0
+        side = np.sign(f_lo)
+        # bracket ends as (σ, f, point, loose)
+        A = (0.0, float(f_lo), a, False)
+        B = (float(sig_b), float(f_hi), b, False)
+        tol = 10 * newton_tolerance(self.system.settings.rtol)
+        for _ in range(40):
+            width = abs(B[0] - A[0])
+            if width <= tol or (stop is not None and A[2] is not None and A[2] is not a and stop(A[2])):
+                break
+            rf = B[0] - B[1] * (B[0] - A[0]) / (B[1] - A[1]) if B[1] != A[1] else 0.5 * (A[0] + B[0])
+            lo_s, hi_s = min(A[0], B[0]), max(A[0], B[0])
+            if not (lo_s < rf < hi_s):
+                rf = 0.5 * (A[0] + B[0])
+            d = 0.03 * width
+            cands = sorted({x for x in (rf - d, rf, rf + d) if lo_s < x < hi_s}) if d > 0.5 * tol else [rf]
+            loose = width > 1e-3
+            # in the tight phase the bracket's own ends are converged tightly too (a loose point is off the
+            # branch by up to LOOSE_TOLERANCE, which can put it on the wrong side of a close root)
+            redo = [] if loose else [e for e in (A, B) if e[3]]
+            pts = self._points_at(a, b, sig_b, cands + [e[0] for e in redo], loose, formal)
+            for e, p in zip(redo, pts[len(cands):]):
+                fixed = (e[0], float(fn(p)), p, False) if p is not None else None
+                if e is A:
+                    A = fixed if fixed is not None else A
+                else:
+                    B = fixed if fixed is not None else B
+            pts = pts[:len(cands)]
+            nodes = [A] + [(s, float(fn(p)), p, loose) for s, p in zip(cands, pts) if p is not None] + [B]
+            if len(nodes) == 2 and not redo:
+                break
+            nodes.sort(key=lambda x: x[0] * orient)
+            for n0, n1 in zip(nodes[:-1], nodes[1:]):
+                if n0[1] == 0 or np.sign(n0[1]) != np.sign(n1[1]):
+                    A, B = (n0, n1) if np.sign(n0[1]) == side or n0[1] == 0 else (n1, n0)
+                    break
+            else:
+                # no sign change left among the nodes (a re-converged end changed side): keep the end
+                # pair that brackets the starting value's opposite sign, widening to a and b
+                A = (0.0, float(f_lo), a, False) if np.sign(A[1]) != side else A
+                B = (float(sig_b), float(f_hi), b, False) if np.sign(B[1]) == side else B
+        best = A[2]
+        if best is None or best is a:
+            return (a if abs(A[0]) <= tol else None), min(A[0], B[0]), max(A[0], B[0])
+        if A[3]:  # converge the bracket's point tightly
+            p = self._points_at(a, b, sig_b, [A[0]], False, formal)[0]
+            best = p if p is not None else best
+        return best, min(A[0], B[0]), max(A[0], B[0])
+
+    def _locate(self, a: Point, b: Point, sig_b, key, fa, fb) -> Event | None:
+        """Event ``key`` between ``a`` and ``b``, located on tightly converged states."""
+        merge = key.startswith("merge")
+        stop = (lambda p: abs(self.event_values(p)[key]) < 1e-4) if merge else None
+        best, lo, hi = self._root(a, b, sig_b, fa, fb, lambda p: self.event_values(p)[key], stop=stop)
+        if best is None:
+            best = a
+        if merge:
+            return self._merge_point(best, int(key.partition(":")[2]))
+        return Event(kind=key, phi_hat=best.phi, eq=best.eq, z=best.z, s=best.s,
+                     error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w, tangent=best.tangent.copy())
+
+    def _merge_point(self, near: Point, j: int) -> Event:
+        """Where groups ``j`` and ``j + 1`` meet: the symmetric branch point of the coarser configuration
+        (its merged group at a pressure extremum, ``dp̂/du = 0``), solved exactly from ``near``."""
+        counts = list(self.counts)
+        merged_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2:]
+        coarse = GroupSystem(self.system.model, self.system.gas, Configuration(tuple(merged_counts)),
+                             self.system.settings)
+        u = list(near.z[:self.M])
+        uc = u[:j] + [0.5 * (u[j] + u[j + 1])] + u[j + 2:]
+        bp = symmetric_branch_point(coarse, j, np.array(uc), near.phi)
+        eq = bp["eq"]
+        z = np.array(list(bp["u"][:j]) + [bp["u"][j]] * 2 + list(bp["u"][j + 1:]) + [bp["phi"] * self.w])
+        return Event(kind="merge", phi_hat=bp["phi"], eq=eq, z=z, s=near.s, group=j, error=bp["error"],
+                     note=f"meets {coarse.configuration.label} at its symmetric branch point")
+
+    def _update_index(self, a: Point, b: Point, j: int):
+        """Maddocks' rule at a volume fold of group ``j``: the zone's own index changes by
+        ``−sign(dp̂/du · σ)``, ``σ`` the sign of ``dV̂/du`` on the side of smaller ``u`` (``dp̂/du`` taken
+        at the point nearer the fold, where it has the sign it has at the fold)."""
+        M = self.M
+        ua, ub = a.z[j], b.z[j]
+        low = a if ua < ub else b
+        near = a if abs(a.dv_du[j]) < abs(b.dv_du[j]) else b
+        delta = -int(np.sign(near.dp_du[j] * np.sign(low.dv_du[j])))
+        new_index = list(b.index)
+        new_index[j] = a.index[j] + (delta if ub > ua else -delta)
+        b.index = tuple(max(x, 0) for x in new_index)
+        b.stable = _is_stable(b.eq, b.index)
+        b.eq.zone_index = tuple(b.index[k] for k in np.argsort(b.z[:M], kind="stable"))
+
+    def _predict(self, prev, cur, h):
+        """The predictor at arclength ``h`` beyond ``cur``: cubic Hermite extrapolation through the last two
+        points (their tangents included) when the step is not much longer than the last one, else the
+        tangent."""
+        if prev is None:
+            return cur.z + h * cur.tangent
+        L = float(np.linalg.norm(cur.z - prev.z))
+        if L <= 0 or h > 2 * L:
+            return cur.z + h * cur.tangent
+        return hermite(prev.z, prev.tangent, cur.z, cur.tangent, 1.0 + h / L)
+
+    def _end_ahead(self, prev, cur, h) -> bool:
+        """Does the smallest tension, extrapolated from the last two points, vanish within the step?"""
+        if prev is None:
+            return True
+        t1, t0 = min(cur.eq.min_tension), min(prev.eq.min_tension)
+        ds = cur.s - prev.s
+        if ds <= 0 or t1 >= t0:
+            return h < 1e-3
+        return t1 / ((t0 - t1) / ds) < 2 * h
+
+    def _range_end(self, prev, cur: Point, h, failure):
+        """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not).
+
+        Wrinkling: the smallest tension of formally continued states (:func:`coexist.shooting.solve_states`,
+        ``formal``) is a smooth function through zero, and its root is found like any event. Any other
+        failure (the chains lock, no clamp is reached): bisection on validity.
+        """
+        code = None
+        for c in failure.failed_states.values():
+            code = c[2] if c[2] is not None else code
+        if code is None:
+            return None
+        tmin = lambda p: min(p.eq.min_tension)  # noqa: E731
+        best = None
+        if code == WRINKLED:
+            far = self._points_at(cur, None, h, [h], True, formal=True)[0]
+            if far is not None and tmin(far) < 0:
+                best, lo, hi = self._root(cur, far, h, tmin(cur), tmin(far), tmin, formal=True)
+                if best is not None and tmin(best) < 0:
+                    best = None
+        if best is None:  # bisection on validity
+            lo, hi = 0.0, float(h)
+            best = cur
+            tol = 10 * newton_tolerance(self.system.settings.rtol)
+            while hi - lo > tol:
+                mid = 0.5 * (lo + hi)
+                p = self._points_at(cur, None, h, [mid], (hi - lo) > 1e-4)[0]
+                if p is not None and p.tangent @ cur.tangent > 0:
+                    lo, best = mid, p
+                else:
+                    hi = mid
+                    for c in getattr(self._last_failure, "failed_states", {}).values():
+                        code = c[2] if c[2] is not None else code
+            if best is cur and hi > 0.5 * h:
+                return None
+        tag, text = failure_reason(code)
+        return Event(kind="range_end", phi_hat=best.phi, eq=best.eq, z=best.z, s=best.s,
+                     error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w, note=f"{tag}: {text}",
+                     stable_before=best.stable, stable_after=False, tangent=best.tangent.copy())
+
+
+def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
+    """Locate ``event`` again with the tighter tracer ``tight`` (same configuration, a smaller ``rtol``)
+    and return the change of its voltage: the measured error of the event at ``tracer``'s tolerance.
+    ``event.error`` becomes that change plus the location bracket, and ``event.measured`` True."""
+    M = tracer.M
+    if event.kind == "merge":
+        j = event.group or 0
+        counts = list(tracer.counts)
+        coarse_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2:]
+        coarse = GroupSystem(tight.system.model, tight.system.gas, Configuration(tuple(coarse_counts)),
+                             tight.system.settings)
+        u = list(event.z[:M])
+        uc = u[:j] + [u[j]] + u[j + 2:]
+        bp = symmetric_branch_point(coarse, j, np.array(uc), event.phi_hat)
+        change = abs(bp["phi"] - event.phi_hat)
+    elif event.tangent is None:
+        return event.error
+    else:
+        key = event.kind if event.group is None else f"{event.kind}:{event.group}"
+        t = event.tangent
+        change = None
+        for delta in (1e-5, 1e-4, 1e-3):
+            base = Point(event.z.copy(), t, event.eq, np.zeros(M), np.zeros(M), (0,) * M, True)
+            pts = tight._points_at(base, None, 0.0, [-delta, delta], False, formal=(event.kind == "range_end"))
+            if any(p is None for p in pts):
+                continue
+            if event.kind == "range_end":
+                fa, fb = (min(p.eq.min_tension) for p in pts)
+                fn = lambda p: min(p.eq.min_tension)  # noqa: E731
+            else:
+                fa, fb = (tight.event_values(p)[key] for p in pts)
+                fn = lambda p: tight.event_values(p)[key]  # noqa: E731
+            if np.sign(fa) == np.sign(fb):
+                continue
+            a, b = pts
+            a.tangent = t if (b.z - a.z) @ t >= 0 else -t
+            best, lo, hi = tight._root(a, b, float(a.tangent @ (b.z - a.z)), fa, fb, fn,
+                                       formal=(event.kind == "range_end"))
+            if best is not None:
+                change = abs(best.phi - event.phi_hat)
+                break
+        if change is None:
+            return event.error
+    event.error = float(event.error + change)
+    event.measured = True
+    return change
+
+
+def _is_stable(eq: Equilibrium, index) -> bool:
+    return bool(eq.min_eigenvalue > 0 and all(x == 0 for x in index))
+
+
+def symmetric_branch_point(system: GroupSystem, j: int, u_guess, phi_guess, max_iter: int = 30) -> dict:
+    """The state where group ``j`` (of two or more zones) of ``system`` sits at a pressure extremum
+    (``dp̂/du = 0``) while in equilibrium: there its zones can move against each other at no cost and the
+    configurations that split it leave the branch.
+
+    Newton's method on ``[r(u, Φ̂) = 0, dp̂/du(uj, Φ̂) = 0]``; the first rows' Jacobian is exact, the last
+    row's (``d²p̂/du²``, ``∂²p̂/∂u∂Φ̂``) is a central difference of the exact first derivatives (its error
+    only slows the convergence, not the solution). Returns the state (``eq``), ``u``, ``phi`` and the
+    last Newton step in ``Φ̂`` as ``error``.
+    """
+    M = system.groups
+    u = np.array(u_guess, dtype=float)
+    phi = float(phi_guess)
+    tol = newton_tolerance(system.settings.rtol)
+    step_phi = np.inf
+    prev = np.inf
+    for _ in range(max_iter):
+        hu = 1e-5 * max(u[j], 1e-3)
+        hp = 1e-5 * max(abs(phi), 1e-2)
+        U = np.tile(u, (5, 1))
+        Ph = np.full(5, phi)
+        U[1, j] += hu
+        U[2, j] -= hu
+        Ph[3] += hp
+        Ph[4] -= hp
+        res = system.residual(U, Ph)
+        if not res.states.ok.all():
+            bad = res.states.status[~res.states.ok][0]
+            code = int(bad[bad != 0][0])
+            raise SolverError(f"symmetric branch point of {system.configuration.label}: "
+                              f"{failure_reason(code)[1]} near Φ̂ = {phi:.8g}")
+        dp = res.states.dp_du[:, j]
+        F = np.concatenate([res.r[0], [dp[0]]])
+        A = np.zeros((M + 1, M + 1))
+        A[:M] = res.J[0]
+        A[M, j] = (dp[1] - dp[2]) / (2 * hu)
+        A[M, M] = (dp[3] - dp[4]) / (2 * hp)
+        step = np.linalg.solve(A, -F)
+        size = float(np.max(np.abs(step)))
+        if size <= tol or (size >= 0.5 * prev and size <= 1e3 * tol):
+            from .equilibria import make_equilibrium as _mk
+
+            eq = _mk(system, res, 0)
+            return {"eq": eq, "u": u.copy(), "phi": phi, "error": abs(float(step[M])) + abs(step_phi) * 0}
+        prev = size
+        step_phi = float(step[M])
+        u = u + step[:M]
+        phi = phi + step_phi
+    raise SolverError(f"symmetric branch point of {system.configuration.label} did not converge near Φ̂ = {phi:.8g}")
+
+
+# --- the stable equilibria of a scene over a voltage window ------------------------------------------
+class StableSegment:
+    """A stable piece of a configuration's branch (a branch traced with ``stable_only``), a graph over
+    ``Φ̂`` (a fold would end it): its points, and the events that end it at low and high voltage."""
+
+    def __init__(self, branch: Branch, tracer: Tracer):
+        self.branch = branch
+        self.tracer = tracer
+        pts = branch.points
+        self.points = pts
+        rising = pts[-1].phi >= pts[0].phi
+        lo_end, hi_end = branch.ends
+        self.low, self.high = (lo_end, hi_end) if rising else (hi_end, lo_end)
+        self._phi = np.array([p.phi for p in pts])
+        self._order = np.argsort(self._phi)
+
+    @property
+    def configuration(self) -> Configuration:
+        return self.points[0].eq.configuration
+
+    @property
+    def label(self) -> str:
+        return self.configuration.label
+
+    def end(self, direction: int):
+        """The event reached when the voltage moves in ``direction`` (+1 up, −1 down), or None."""
+        return self.high if direction > 0 else self.low
+
+    def end_phi(self, direction: int) -> float:
+        e = self.end(direction)
+        if isinstance(e, Event):
+            return e.phi_hat
+        return self._phi.max() if direction > 0 else self._phi.min()
+
+    @property
+    def phi_range(self) -> tuple:
+        return self.end_phi(-1), self.end_phi(+1)
+
+    def contains(self, phi: float, slack: float = 0.0) -> bool:
+        lo, hi = self.phi_range
+        return lo - slack <= phi <= hi + slack
+
+    def predict(self, phi: float) -> np.ndarray:
+        """A first guess of ``z`` at voltage ``Φ̂`` (cubic Hermite between the two points around it)."""
+        phis = self._phi[self._order]
+        pts = [self.points[i] for i in self._order]
+        if phi <= phis[0]:
+            k = 0
+        elif phi >= phis[-1]:
+            k = len(pts) - 2
+        else:
+            k = int(np.searchsorted(phis, phi) - 1)
+        if len(pts) == 1:
+            z = pts[0].z.copy()
+            z[-1] = phi * self.tracer.w
+            return z
+        a, b = pts[k], pts[k + 1]
+        ta = a.tangent if (b.z - a.z) @ a.tangent >= 0 else -a.tangent
+        tb = b.tangent if (b.z - a.z) @ b.tangent >= 0 else -b.tangent
+        frac = (phi - a.phi) / (b.phi - a.phi) if b.phi != a.phi else 0.0
+        frac = float(np.clip(frac, -0.5, 1.5))
+        for _ in range(8):  # invert Φ̂ along the Hermite curve
+            z = hermite(a.z, ta, b.z, tb, frac)
+            g = z[-1] / self.tracer.w - phi
+            zp = hermite(a.z, ta, b.z, tb, frac + 1e-6)
+            d = (zp[-1] - z[-1]) / self.tracer.w / 1e-6
+            if d == 0:
+                break
+            frac -= g / d
+        z = hermite(a.z, ta, b.z, tb, frac)
+        z[-1] = phi * self.tracer.w
+        return z
+
+    def states(self, phis) -> list:
+        """Converged equilibria at the voltages ``phis`` (one batched Newton at fixed voltage)."""
+        phis = np.atleast_1d(np.asarray(phis, dtype=float))
+        if phis.size == 0:
+            return []
+        w = self.tracer.w
+        M = self.tracer.M
+        Z = np.array([self.predict(p) for p in phis])
+        n = np.zeros((phis.size, M + 1))
+        n[:, M] = 1.0
+        corr = correct(self.tracer.system, Z, n, phis * w, w)
+        out = []
+        index = self.points[0].index
+        for i in range(phis.size):
+            if not corr.ok[i]:
+                raise SolverError(f"{self.label}: no converged state at Φ̂ = {phis[i]:.10g} on its stable "
+                                  f"segment ({corr.reason[i]})")
+            out.append(make_equilibrium(self.tracer.system, corr.res, corr.rows[i], index))
+        return out
+
+    def matches(self, eq: Equilibrium, tol: float = 1e-5) -> bool:
+        """Is ``eq`` (a stable equilibrium) the state of this segment at its voltage?"""
+        if eq.configuration.counts != self.configuration.counts or not self.contains(eq.phi_hat, 1e-12):
+            return False
+        z = self.predict(eq.phi_hat)
+        u = np.sort(z[:-1])
+        u_eq = np.sqrt(np.asarray(eq.pole_stretch) - self.tracer.system.model.prestretch)
+        return bool(np.max(np.abs(u - u_eq)) <= max(tol, 1e-3 * self._spacing()))
+
+    def _spacing(self) -> float:
+        if len(self.points) < 2:
+            return 0.0
+        return float(max(np.linalg.norm(b.z - a.z) for a, b in zip(self.points[:-1], self.points[1:])))
+
+
+class EquilibriumMap:
+    """The stable equilibria of ``N`` identical zones on a gas over a voltage window, traced on demand.
+
+    One object per scene (and gas): the ramp, the coexistence table and the fit all read its
+    segments, so they agree by construction. Segments are traced when first asked for (a ramp
+    traces only the configurations its path visits), so the cost does not grow with ``N``.
+
+    Parameters
+    ----------
+    model : MembraneModel
+    gas : GasChamber or PressureReservoir
+    zones : int
+    settings : SolverSettings
+    phi_window : (float, float)
+        Voltages of interest; segments are traced up to its edges.
+    breakdown_field : float or None
+        Normalised breakdown field; a segment ends where the largest field reaches it.
+    """
+
+    def __init__(self, model, gas, zones: int, settings, phi_window, breakdown_field=None):
+        self.model, self.gas, self.zones, self.settings = model, gas, int(zones), settings
+        self.phi_window = (float(phi_window[0]), float(phi_window[1]))
+        self.breakdown = breakdown_field
+        self.segments: list[StableSegment] = []
+        self._tracers = {}
+
+    def tracer(self, counts) -> Tracer:
+        counts = tuple(int(c) for c in counts)
+        if counts not in self._tracers:
+            system = GroupSystem(self.model, self.gas, Configuration(counts), self.settings)
+            self._tracers[counts] = Tracer(system, self.phi_window, self.breakdown)
+        return self._tracers[counts]
+
+    def find(self, eq: Equilibrium) -> StableSegment | None:
+        for seg in self.segments:
+            if seg.matches(eq):
+                return seg
+        return None
+
+    def segment_of(self, eq: Equilibrium, index=None) -> StableSegment:
+        """The stable segment through the stable equilibrium ``eq`` (traced if new)."""
+        seg = self.find(eq)
+        if seg is not None:
+            return seg
+        counts = eq.configuration.counts
+        tr = self.tracer(counts)
+        u = np.sqrt(np.asarray(eq.pole_stretch) - self.model.prestretch)
+        seed = tr.seed(np.concatenate([u, [eq.phi_hat * tr.w]]), index)
+        if not seed.stable:
+            raise SolverError(f"{eq.label} at Φ̂ = {eq.phi_hat:.8g} is not stable: no stable segment through it")
+        seg = StableSegment(tr.trace(seed, stable_only=True), tr)
+        self.segments.append(seg)
+        return seg

@@ -1,0 +1,499 @@
+"""N identical zones on one gas: configurations, exact residuals, and stability in closed form.
+
+Potential of the whole system at fixed voltage (docs/physics.md, normalised by ``μHA²``)::
+
+    G(V̂1..V̂N) = Σ Ψ̂(V̂i) + G_gas(Σ V̂i)
+
+with ``G_gas = −n̂ ln(V̂c + ΣV̂i) + p̂atm ΣV̂i`` for an isothermal ideal gas of amount ``n̂`` in a rigid
+chamber ``V̂c`` (seed eq. 1), or ``G_gas = −p̂ ΣV̂i`` for a pressure reservoir. Its stationary points are
+the equilibria: every zone at the gauge pressure of the gas.
+
+**Configurations.** Identical zones in equilibrium sit in a few distinct states. A configuration
+puts ``n1`` zones at pole stretch ``λ1``, ``n2`` at ``λ2`` and so on (groups ordered by pole stretch,
+``Σ nj = N``); ``(N,)`` is homogeneous, ``(N − k, k)`` has ``k`` bulged zones. With ``u = √(λ0 − λpre)``
+(in which the states are smooth down to the flat membrane) the unknowns are ``u1 < u2 < …`` at the
+voltage ``Φ̂``, and the equilibrium conditions are::
+
+    r0 = p̂(u1) − p̂_gas(Σ nj V̂(uj)) = 0
+    rj = [p̂(u_{j+1}) − p̂(uj)] / (u_{j+1} − uj) = 0        j = 1 … M−1
+
+The divided difference removes the trivial solution ``u_{j+1} = uj`` (the homogeneous state solves
+the undivided equations for every ``Φ̂``), so a branch of the configuration passes cleanly through the
+symmetric branch point where it meets the homogeneous branch. Every ``p̂, V̂`` is a state shot
+directly (:func:`coexist.shooting.solve_states`), and the Jacobian comes from the variational
+equations integrated with it: no spline enters a residual.
+
+**Stability** (docs/physics.md). Two conditions, both in closed form:
+
+1. The Hessian of ``G`` over the zone volumes, ``diag(aj) + c 1 1ᵀ`` with ``aj = dp̂/dV̂`` of group ``j``
+   and ``c = n̂/(V̂c + ΣV̂)²`` (0 for a reservoir), has the eigenvalue ``aj`` with multiplicity
+   ``nj − 1`` (zones of one group moving against each other) and the ``M`` eigenvalues of
+   ``B = diag(aj) + c √(nj nl)`` (groups moving as wholes). No ``N × N`` matrix is formed.
+2. Each zone is stable at fixed volume: along one zone's curve the number of unstable axisymmetric
+   modes at fixed volume changes by one at every volume fold ``dV̂/dλ0 = 0``, increasing where the
+   pressure falls at the fold (``dp̂/dλ0 < 0`` approached with ``dV̂/dλ0 > 0``; Maddocks' rule for the
+   distinguished diagram ``(V̂, p̂)``). :func:`zone_index` counts it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import SceneError, SolverError
+from .shooting import OK, reason_tag, reason_text, solve_states
+
+
+# --- what holds the pressure -----------------------------------------------------------------------
+@dataclass(frozen=True)
+class GasChamber:
+    """Isothermal ideal gas, fixed amount, rigid chamber: ``(V̂c + ΣV̂)(p̂atm + p̂) = n̂``.
+
+    Parameters
+    ----------
+    chamber_volume : float
+        ``V̂c = Vc/A³``.
+    atmospheric_pressure : float
+        ``p̂atm = Patm A/(μH)``.
+    gas_amount : float
+        ``n̂ = NkT/(μHA²)``, fixed when the valves close.
+    """
+
+    chamber_volume: float
+    atmospheric_pressure: float
+    gas_amount: float
+    name = "isothermal-ideal-gas"
+
+    def __post_init__(self):
+        for key in ("chamber_volume", "atmospheric_pressure", "gas_amount"):
+            v = getattr(self, key)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise SceneError(f"must be a positive number, got {v!r}", key)
+
+    @classmethod
+    def closed_at(cls, chamber_volume, atmospheric_pressure, closing_pressure, zone_volumes_total):
+        """The gas that fills chamber and zones at gauge pressure ``p̂`` when the valves close."""
+        n = (chamber_volume + zone_volumes_total) * (atmospheric_pressure + closing_pressure)
+        return cls(float(chamber_volume), float(atmospheric_pressure), float(n))
+
+    def pressure(self, total_volume):
+        """Gauge pressure ``p̂ = n̂/(V̂c + ΣV̂) − p̂atm``."""
+        return self.gas_amount / (self.chamber_volume + total_volume) - self.atmospheric_pressure
+
+    def stiffness(self, total_volume):
+        """``c = −dp̂/dΣV̂ = n̂/(V̂c + ΣV̂)²`` (the gas resists a change of the total volume)."""
+        return self.gas_amount / (self.chamber_volume + total_volume) ** 2
+
+    def free_energy(self, total_volume):
+        """``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂``."""
+        return -self.gas_amount * np.log(self.chamber_volume + total_volume) + self.atmospheric_pressure * total_volume
+
+
+@dataclass(frozen=True)
+class PressureReservoir:
+    """Pressure control (no chamber in the scene): the gauge pressure is ``p̂`` whatever the volume."""
+
+    pressure_hat: float
+    name = "pressure-control"
+
+    def __post_init__(self):
+        if not (isinstance(self.pressure_hat, (int, float)) and math.isfinite(self.pressure_hat)):
+            raise SceneError(f"must be a finite number, got {self.pressure_hat!r}", "pressure_hat")
+
+    def pressure(self, total_volume):
+        return self.pressure_hat + 0.0 * np.asarray(total_volume)
+
+    def stiffness(self, total_volume):
+        return 0.0 * np.asarray(total_volume)
+
+    def free_energy(self, total_volume):
+        return -self.pressure_hat * total_volume
+
+
+# --- configurations --------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Configuration:
+    """How ``N`` identical zones split into groups of equal state, ordered by pole stretch.
+
+    ``counts = (N,)`` is homogeneous; ``(N − k, k)`` has ``k`` bulged zones and ``N − k`` unbulged.
+    """
+
+    counts: tuple
+
+    def __post_init__(self):
+        c = tuple(int(x) for x in self.counts)
+        if not c or any(x < 1 for x in c):
+            raise SceneError(f"group sizes must be positive integers, got {self.counts!r}", "configuration")
+        object.__setattr__(self, "counts", c)
+
+    @property
+    def zones(self) -> int:
+        return sum(self.counts)
+
+    @property
+    def groups(self) -> int:
+        return len(self.counts)
+
+    @property
+    def bulged(self) -> int:
+        """Zones in the most inflated group (0 when homogeneous)."""
+        return 0 if self.groups == 1 else self.counts[-1]
+
+    @property
+    def label(self) -> str:
+        if self.groups == 1:
+            return "homogeneous"
+        if self.groups == 2:
+            return f"{self.counts[1]} of {self.zones} bulged"
+        return f"{' + '.join(map(str, self.counts))} zones in {self.groups} states"
+
+    def reversed(self) -> Configuration:
+        return Configuration(tuple(reversed(self.counts)))
+
+
+def two_group(zones: int, bulged: int) -> Configuration:
+    """``(N − k, k)``: ``k`` bulged zones among ``N`` (``k = 0``: homogeneous)."""
+    if not (isinstance(zones, (int, np.integer)) and zones >= 1):
+        raise SceneError(f"zone count must be a positive integer, got {zones!r}", "zones")
+    if not (0 <= bulged < zones) and not (bulged == 0):
+        raise SceneError(f"bulged zones must lie in 0..{zones - 1}, got {bulged!r}", "bulged")
+    return Configuration((zones,)) if bulged == 0 else Configuration((zones - bulged, bulged))
+
+
+# --- exact states of the groups ----------------------------------------------------------------------
+@dataclass
+class GroupStates:
+    """Directly shot states of every group at ``P`` points (arrays of shape ``(P, M)``) with their
+    derivatives in ``u = √(λ0 − λpre)`` (``dp_du``, ``dv_du``) and ``Φ̂`` (``dp_dphi``, ``dv_dphi``)."""
+
+    u: np.ndarray
+    phi: np.ndarray
+    p: np.ndarray
+    v: np.ndarray
+    q: np.ndarray
+    psi: np.ndarray
+    dp_du: np.ndarray
+    dv_du: np.ndarray
+    dp_dphi: np.ndarray
+    dv_dphi: np.ndarray
+    max_field: np.ndarray
+    min_tension: np.ndarray
+    status: np.ndarray
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Per point: every group's state valid."""
+        return np.all(self.status == OK, axis=1)
+
+
+def shoot_groups(model, u, phi, settings, formal: bool = False) -> GroupStates:
+    """Shoot the states of every group at every point in one vectorised call (with derivatives).
+
+    ``u`` has shape ``(P, M)`` and ``phi`` shape ``(P,)``.
+    """
+    u = np.atleast_2d(np.asarray(u, dtype=float))
+    P, M = u.shape
+    phi = np.broadcast_to(np.asarray(phi, dtype=float), (P,))
+    lam = model.prestretch + u**2
+    good = np.isfinite(lam) & (u > 0) & np.isfinite(phi)[:, None]
+    lam_safe = np.where(good, lam, model.prestretch + 1.0)
+    # the energy depends on Φ̂² only: a negative voltage (a continuation stepping past Φ̂ = 0) is the
+    # mirror image, with the charge and every Φ̂-derivative changing sign
+    sign = np.where(phi < 0, -1.0, 1.0)[:, None]
+    phi_rep = np.repeat(np.where(np.isfinite(phi), np.abs(phi), 0.0), M)
+    st = solve_states(model, lam_safe.ravel(), phi_rep, settings, derivatives=True, formal=formal)
+    d = st.derivatives
+
+    def shaped(a):
+        return np.asarray(a, dtype=float).reshape(P, M)
+
+    status = shaped(st.status).astype(int)
+    status[~good] = -1
+    du = 2 * u  # dλ/du
+    return GroupStates(
+        u=u, phi=np.asarray(phi, dtype=float), p=shaped(st.p_hat), v=shaped(st.v_hat), q=sign * shaped(st.q_hat),
+        psi=shaped(st.psi_hat), dp_du=shaped(d.dp_dl0) * du, dv_du=shaped(d.dv_dl0) * du,
+        dp_dphi=sign * shaped(d.dp_dphi), dv_dphi=sign * shaped(d.dv_dphi), max_field=shaped(st.max_field),
+        min_tension=shaped(st.min_tension), status=status,
+    )
+
+
+def failure_reason(status: int) -> tuple[str, str]:
+    """``(tag, sentence)`` of a state's status code (``-1``: outside the physical range)."""
+    if status == -1:
+        return "out_of_range", "the pole stretch left the physical range (λ0 ≤ λpre)"
+    return reason_tag(status), reason_text(status)
+
+
+# --- residuals ---------------------------------------------------------------------------------------
+#: below this separation in ``u`` two groups count as one state: the divided difference is not formed
+MERGE_TOLERANCE = 1e-7
+
+
+@dataclass
+class Residual:
+    """Equilibrium residuals ``r`` (``(P, M)``) and their Jacobian ``J`` (``(P, M, M + 1)``, columns
+    ``u1 … uM, Φ̂``) at ``P`` points, with the shot states."""
+
+    r: np.ndarray
+    J: np.ndarray
+    states: GroupStates
+    total_volume: np.ndarray
+    gas_pressure: np.ndarray
+    gas_stiffness: np.ndarray
+
+
+class GroupSystem:
+    """The equilibrium equations of one configuration of identical zones on a gas.
+
+    Parameters
+    ----------
+    model : MembraneModel
+    gas : GasChamber or PressureReservoir
+    configuration : Configuration
+    settings : SolverSettings
+    """
+
+    def __init__(self, model, gas, configuration: Configuration, settings):
+        self.model = model
+        self.gas = gas
+        self.configuration = configuration
+        self.settings = settings
+        self.n = np.asarray(configuration.counts, dtype=float)
+
+    @property
+    def groups(self) -> int:
+        return self.configuration.groups
+
+    def residual(self, u, phi, formal: bool = False) -> Residual:
+        """Residuals and Jacobian at points ``(u, Φ̂)``; ``u`` of shape ``(P, M)`` (``formal``: see
+        :func:`coexist.shooting.solve_states`)."""
+        st = shoot_groups(self.model, u, phi, self.settings, formal)
+        return self._residual(st)
+
+    def _residual(self, st: GroupStates) -> Residual:
+        P, M = st.u.shape
+        n = self.n
+        total = st.v @ n
+        pg = np.asarray(self.gas.pressure(total), dtype=float) + np.zeros(P)
+        c = np.asarray(self.gas.stiffness(total), dtype=float) + np.zeros(P)
+        r = np.empty((P, M))
+        J = np.zeros((P, M, M + 1))
+        r[:, 0] = st.p[:, 0] - pg
+        J[:, 0, 0] = st.dp_du[:, 0]
+        J[:, 0, :M] += c[:, None] * n[None, :] * st.dv_du
+        J[:, 0, M] = st.dp_dphi[:, 0] + c * (st.dv_dphi @ n)
+        for j in range(M - 1):
+            du = st.u[:, j + 1] - st.u[:, j]
+            near = np.abs(du) < MERGE_TOLERANCE
+            safe = np.where(near, 1.0, du)
+            D = (st.p[:, j + 1] - st.p[:, j]) / safe
+            # merged groups: the divided difference is the slope there (no better value exists)
+            D = np.where(near, 0.5 * (st.dp_du[:, j] + st.dp_du[:, j + 1]), D)
+            r[:, j + 1] = D
+            J[:, j + 1, j + 1] = np.where(near, 0.0, (st.dp_du[:, j + 1] - D) / safe)
+            J[:, j + 1, j] = np.where(near, 0.0, (D - st.dp_du[:, j]) / safe)
+            J[:, j + 1, M] = np.where(near, 0.0, (st.dp_dphi[:, j + 1] - st.dp_dphi[:, j]) / safe)
+        return Residual(r, J, st, total, pg, c)
+
+
+# --- stability -------------------------------------------------------------------------------------
+def hessian_eigenvalues(counts, dp_dv, stiffness) -> list[tuple[float, int, str]]:
+    """Eigenvalues of ``diag(aj, nj times) + c 1 1ᵀ`` in closed form, as ``(value, multiplicity, mode)``.
+
+    ``mode`` is ``"within group j"`` for ``aj`` (zones of group ``j`` moving against each other; only when
+    ``nj ≥ 2``) or ``"groups"`` for the eigenvalues of ``B = diag(aj) + c √(nj nl)``.
+    """
+    counts = np.asarray(counts, dtype=float)
+    a = np.asarray(dp_dv, dtype=float)
+    out = []
+    for j, (nj, aj) in enumerate(zip(counts, a)):
+        if nj >= 2:
+            out.append((float(aj), int(nj) - 1, f"within group {j}"))
+    s = np.sqrt(counts)
+    B = np.diag(a) + float(stiffness) * np.outer(s, s)
+    for ev in np.linalg.eigvalsh(B):
+        out.append((float(ev), 1, "groups"))
+    return sorted(out, key=lambda x: x[0])
+
+
+def group_block(counts, dp_dv, stiffness):
+    """``B = diag(aj) + c √(nj nl)``: the Hessian restricted to whole-group motions."""
+    s = np.sqrt(np.asarray(counts, dtype=float))
+    return np.diag(np.asarray(dp_dv, dtype=float)) + float(stiffness) * np.outer(s, s)
+
+
+def zone_index(model, u, phi, settings, samples: int = 48) -> int:
+    """Unstable axisymmetric modes at fixed volume of one zone at ``(u, Φ̂)``.
+
+    The zone's curve at ``Φ̂`` is shot from the flat state to ``u``; at each volume fold (a sign change of
+    ``dV̂/du``) the count changes by ``−sign(dp̂/du · σ)``, where ``σ`` is the sign of ``dV̂/du`` before the
+    fold (Maddocks' rule: approached from the stable side a fold has ``dp̂/dV̂ → −∞``). Folds are
+    bracketed on ``samples`` directly shot states with exact derivatives; a pair of folds between two
+    samples changes the count by zero, so only single folds matter, and those show as a sign change.
+    """
+    u = float(u)
+    if u <= 0:
+        return 0
+    grid = np.linspace(0.0, u, samples + 1)[1:]
+    st = solve_states(model, model.prestretch + grid**2, phi, settings, derivatives=True)
+    good = st.ok
+    dv = np.where(good, st.derivatives.dv_dl0, np.nan)
+    dp = np.where(good, st.derivatives.dp_dl0, np.nan)
+    # the states below the first valid one are flat-like (wrinkled at low inflation under voltage):
+    # they carry no fold; only the valid run ending at u counts
+    if not good[-1]:
+        raise SolverError(f"zone_index: the state at u = {u:.6g}, Φ̂ = {phi:.6g} is not valid "
+                          f"({reason_text(int(st.status[-1]))})")
+    first = int(np.flatnonzero(~good)[-1]) + 1 if (~good).any() else 0
+    index = 0
+    for i in range(first, grid.size - 1):
+        if dv[i] * dv[i + 1] < 0:
+            # the pressure slope at the fold: where |dV/du| is smaller (closer to the fold)
+            k = i if abs(dv[i]) < abs(dv[i + 1]) else i + 1
+            index += -int(np.sign(dp[k] * np.sign(dv[i])))
+    return max(index, 0)
+
+
+# --- an equilibrium ----------------------------------------------------------------------------------
+@dataclass
+class Equilibrium:
+    """One converged equilibrium of ``N`` identical zones at one voltage.
+
+    Attributes
+    ----------
+    configuration : Configuration
+    phi_hat : float
+    pole_stretch, v_hat, q_hat, psi_hat, dp_dv, max_field, min_tension : tuple
+        Per group (ordered by pole stretch): the shot states and ``dp̂/dV̂`` along the zone curve.
+    p_hat : float
+        The common gauge pressure.
+    free_energy : float
+        ``Ĝ = Σ nj Ψ̂j + G_gas``.
+    eigenvalues : list of (value, multiplicity, mode)
+        The Hessian's eigenvalues (:func:`hessian_eigenvalues`).
+    zone_index : tuple
+        Per group, unstable axisymmetric modes of one zone at fixed volume.
+    residual : float
+        Largest equilibrium residual (pressure units) at the reported state.
+    """
+
+    configuration: Configuration
+    phi_hat: float
+    pole_stretch: tuple
+    p_hat: float
+    v_hat: tuple
+    q_hat: tuple
+    psi_hat: tuple
+    dp_dv: tuple
+    max_field: tuple
+    min_tension: tuple
+    free_energy: float
+    eigenvalues: list
+    zone_index: tuple
+    residual: float
+    notes: list = field(default_factory=list)
+
+    @property
+    def zones(self) -> int:
+        return self.configuration.zones
+
+    @property
+    def k(self) -> int:
+        """Bulged zones (the most inflated group; 0 when homogeneous)."""
+        return self.configuration.bulged
+
+    @property
+    def label(self) -> str:
+        return self.configuration.label
+
+    @property
+    def min_eigenvalue(self) -> float:
+        return float(self.eigenvalues[0][0])
+
+    @property
+    def stable(self) -> bool:
+        """Positive definite Hessian and every zone stable at its own volume."""
+        return self.min_eigenvalue > 0 and all(i == 0 for i in self.zone_index)
+
+    @property
+    def zone_volumes(self) -> list:
+        """Volume of every zone, least inflated first."""
+        return [v for v, n in zip(self.v_hat, self.configuration.counts) for _ in range(n)]
+
+    @property
+    def zone_pole_stretches(self) -> list:
+        return [lam for lam, n in zip(self.pole_stretch, self.configuration.counts) for _ in range(n)]
+
+    @property
+    def total_charge(self) -> float:
+        return float(sum(n * q for n, q in zip(self.configuration.counts, self.q_hat)))
+
+    @property
+    def v_unbulged(self) -> float:
+        return self.v_hat[0]
+
+    @property
+    def v_bulged(self) -> float | None:
+        return self.v_hat[-1] if self.configuration.groups > 1 else None
+
+    @property
+    def pole_stretch_unbulged(self) -> float:
+        return self.pole_stretch[0]
+
+    @property
+    def pole_stretch_bulged(self) -> float | None:
+        return self.pole_stretch[-1] if self.configuration.groups > 1 else None
+
+    def to_dict(self) -> dict:
+        return {
+            "configuration": self.label, "group_sizes": list(self.configuration.counts),
+            "phi_hat": self.phi_hat, "p_hat": self.p_hat, "pole_stretch": list(self.pole_stretch),
+            "v_hat": list(self.v_hat), "free_energy_hat": self.free_energy, "stable": self.stable,
+            "min_eigenvalue": self.min_eigenvalue, "zone_index": list(self.zone_index), "residual": self.residual,
+        }
+
+
+def merged(configuration: Configuration, u) -> tuple[Configuration, np.ndarray]:
+    """Groups closer than :data:`MERGE_TOLERANCE` in ``u`` joined into one (the configuration a state
+    really is in), and the groups' ``u`` in order."""
+    u = np.asarray(u, dtype=float)
+    order = np.argsort(u, kind="stable")
+    counts = [configuration.counts[i] for i in order]
+    us = list(u[order])
+    out_c, out_u = [counts[0]], [us[0]]
+    for c, x in zip(counts[1:], us[1:]):
+        if abs(x - out_u[-1]) <= MERGE_TOLERANCE * max(1.0, abs(x)):
+            w = out_c[-1] / (out_c[-1] + c)
+            out_u[-1] = w * out_u[-1] + (1 - w) * x
+            out_c[-1] += c
+        else:
+            out_c.append(c)
+            out_u.append(x)
+    return Configuration(tuple(out_c)), np.asarray(out_u)
+
+
+def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> Equilibrium:
+    """The :class:`Equilibrium` at point ``i`` of a residual evaluation (groups ordered by ``u``)."""
+    st = res.states
+    order = np.argsort(st.u[i], kind="stable")
+    counts = tuple(system.configuration.counts[j] for j in order)
+    conf = Configuration(counts)
+    n = np.asarray(counts, dtype=float)
+    lam = system.model.prestretch + st.u[i, order] ** 2
+    a = st.dp_du[i, order] / st.dv_du[i, order]
+    psi = st.psi[i, order]
+    v = st.v[i, order]
+    G = float(n @ psi + system.gas.free_energy(float(n @ v)))
+    eig = hessian_eigenvalues(counts, a, float(res.gas_stiffness[i]))
+    idx = tuple(int(index[j]) for j in order) if index is not None else (0,) * len(counts)
+    return Equilibrium(
+        configuration=conf, phi_hat=float(st.phi[i]), pole_stretch=tuple(float(x) for x in lam),
+        p_hat=float(res.gas_pressure[i]), v_hat=tuple(float(x) for x in v),
+        q_hat=tuple(float(x) for x in st.q[i, order]), psi_hat=tuple(float(x) for x in psi),
+        dp_dv=tuple(float(x) for x in a), max_field=tuple(float(x) for x in st.max_field[i, order]),
+        min_tension=tuple(float(x) for x in st.min_tension[i, order]), free_energy=G, eigenvalues=eig,
+        zone_index=idx, residual=float(np.max(np.abs(res.r[i]))) if res.r.size else 0.0,
+    )

@@ -1,0 +1,406 @@
+"""From a scene to its answers: the pipeline assembled once, in physical units.
+
+``scene → model (only the scene's effects) → the gas closed at the closing pressure (or a pressure
+reservoir) → EquilibriumMap (stable segments of every configuration, traced on demand on the exact
+equations) → ramp / coexistence table / fit``.
+
+Everything in normalised form depends on the material alone (the scales ``μH/A``, ``A³``,
+``H√(μ/ε)`` carry the geometry), so one model serves a whole fit and sensitivity study: changing
+``A``, ``μ``, the chamber or the closing pressure only changes the gas and the voltage scale.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .continuation import EquilibriumMap, Event, StableSegment, relocate
+from .equilibria import Configuration, Equilibrium, GasChamber, PressureReservoir
+from .errors import ModelRangeError, SceneError, SolverError
+from .ramp import Ramp, RampResult, Transition, equal_free_energy
+from .scene import Scene
+from .settings import SolverSettings
+from .shooting import solve_states
+
+#: the pole-stretch range of the zone curves ends at this fraction of the Gent locking stretch
+LOCKING_MARGIN = 0.95
+#: upper end of the pole-stretch range for materials that do not lock (times the prestretch)
+NEO_HOOKEAN_STRETCH_MAX = 6.0
+#: voltages at which every configuration is searched for (first guesses, then the exact continuation)
+#: when the coexistence table is asked for; a stable piece narrower than the spacing and not reached
+#: from the ramp could be missed
+DISCOVERY_VOLTAGES = 13
+
+
+def pole_stretch_max(scene: Scene) -> float:
+    """Upper end of the zone curves: short of Gent locking (equibiaxial ``2λ² + λ⁻⁴ − 3 = Jlim``)."""
+    if scene.material == "gent":
+        return LOCKING_MARGIN * math.sqrt((scene.jlim + 3) / 2)
+    return NEO_HOOKEAN_STRETCH_MAX * scene.prestretch
+
+
+def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float, float]:
+    """``(p̂max, λ0)`` of one zone's first pressure maximum at zero voltage (solved exactly), or the
+    largest pressure of the computed range and its pole stretch if the curve has no maximum."""
+    from .curves import pressure_volume_curve
+
+    pre = model.prestretch
+    grid = pre * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(lam_max / pre - 1), 80) ** 2)
+    curve = pressure_volume_curve(model, 0.0, grid, settings)
+    maxima = [lp for lp in curve.limit_points if lp.kind == "pressure_max"]
+    if maxima:
+        return float(maxima[0].p_hat), float(maxima[0].pole_stretch)
+    i = int(np.argmax(curve.states.p_hat))
+    return float(curve.states.p_hat[i]), float(curve.states.pole_stretch[i])
+
+
+def snap_through_pressure(scene: Scene) -> float:
+    """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``)."""
+    from .effects import NoElectrostatics
+    from .model import MembraneModel
+
+    base = scene.model()
+    model = MembraneModel(base.elasticity, NoElectrostatics(), base.prestretch)
+    return snap_through(model, scene.settings, pole_stretch_max(scene))[0]
+
+
+def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: float, lam_hi: float) -> float:
+    """The pole stretch in ``(lam_lo, lam_hi)`` (a rising piece of the zero-voltage curve) at which one zone
+    holds ``p̂``: Newton's method on exact states with exact derivatives, safeguarded by the bracket."""
+    lo, hi = float(lam_lo), float(lam_hi)
+    s_lo = solve_states(model, [lo], 0.0, settings)
+    if not (s_lo.ok[0] and s_lo.p_hat[0] <= p_hat):
+        raise SceneError(f"p̂ = {p_hat:.6g} is below the smallest computed state (p̂ = {s_lo.p_hat[0]:.3g})",
+                         "pressure")
+    lam = lo + (hi - lo) * 0.5
+    for _ in range(60):
+        st = solve_states(model, [lam], 0.0, settings, derivatives=True)
+        if not st.ok[0]:
+            raise SolverError(f"no valid state at pole stretch {lam:.8g} while solving for p̂ = {p_hat:.6g}")
+        f = st.p_hat[0] - p_hat
+        if f > 0:
+            hi = lam
+        else:
+            lo = lam
+        d = st.derivatives.dp_dl0[0]
+        new = lam - f / d if d > 0 else 0.5 * (lo + hi)
+        if not lo < new < hi:
+            new = 0.5 * (lo + hi)
+        if abs(new - lam) <= 1e-14 * lam or hi - lo <= 1e-14 * lam:
+            return float(new)
+        lam = new
+    raise SolverError(f"the state at p̂ = {p_hat:.6g} did not converge")
+
+
+@dataclass
+class Simulation:
+    """A scene made ready to solve: model, what holds the pressure, and the map of its stable states.
+
+    Build it with :meth:`from_scene`. ``phi_window`` is the voltage range the map is traced over (the
+    scene's path, or a wider one for a fit).
+    """
+
+    scene: Scene
+    model: object
+    gas: object
+    closing_stretch: float
+    p_hat_max: float
+    lam_max: float
+    phi_window: tuple
+    emap: EquilibriumMap
+    _start: StableSegment | None = field(default=None, repr=False)
+
+    @classmethod
+    def from_scene(cls, scene: Scene, model=None, phi_window=None, snap=None) -> Simulation:
+        """Assemble a simulation. ``model`` and ``snap = (p̂max, λ0 at it)`` may be passed in when many
+        scenes share one material (a fit)."""
+        model = model if model is not None else scene.model()
+        lam_max = pole_stretch_max(scene)
+        if snap is None:  # at zero voltage a model with electrostatics gives the passive numbers (tested)
+            snap = snap_through(model, scene.settings, lam_max)
+        p_max, lam_at_max = snap
+        if phi_window is None:
+            path = scene.voltage_hat_path
+            phi_window = (0.0, float(np.max(path)) if path is not None else 0.0)
+        if scene.chamber is not None:
+            scene.check_closing_pressure(p_max)
+            p_close = scene.closing_pressure_hat
+            field_name = scene.chamber.closing_pressure_field
+        elif scene.controlled_pressure is not None:
+            p_close = scene.p_hat(scene.controlled_pressure)
+            field_name = "[zones].pressure"
+            if not p_close < p_max:
+                raise SceneError(f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar (p̂ = {p_close:.4g}): "
+                                 f"it is at or above their snap-through pressure p̂max = {p_max:.4g}", field_name)
+        else:
+            raise SceneError("this computation needs a [chamber] (a gas the zones share) or a controlled "
+                             "pressure [zones].pressure_mbar", "[chamber]")
+        lam_lo = model.prestretch * (1 + 2e-3)
+        try:
+            lam_c = state_at_pressure(model, p_close, scene.settings, lam_lo, lam_at_max)
+        except SceneError as exc:
+            raise SceneError(f"{exc.message}; raise it", field_name) from None
+        if scene.chamber is not None:
+            v_c = float(solve_states(model, [lam_c], 0.0, scene.settings).v_hat[0])
+            gas = GasChamber.closed_at(scene.chamber_volume_hat, scene.atmospheric_pressure_hat, p_close,
+                                       scene.zone_count * v_c)
+        else:
+            gas = PressureReservoir(float(p_close))
+        breakdown = None if scene.breakdown_field is None else scene.breakdown_field / scene.field_scale
+        emap = EquilibriumMap(model, gas, scene.zone_count, scene.settings, phi_window, breakdown)
+        return cls(scene, model, gas, lam_c, p_max, lam_max, tuple(phi_window), emap)
+
+    # ---------------------------------------------------------------------------------------------
+    @property
+    def start(self) -> StableSegment:
+        """The homogeneous stable segment through the state the valves closed in (0 V)."""
+        if self._start is None:
+            u = math.sqrt(self.closing_stretch - self.model.prestretch)
+            tr = self.emap.tracer((self.scene.zone_count,))
+            seed = tr.seed(np.array([u, 0.0]))
+            if not seed.stable:
+                raise ModelRangeError("the state the valves closed in is not stable", "no_equilibrium")
+            self._start = StableSegment(tr.trace(seed, stable_only=True), tr)
+            self.emap.segments.append(self._start)
+        return self._start
+
+    def ramp(self, progress=None) -> RampReport:
+        """The scene's voltage path, followed from the closing state (:class:`~coexist.ramp.Ramp`)."""
+        if self.scene.voltage is None:
+            raise SceneError("this scene has no [voltage]: nothing to ramp", "[voltage]")
+        result = Ramp(self.emap, self.lam_max).run(self.scene.voltage_hat_path, self.start, progress)
+        if self.scene.settings.error_estimates:
+            self.measure_errors(result.transitions + result.equal_free_energy)
+        return RampReport(self.scene, result, self.gas, self.scene.effects(), dict(self.scene.fitted))
+
+    def measure_errors(self, transitions) -> None:
+        """Re-locate every transition at a tighter tolerance (``rtol/100``, at least 1e-13): its error is
+        the change (plus its location bracket). In place."""
+        tight_settings = self.scene.settings.with_rtol(max(self.scene.settings.rtol / 100, 1e-13))
+        tight_map = EquilibriumMap(self.model, self.gas, self.scene.zone_count, tight_settings, self.phi_window,
+                                   self.emap.breakdown)
+        done = {}
+        for t in transitions:
+            if t.kind == "equal_free_energy":
+                seg_a, seg_b = t.segments
+                crossing = _tight_crossing(t, seg_a, seg_b, tight_map)
+                t.phi_hat_error = max(t.phi_hat_error, 0.0) + crossing
+                t.measured = True
+                continue
+            ev = getattr(t, "source", None)
+            if not isinstance(ev, Event):
+                continue
+            if id(ev) not in done:
+                tr = self.emap.tracer(ev.eq.configuration.counts if ev.kind != "merge" else t.source_counts)
+                tight = tight_map.tracer(tr.system.configuration.counts)
+                try:
+                    relocate(ev, tr, tight)
+                except SolverError:
+                    pass
+                done[id(ev)] = ev.error
+            t.phi_hat_error = done[id(ev)]
+            t.measured = ev.measured
+
+    # ---------------------------------------------------------------------------------------------
+    def discover(self, bulged=None, voltages: int = DISCOVERY_VOLTAGES) -> None:
+        """Seed the map with every stable equilibrium found at ``voltages`` voltages across the window
+        (first guesses on zone curves shot at each voltage, then converged exactly; each new one is
+        traced). Configurations: homogeneous and ``(N − k, k)`` for ``k`` in ``bulged``."""
+        from .branches import ZoneCurve
+        from .candidates import candidate_equilibria
+        from .continuation import correct
+        from .equilibria import make_equilibrium
+
+        lo, hi = self.phi_window
+        pre = self.model.prestretch
+        u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), 200)
+        phis = np.linspace(lo, hi, voltages) if hi > lo else np.array([lo])
+        st = solve_states(self.model, np.tile(pre + u**2, phis.size), np.repeat(phis, u.size), self.scene.settings)
+        n = u.size
+        for i, phi in enumerate(phis):
+            from .curves import _take
+
+            try:
+                curve = ZoneCurve.from_states(_take(st, slice(i * n, (i + 1) * n)), phi, pre)
+            except ModelRangeError:
+                continue
+            for cand in candidate_equilibria(curve, self.gas, self.scene.zone_count, bulged):
+                tr = self.emap.tracer(cand.counts)
+                M = len(cand.counts)
+                z = np.concatenate([cand.u, [phi * tr.w]])
+                nrm = np.zeros(M + 1)
+                nrm[M] = 1.0
+                corr = correct(tr.system, z[None, :], nrm[None, :], np.array([phi * tr.w]), tr.w)
+                if not corr.ok[0]:
+                    continue
+                eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
+                if np.any(np.diff(np.sort(np.sqrt(np.asarray(eq.pole_stretch) - pre))) < 1e-6):
+                    continue  # collapsed onto a coarser configuration
+                from .ramp import _zone_index_on_curve
+
+                eq.zone_index = tuple(_zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
+                if not eq.stable or self.emap.find(eq) is not None:
+                    continue
+                try:
+                    self.emap.segment_of(eq, eq.zone_index)
+                except SolverError:
+                    continue
+
+    def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
+        """For each ``k`` in ``bulged`` (default ``1..N−1``): the stable segments of ``k`` bulged zones
+        (ranges with their exact ends) and the voltages where they have the free energy of the
+        homogeneous state, with the coexisting states there."""
+        N = self.scene.zone_count
+        ks = list(range(1, N)) if bulged is None else sorted(set(int(k) for k in bulged))
+        self.start  # noqa: B018 - the homogeneous segment through the closing state first
+        self.discover(ks)
+        homog = [s for s in self.emap.segments if s.configuration.groups == 1]
+        out = []
+        for k in ks:
+            segs = sorted((s for s in self.emap.segments if s.configuration.counts == (N - k, k)),
+                          key=lambda s: s.phi_range[0])
+            crossings = equal_free_energy(homog + segs)
+            crossings = [c for c in crossings if {c.from_label, c.to_label} == {"homogeneous", f"{k} of {N} bulged"}]
+            if self.scene.settings.error_estimates:
+                self.measure_errors(crossings)
+            note = None if segs else f"no stable state with {k} of {N} zones bulged between " \
+                                     f"{self.scene.voltage_of(self.phi_window[0]) / 1e3:.4g} and " \
+                                     f"{self.scene.voltage_of(self.phi_window[1]) / 1e3:.4g} kV"
+            out.append(CoexistenceEntry(k, segs, crossings, note))
+        return out
+
+    def first_transition(self, kind: str = "spinodal") -> Transition:
+        """The first change on the way up from the closing state: where the homogeneous state is lost
+        (``spinodal``: its first stability loss) or where one bulged zone first has its free energy
+        (``equal_free_energy``)."""
+        start = self.start
+        end = start.end(+1)
+        if kind == "spinodal":
+            if not isinstance(end, Event) or end.kind in ("window", "range_end", "breakdown"):
+                why = "the window ends" if not isinstance(end, Event) or end.kind == "window" else end.note
+                raise ModelRangeError(f"the zones stay homogeneous up to "
+                                      f"{self.scene.voltage_of(start.end_phi(+1)) / 1e3:.6g} kV ({why})",
+                                      "no_transition")
+            t = Transition(end.phi_hat, "spinodal", "homogeneous", "", "up", end.kind, end.error)
+            t.source = end
+            if self.scene.settings.error_estimates:
+                self.measure_errors([t])
+            return t
+        if kind == "equal_free_energy":
+            entry = self.coexistence([1])[0]
+            if not entry.crossings:
+                raise ModelRangeError(entry.note or "no voltage at which one bulged zone has the free energy "
+                                      "of the homogeneous state", "no_transition")
+            return entry.crossings[0]
+        raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
+
+
+def _tight_crossing(t: Transition, A: StableSegment, B: StableSegment, tight_map: EquilibriumMap) -> float:
+    """The change of an equal-free-energy voltage when both states are converged at the tighter tolerance."""
+    from .continuation import correct
+    from .equilibria import make_equilibrium
+
+    def tight_state(seg, phi):
+        tr = tight_map.tracer(seg.configuration.counts)
+        z = seg.predict(phi)
+        M = tr.M
+        n = np.zeros(M + 1)
+        n[M] = 1.0
+        z[M] = phi * tr.w
+        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
+        if not corr.ok[0]:
+            raise SolverError(f"{seg.label}: no state at Φ̂ = {phi:.10g} at the tighter tolerance")
+        return make_equilibrium(tr.system, corr.res, corr.rows[0])
+
+    phi = t.phi_hat
+    for _ in range(8):
+        ea, eb = tight_state(A, phi), tight_state(B, phi)
+        slope = -(ea.total_charge - eb.total_charge)
+        step = -(ea.free_energy - eb.free_energy) / slope
+        phi += step
+        if abs(step) <= 1e-13 * max(abs(phi), 1e-3):
+            break
+    return abs(phi - t.phi_hat)
+
+
+@dataclass
+class CoexistenceEntry:
+    """What is known of the configuration with ``k`` bulged zones: its stable segments and its
+    equal-free-energy voltages against the homogeneous state."""
+
+    k: int
+    segments: list
+    crossings: list
+    note: str | None = None
+
+
+@dataclass
+class RampReport:
+    """A ramp in physical units, ready for tables, JSON and figures."""
+
+    scene: Scene
+    result: RampResult
+    gas: object
+    effects: list
+    fitted: dict = field(default_factory=dict)
+
+    def voltage_kV(self, phi_hat):
+        return self.scene.voltage_of(phi_hat) / 1e3
+
+    def pressure_mbar(self, p_hat):
+        return self.scene.pressure(p_hat) / 100
+
+    def volume_ml(self, v_hat):
+        return self.scene.volume(v_hat) * 1e6
+
+    def transition_dict(self, t: Transition) -> dict:
+        return {
+            "voltage_kV": float(self.voltage_kV(t.phi_hat)),
+            "voltage_error_kV": float(self.voltage_kV(t.phi_hat_error)),
+            "error_measured": bool(getattr(t, "measured", False)),
+            "from": t.from_label, "to": t.to_label, "kind": t.kind, "event": t.event, "direction": t.direction,
+            "reason": t.reason, **({"mode": t.mode} if t.mode else {}),
+        }
+
+    def state_dict(self, st: Equilibrium | None) -> dict:
+        if st is None:
+            return {"pressure_mbar": None, "zone_volumes_ml": None, "pole_stretches": None, "configuration": "none",
+                    "bulged_zones": None, "stable": False}
+        return {
+            "pressure_mbar": float(self.pressure_mbar(st.p_hat)),
+            "zone_volumes_ml": [float(self.volume_ml(v)) for v in st.zone_volumes],
+            "pole_stretches": [float(x) for x in st.zone_pole_stretches],
+            "configuration": st.label,
+            "bulged_zones": st.k,
+            "stable": bool(st.stable),
+            "residual_p_hat": float(st.residual),
+        }
+
+    def to_dict(self) -> dict:
+        steps = []
+        check_field = self.scene.breakdown_field is not None
+        for s in self.result.steps:
+            d = {"voltage_kV": round(float(self.voltage_kV(s.phi_hat)), 10), "direction": s.direction,
+                 **self.state_dict(s.state)}
+            if check_field and s.state is not None:
+                d["max_field_MV_per_m"] = float(max(s.state.max_field) * self.scene.field_scale / 1e6)
+            if s.note:
+                d["note"] = s.note
+            steps.append(d)
+        return {
+            "scene": self.scene.to_dict(),
+            "effects": self.effects,
+            "fitted_parameters": self.fitted,
+            "relative_tolerance": self.scene.settings.rtol,
+            "gas_amount_hat": getattr(self.gas, "gas_amount", None),
+            "steps": steps,
+            "transitions": [self.transition_dict(t) for t in self.result.transitions + self.result.equal_free_energy],
+            "notes": self.result.notes,
+        }
+
+
+def simulate_ramp(scene: Scene, progress=None) -> RampReport:
+    """Run the scene's voltage path through the whole pipeline (a convenience for ``Simulation``)."""
+    return Simulation.from_scene(scene).ramp(progress)
