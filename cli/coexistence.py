@@ -1,71 +1,104 @@
-"""``coexist coexistence``: coexistence voltages and states of a scene, for each number of bulged zones."""
+"""``coexist coexistence``: the stable range of each number of bulged zones and its equal-free-energy voltages."""
 
 from __future__ import annotations
 
 import click
 
-from .common import accuracy_option, info, library_errors, load_scene_arg, scene_with_settings, write_json
+from .common import accuracy_option, info, library_errors, load_scene_arg, parse_floats, scene_with_settings, write_json
+from .ramp import format_voltage
+
+#: with more zones than this, the configurations to list must be named with --bulged (each is a continuation)
+MAX_DEFAULT_CONFIGURATIONS = 12
 
 
 @click.command()
 @click.argument("scene", required=False, metavar="[SCENE]")
+@click.option("--bulged", default=None, metavar="K[,K...]",
+              help="Numbers of bulged zones to list (default: all, 1..N-1, for up to 13 zones).")
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON on stdout.")
 @accuracy_option
 @library_errors
-def coexistence(scene, as_json, accuracy, rtol):
-    """For each k = 1..N−1 bulged zones of SCENE (default: tricircle): where they are stable, the
-    voltage at which they have the free energy of the homogeneous state, and the coexisting states."""
-    from coexist.simulate import coexistence_table, prepare
+def coexistence(scene, bulged, as_json, accuracy, rtol):
+    """For each k bulged zones of SCENE (default: tricircle): the voltages where k bulged zones are
+    stable (each range with the events that end it, located on the exact equations), and the voltages
+    where they have the free energy of the homogeneous state, with the coexisting states there.
+
+    The same stable segments as `coexist ramp` (one map of the exact equilibria): the ramp's
+    transitions are ends of these ranges. A scene without [voltage] lists every equilibrium of its
+    zones on the closed gas at 0 V, with its stability.
+    """
+    from coexist.simulation import Simulation
+
+    from .common import InputError
 
     sc = scene_with_settings(load_scene_arg(scene), accuracy, rtol)
-    info("shooting the zone curves ...")
-    prep = prepare(sc)
+    N = sc.zone_count
+    ks = None
+    if bulged is not None:
+        ks = [int(k) for k in parse_floats(bulged, "--bulged", positive=True)]
+        if any(k >= N or k != int(k) for k in ks):
+            raise InputError(f"--bulged: each value must be an integer in 1..{N - 1}, got {bulged!r}")
+    elif N - 1 > MAX_DEFAULT_CONFIGURATIONS:
+        raise InputError(f"--bulged: this scene has {N} zones; name the numbers of bulged zones to list "
+                         f"(e.g. --bulged 1,2): each is a continuation of its own")
+    info("tracing the stable states of each configuration ...")
+    sim = Simulation.from_scene(sc)
     if sc.voltage is None:
-        _without_voltage(sc, prep, as_json)
+        _without_voltage(sc, sim, as_json, ks)
         return
-    rows = coexistence_table(prep, sc)
+    rows = sim.coexistence(ks)
+    kv = lambda phi: float(sc.voltage_of(phi) / 1e3)  # noqa: E731
     out = []
     for r in rows:
-        st = r.state
-        out.append({
-            "bulged_zones": r.k,
-            "zones": sc.zone_count,
-            "stable_range_kV": r.stable_range_kV,
-            "equal_free_energy_voltage_kV": r.equal_free_energy_kV,
-            "pressure_mbar": None if st is None else sc.pressure(st.p_hat) / 100,
-            "unbulged_volume_ml": None if st is None else sc.volume(st.v_unbulged) * 1e6,
-            "bulged_volume_ml": None if st is None else sc.volume(st.v_bulged) * 1e6,
-            "unbulged_pole_stretch": None if st is None else st.pole_stretch_unbulged,
-            "bulged_pole_stretch": None if st is None else st.pole_stretch_bulged,
-            **({"note": r.note} if r.note else {}),
-        })
+        ranges = []
+        for seg in r.segments:
+            lo, hi = seg.low, seg.high
+            ranges.append({
+                "from_kV": kv(seg.end_phi(-1)), "from_error_kV": kv(getattr(lo, "error", 0.0) or 0.0),
+                "from_event": getattr(lo, "kind", "window") if lo is not None else "window",
+                "to_kV": kv(seg.end_phi(+1)), "to_error_kV": kv(getattr(hi, "error", 0.0) or 0.0),
+                "to_event": getattr(hi, "kind", "window") if hi is not None else "window",
+            })
+        equal = []
+        for c in r.crossings:
+            st = c.state_after if c.to_label != "homogeneous" else c.state_before
+            equal.append({
+                "voltage_kV": kv(c.phi_hat), "voltage_error_kV": kv(c.phi_hat_error),
+                "pressure_mbar": float(sc.pressure(st.p_hat) / 100),
+                "unbulged_volume_ml": float(sc.volume(st.v_unbulged) * 1e6),
+                "bulged_volume_ml": float(sc.volume(st.v_bulged) * 1e6),
+                "unbulged_pole_stretch": st.pole_stretch_unbulged, "bulged_pole_stretch": st.pole_stretch_bulged,
+            })
+        out.append({"bulged_zones": r.k, "zones": N, "stable_ranges": ranges, "equal_free_energy": equal,
+                    **({"note": r.note} if r.note else {})})
     if as_json:
         write_json({"scene": sc.to_dict(), "relative_tolerance": sc.settings.rtol, "configurations": out})
         return
     for o in out:
-        rng = ", ".join(f"{a:.3f}–{b:.3f}" for a, b in o["stable_range_kV"]) or "none"
-        click.echo(f"{o['bulged_zones']} of {o['zones']} bulged: stable at {rng} kV")
-        if o["equal_free_energy_voltage_kV"] is None:
-            click.echo(f"  no equal-free-energy voltage: {o.get('note', '')}")
-        else:
-            click.echo(f"  equal free energy with the homogeneous state at {o['equal_free_energy_voltage_kV']:.6f} kV:"
-                       f" {o['pressure_mbar']:.4f} mbar, unbulged {o['unbulged_volume_ml']:.4f} ml "
-                       f"(λ0 {o['unbulged_pole_stretch']:.4f}), bulged {o['bulged_volume_ml']:.4f} ml "
-                       f"(λ0 {o['bulged_pole_stretch']:.4f})")
-    click.echo(f"(solver rtol {sc.settings.rtol:.0e}; voltages bisected to 1e-9 kV on the interpolated curves)")
+        click.echo(f"{o['bulged_zones']} of {o['zones']} bulged:")
+        if not o["stable_ranges"]:
+            click.echo(f"  never stable: {o.get('note', '')}")
+        for g in o["stable_ranges"]:
+            click.echo(f"  stable from {format_voltage(g['from_kV'], g['from_error_kV'])} ({g['from_event']}) "
+                       f"to {format_voltage(g['to_kV'], g['to_error_kV'])} ({g['to_event']})")
+        for e in o["equal_free_energy"]:
+            click.echo(f"  equal free energy with the homogeneous state at {format_voltage(e['voltage_kV'], e['voltage_error_kV'])}:"
+                       f" {e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "
+                       f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {e['bulged_volume_ml']:.4f} ml "
+                       f"(λ0 {e['bulged_pole_stretch']:.4f})")
+    click.echo(f"(exact equilibria, solver rtol {sc.settings.rtol:.0e}; errors measured by locating each "
+               "voltage again at rtol/100)")
 
 
-def _without_voltage(sc, prep, as_json):
+def _without_voltage(sc, sim, as_json, ks):
     """A scene without voltage (e.g. two-balloons): every equilibrium of its zones at 0 V, with stability."""
-    from coexist.simulate import closed_gas
-    from coexist.zones import equilibria, polish
-
-    gas = closed_gas(prep, sc)
-    eqs = polish(prep.model, gas, equilibria(prep.family.curve(0.0), gas, sc.zone_count), sc.settings)
+    eqs = sim.equilibria_at(0.0, ks)
     out = [{"configuration": e.label, "bulged_zones": e.k, "stable": e.stable,
-            "pressure_mbar": sc.pressure(e.p_hat) / 100,
-            "zone_volumes_ml": [sc.volume(v) * 1e6 for v in e.zone_volumes],
-            "free_energy_hat": e.free_energy} for e in sorted(eqs, key=lambda e: (e.k, e.free_energy))]
+            "pressure_mbar": float(sc.pressure(e.p_hat) / 100),
+            "zone_volumes_ml": [float(sc.volume(v) * 1e6) for v in e.zone_volumes],
+            "pole_stretches": [float(x) for x in e.zone_pole_stretches],
+            "free_energy_hat": e.free_energy, "hessian_min_eigenvalue": e.min_eigenvalue,
+            "zone_index": list(e.zone_index)} for e in eqs]
     if as_json:
         write_json({"scene": sc.to_dict(), "relative_tolerance": sc.settings.rtol, "equilibria_at_0V": out})
         return
@@ -74,4 +107,4 @@ def _without_voltage(sc, prep, as_json):
         vols = " ".join(f"{v:.4f}" for v in o["zone_volumes_ml"])
         click.echo(f"  {o['configuration']:<16} {'stable' if o['stable'] else 'unstable':<9} "
                    f"{o['pressure_mbar']:.4f} mbar  volumes {vols} ml")
-    click.echo(f"(states re-solved by shooting to rtol {sc.settings.rtol:.0e})")
+    click.echo(f"(states converged on the exact equations, rtol {sc.settings.rtol:.0e})")

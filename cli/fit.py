@@ -7,6 +7,7 @@ from dataclasses import replace
 import click
 
 from .common import InputError, accuracy_option, info, library_errors, load_scene_arg, scene_with_settings, write_json
+from .ramp import format_voltage
 
 
 @click.command()
@@ -15,34 +16,43 @@ from .common import InputError, accuracy_option, info, library_errors, load_scen
               help="Observed transition voltage (the paper: equal at 3.8 kV, one zone bulged at 4.0 kV).")
 @click.option("--kind", type=click.Choice(["spinodal", "equal_free_energy"]), default="spinodal", show_default=True,
               help="Which transition is observed: a slow ramp's jump (spinodal) or the equal-free-energy voltage.")
+@click.option("--no-sensitivity", is_flag=True, help="Only fit; skip the ±1 % sensitivity table.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit and the sensitivity table as JSON.")
 @accuracy_option
 @library_errors
-def fit(scene, target_kv, kind, as_json, accuracy, rtol):
+def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     """Fit the zone radius of SCENE (default: tricircle) so that the first transition of its ramp lies
-    at --transition-kV, then show how the prediction moves with radius, μ, closing pressure and chamber."""
-    from coexist.simulate import fit_zone_radius, prepare, sensitivity, transition_voltage
+    at --transition-kV, then show how the prediction moves with radius, μ, closing pressure and chamber.
+
+    Every trial radius is solved on the exact equations (its own gas, its own continuation); radii at
+    which the transition does not exist are left out of the bracket, never scored.
+    """
+    from coexist.fit import Shared, fit_zone_radius, sensitivity, transition_voltage
 
     if not target_kv > 0:
         raise InputError(f"--transition-kV: must be positive, got {target_kv:g}")
     sc = scene_with_settings(load_scene_arg(scene), accuracy, rtol)
     if sc.chamber is None or sc.voltage is None:
         raise InputError(f"{sc.name}: fitting needs a scene with [chamber] and [voltage]")
-    info("shooting the zone curves ...")
-    prep = prepare(sc)
-    radius = fit_zone_radius(sc, target_kv * 1e3, kind, prep)
+    info("fitting the zone radius on the exact equilibria ...")
+    shared = Shared.of(sc)
+    radius = fit_zone_radius(sc, target_kv * 1e3, kind, shared)
     fitted = replace(sc, zone_radius=radius)
-    check = transition_voltage(prep, fitted, kind) / 1e3
-    info("sensitivity (each input moved by ±1 %) ...")
-    rows = sensitivity(fitted)
+    check, err = transition_voltage(fitted, kind, shared, measure=sc.settings.error_estimates)
+    rows = []
+    if not no_sensitivity:
+        info("sensitivity (each input moved by ±1 %) ...")
+        rows = sensitivity(fitted, shared=shared)
     data = {"fitted_parameter": "zone_radius_mm", "zone_radius_mm": radius * 1e3, "kind": kind,
-            "target_kV": target_kv, "transition_kV_at_fit": check, "sensitivity": rows,
-            "relative_tolerance": sc.settings.rtol}
+            "target_kV": target_kv, "transition_kV_at_fit": check / 1e3, "transition_error_kV": err / 1e3,
+            "sensitivity": rows, "relative_tolerance": sc.settings.rtol}
     if as_json:
         write_json(data)
         return
-    click.echo(f"fitted zone radius: {radius * 1e3:.6f} mm  ({kind} transition at {check:.6f} kV, "
-               f"target {target_kv:g} kV)")
+    click.echo(f"fitted zone radius: {radius * 1e3:.6f} mm  ({kind} transition at "
+               f"{format_voltage(check / 1e3, err / 1e3)}, target {target_kv:g} kV)")
+    if not rows:
+        return
     click.echo("")
     click.echo(f"{'input':<24}{'value':>12}{'spinodal_kV':>14}{'equal_G_kV':>14}")
     for r in rows:
@@ -51,5 +61,4 @@ def fit(scene, target_kv, kind, as_json, accuracy, rtol):
         e = "-" if r["equal_free_energy"] is None else f"{r['equal_free_energy']:.4f}"
         click.echo(f"{r['parameter']:<24}{v:>12}{s:>14}{e:>14}")
     click.echo("('-': no stable start, the zones cannot hold the closing pressure, or no transition in range)")
-    click.echo(f"(solver rtol {sc.settings.rtol:.0e}; voltages bisected to 1e-9 kV on interpolated curves whose "
-               "error `coexist ramp` reports, ~1e-5 relative)")
+    click.echo(f"(exact equilibria, solver rtol {sc.settings.rtol:.0e})")

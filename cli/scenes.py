@@ -64,7 +64,7 @@ def check(scene, as_json, no_solve):
     p_max = None
     held = loaded.chamber is not None or loaded.controlled_pressure is not None
     if held and not no_solve:
-        from coexist.simulate import snap_through_pressure
+        from coexist.simulation import snap_through_pressure
 
         p_max = snap_through_pressure(loaded)
         try:

@@ -7,8 +7,7 @@ time, for every solver setting the project offers. Two kinds of setting are swep
 
 - the integrator tolerance ``rtol`` (:class:`~coexist.settings.SolverSettings`), sampling fixed at
   its default;
-- the sampling (curve points, spline points, the ``n_u × n_s`` family grid), ``rtol`` fixed at its
-  default ``1e-10``.
+- the sampling (curve points, spline points), ``rtol`` fixed at its default ``1e-10``.
 
 The three studies
 -----------------
@@ -20,15 +19,14 @@ The three studies
    ``Φ̂ = 0`` (:func:`~coexist.coexistence.maxwell_coexistence` on a
    :class:`~coexist.branches.ZoneCurve`), against the spline points ``n`` and ``rtol``.
 3. ``transition_voltage``: the first (spinodal) transition voltage, in kV, of the built-in
-   ``tricircle`` scene (:func:`~coexist.simulate.prepare` +
-   :func:`~coexist.simulate.transition_voltage`), against the family grid ``n_u``, ``n_s`` and
-   ``rtol``. The scene is read when the study runs; if its transition cannot be computed
-   (:class:`~coexist.errors.ModelRangeError`), the study falls back to :data:`FALLBACK_SCENE_CHANGES`
-   and says so in its notes.
+   ``tricircle`` scene (:func:`~coexist.fit.transition_voltage`: an event of the continuation on the
+   exact equations), against ``rtol``. The scene is read when the study runs; if its transition cannot
+   be computed (:class:`~coexist.errors.ModelRangeError`), the study falls back to
+   :data:`FALLBACK_SCENE_CHANGES` and says so in its notes.
 
 Errors are relative, ``|x − x_ref| / |x_ref|``. Times are wall times (``time.perf_counter``) of the
 whole computation a user would run for that output (model construction excluded for studies 1–2,
-included for study 3 since :func:`~coexist.simulate.prepare` builds it), the best of a few repeats.
+included for study 3), the best of a few repeats.
 Each study also reports the *resolution* of its reference (its difference from a second reference
 computed differently); errors below it are not resolved and are drawn at it.
 
@@ -78,14 +76,10 @@ def _default_of(func, name):
 def _defaults():
     """The project's default sampling, read from the library so the study follows any change."""
     from .coexistence import phase_diagram
-    from .simulate import prepare
 
     return {
         "curve_points": DEFAULT_CURVE_POINTS,
         "spline_points": int(_default_of(phase_diagram, "points")),
-        "n_u": int(_default_of(prepare, "n_u")),
-        # None means automatic: 17 nodes up to Φ̂ = 0.3, which covers the default scene
-        "n_s": int(_default_of(prepare, "n_s") or 17),
     }
 
 
@@ -469,39 +463,36 @@ def maxwell_pressure_study(quick: bool = False, progress: Callable[[str], None] 
 
 
 # --- study 3: transition voltage of the tricircle scene ----------------------------------------------
-def _transition_kV(scene, rtol, n_u, n_s):
-    from .simulate import prepare, transition_voltage
+def _transition_kV(scene, rtol):
+    from .fit import Shared, transition_voltage
 
-    sc = dataclasses.replace(scene, settings=SolverSettings(rtol=rtol))
-    prep = prepare(sc, n_u=int(n_u), n_s=int(n_s))
-    return transition_voltage(prep, sc, "spinodal") / 1e3
+    sc = dataclasses.replace(scene, settings=SolverSettings(rtol=rtol, error_estimates=False))
+    return transition_voltage(sc, "spinodal", Shared.of(sc))[0] / 1e3
 
 
 def transition_voltage_study(quick: bool = False, progress: Callable[[str], None] | None = None,
                              repeats: int | None = None, scene_name: str = "tricircle") -> Study:
     """Study 3: the spinodal transition voltage (kV) of the built-in ``tricircle`` scene.
 
-    Families: ``rtol`` (default grid), ``n_u`` (``n_s`` and ``rtol`` default), ``n_s`` (``n_u`` and
-    ``rtol`` default) and, unless ``quick``, ``grid`` (both refined together). Reference:
-    ``rtol = 1e-13`` on ``n_u × n_s = 768 × 65``, checked against ``512 × 65`` (quick: ``384 × 33``,
-    no check). The scene is loaded now; if its transition raises :class:`ModelRangeError` the study
-    uses the scene with :data:`FALLBACK_SCENE_CHANGES` and notes it.
+    The transition is an event of the continuation on the exact equations (the symmetric branch point
+    where the homogeneous state is lost), so the one setting is the integrator tolerance ``rtol``.
+    Reference: ``rtol = 1e-13``, checked against ``rtol = 1e-12``. Timed: the model, the closing state
+    and the continuation up to the event (:func:`coexist.fit.transition_voltage`). If the scene as
+    loaded has no transition (:class:`ModelRangeError`), the study uses it with
+    :data:`FALLBACK_SCENE_CHANGES` and notes it.
     """
     from .scene import load_scene
 
     progress = progress or _noop
     repeats = repeats or (1 if quick else 3)
-    defaults = _defaults()
-    nu0, ns0 = defaults["n_u"], defaults["n_s"]
     scene = load_scene(scene_name)
     notes = []
     progress(f"study 3: spinodal transition voltage of the {scene_name} scene "
              f"({scene.material}{'' if scene.jlim is None else f', Jlim = {scene.jlim:g}'}, "
              f"zone radius {scene.zone_radius * 1e3:g} mm)")
-    ref_nu, ref_ns = (384, 33) if quick else (768, 65)
     used = scene
     try:  # the default setting first: says whether the scene has a transition, and warms up
-        probe = _transition_kV(scene, DEFAULT_RTOL, nu0, ns0)
+        probe = _transition_kV(scene, DEFAULT_RTOL)
     except ModelRangeError as exc:
         used = dataclasses.replace(scene, **FALLBACK_SCENE_CHANGES)
         msg = (f"the {scene_name} scene as loaded ({scene.material}, zone radius {scene.zone_radius * 1e3:g} mm) "
@@ -509,51 +500,32 @@ def transition_voltage_study(quick: bool = False, progress: Callable[[str], None
                + ", ".join(f"{k} = {v}" for k, v in FALLBACK_SCENE_CHANGES.items()) + " instead")
         notes.append(msg)
         progress("  note: " + msg)
-        probe = _transition_kV(used, DEFAULT_RTOL, nu0, ns0)
-    progress(f"  default setting gives {probe:.10g} kV")
-    ref, t_ref = _timed(lambda: _transition_kV(used, REFERENCE_RTOL, ref_nu, ref_ns), 1)
-    checks = []
-    if not quick:
-        v = _transition_kV(used, REFERENCE_RTOL, 512, 65)
-        checks.append({"rtol": REFERENCE_RTOL, "n_u": 512, "n_s": 65, "value": v,
-                       "relative_difference": abs(v - ref) / abs(ref)})
-    resolution = max(checks[0]["relative_difference"] if checks else 0.0, ROUNDOFF)
-    progress(f"  reference {ref:.12g} kV (rtol 1e-13, {ref_nu} × {ref_ns}, {t_ref:.1f} s)"
-             + "".join(f"; {c['n_u']} × {c['n_s']} differs by {c['relative_difference']:.1e}" for c in checks))
+        probe = _transition_kV(used, DEFAULT_RTOL)
+    progress(f"  default setting gives {probe:.12g} kV")
+    ref, t_ref = _timed(lambda: _transition_kV(used, REFERENCE_RTOL), 1)
+    v = _transition_kV(used, 1e-12)
+    checks = [{"rtol": 1e-12, "value": v, "relative_difference": abs(v - ref) / abs(ref)}]
+    resolution = max(checks[0]["relative_difference"], ROUNDOFF)
+    progress(f"  reference {ref:.14g} kV (rtol 1e-13, {t_ref:.1f} s); rtol 1e-12 differs by "
+             f"{checks[0]['relative_difference']:.1e}")
 
-    def compute(rtol, n_u, n_s):
-        return _transition_kV(used, rtol, n_u, n_s), None
+    def compute(rtol):
+        return _transition_kV(used, rtol), None
 
-    sweep = _Sweep(compute, ref, repeats, progress, (DEFAULT_RTOL, (("n_s", ns0), ("n_u", nu0))))
-    if quick:
-        rtols, nus, nss, grids = [1e-6, 1e-8, 1e-10], [48, 96, 128], [17, 33], []
-    else:
-        rtols = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12]
-        nus, nss = [48, 96, 128, 192], [9, 17, 33, 65]
-        grids = [(48, 9), (96, 17), (128, 33), (192, 65)]
+    sweep = _Sweep(compute, ref, repeats, progress, (DEFAULT_RTOL, ()))
+    rtols = [1e-6, 1e-8, 1e-10] if quick else [1e-4, 1e-6, 1e-8, 1e-10, 1e-12]
     for r in rtols:
-        sweep.add("rtol", r, {"n_u": nu0, "n_s": ns0})
-    for n in nus:
-        sweep.add("n_u", DEFAULT_RTOL, {"n_u": n, "n_s": ns0})
-    for n in nss:
-        sweep.add("n_s", DEFAULT_RTOL, {"n_u": nu0, "n_s": n})
-    for nu, ns in grids:
-        sweep.add("grid", DEFAULT_RTOL, {"n_u": nu, "n_s": ns})
-    families = {"rtol": f"integrator tolerance, grid {nu0} × {ns0}",
-                "n_u": f"pole-stretch nodes n_u, n_s = {ns0}, rtol {DEFAULT_RTOL:.0e}",
-                "n_s": f"voltage nodes n_s, n_u = {nu0}, rtol {DEFAULT_RTOL:.0e}"}
-    if grids:
-        families["grid"] = f"n_u and n_s refined together, rtol {DEFAULT_RTOL:.0e}"
-    if quick:
-        notes.append(f"quick: the reference ({ref_nu} × {ref_ns}) is not checked against a second one")
+        sweep.add("rtol", r, {})
     return Study(
         number=3, key="transition_voltage", title=f"transition voltage, {scene_name} scene (spinodal)",
         quantity="transition voltage", unit="kV", resolution=resolution,
-        reference={"rtol": REFERENCE_RTOL, "n_u": ref_nu, "n_s": ref_ns, "value": ref, "time": t_ref},
-        reference_checks=checks, measurements=sweep.measurements, families=families, notes=notes,
+        reference={"rtol": REFERENCE_RTOL, "value": ref, "time": t_ref},
+        reference_checks=checks, measurements=sweep.measurements,
+        families={"rtol": "integrator tolerance (the continuation's Newton and event tolerances follow it)"},
+        notes=notes,
         setup={"scene": scene_name, "material": used.material, "jlim": used.jlim,
                "zone_radius_mm": used.zone_radius * 1e3, "fallback": used is not scene,
-               "timed": "prepare (model + ZoneFamily) + transition_voltage(kind='spinodal')"},
+               "timed": "model + closing state + continuation to the first event (fit.transition_voltage)"},
     )
 
 

@@ -52,9 +52,9 @@ from .shooting import WRINKLED
 
 # --- settings of the driver (derived from the solver tolerance where they are accuracies) -----------
 #: first step in the scaled coordinates z (pole stretches in u = √(λ0 − λpre), voltage times w)
-INITIAL_STEP = 0.02
+INITIAL_STEP = 0.05
 #: largest step
-MAX_STEP = 0.25
+MAX_STEP = 0.6
 #: smallest step before the driver gives up
 MIN_STEP = 1e-7
 #: largest angle (radians) between the tangents of two accepted points
@@ -63,11 +63,16 @@ MAX_TURN = 0.35
 MAX_NEWTON = 12
 #: accepted points per branch before the driver stops (a safeguard; the notes say so)
 MAX_POINTS = 600
+#: weight of the voltage in the arclength, ``z = (u1 … uM, w Φ̂)``: a change of 0.01 in Φ̂ counts like
+#: 0.1 in ``u`` (fixed, so that the points traced do not depend on the voltage window asked for)
+VOLTAGE_WEIGHT = 10.0
 
 
 def newton_tolerance(rtol: float) -> float:
-    """Newton step (in ``u``) below which a corrector has converged: the shooting's own precision."""
-    return max(10 * rtol, 1e-13)
+    """Newton step (in ``u``) below which a corrector has converged: the shooting's own precision (a step
+    is amplified into the residual by ``dp̂/du``, a few units; where the shooting's noise keeps the steps
+    from shrinking, the corrector stops there instead, see :func:`correct`)."""
+    return max(rtol, 1e-14)
 
 
 @dataclass
@@ -216,8 +221,13 @@ def _scaled_jacobian(J, w):
 LOOSE_TOLERANCE = 1e-6
 
 
+#: once a Newton step is this small, the next evaluation reuses the last Jacobian (a chord step: no
+#: variational equations, half the cost); used where the solution's derivatives are not needed
+CHORD_BELOW = 1e-4
+
+
 def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int = MAX_NEWTON,
-            loose: bool = False, formal: bool = False) -> Corrected:
+            loose: bool = False, formal: bool = False, chord: bool = False) -> Corrected:
     """Newton's method for ``r(z) = 0``, ``n · z = target`` at ``P`` points at once.
 
     ``z0`` ``(P, M + 1)`` initial guesses, ``normals`` ``(P, M + 1)`` constraint normals (the previous
@@ -226,6 +236,8 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
     :data:`LOOSE_TOLERANCE`), or when its step stops shrinking at the shooting's noise level; it fails
     when a state is invalid, the step grows, or the iterations run out. The converged state is the
     last one evaluated (no extrapolation): its residual is what :class:`Equilibrium` reports.
+    ``chord``: once the steps are below :data:`CHORD_BELOW`, evaluate the residual alone and reuse the
+    last Jacobian (the converged state's own derivatives are then those of the previous iterate).
     """
     z = np.array(z0, dtype=float, copy=True)
     P, M1 = z.shape
@@ -240,11 +252,23 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
     rows = np.full(P, -1)
     last_res = None
     keep = {}
+    jac = np.full((P, M, M1), np.nan)
+    slopes = np.full((P, 4, M), np.nan)  # dp/du, dV/du, dp/dΦ̂, dV/dΦ̂ of the last full evaluation
     for it in range(max_iter):
         act = np.flatnonzero(~done)
         if act.size == 0:
             break
-        res = system.residual(z[act, :M], z[act, M] / w, formal)
+        use_chord = chord and np.all(prev_step[act] <= CHORD_BELOW)
+        res = system.residual(z[act, :M], z[act, M] / w, formal, derivatives=not use_chord)
+        st_ = res.states
+        if use_chord:
+            res.J = jac[act]
+            # the derivatives of the previous iterate (within CHORD_BELOW of this one) stand for its own
+            st_.dp_du, st_.dv_du, st_.dp_dphi, st_.dv_dphi = (slopes[act, k].copy() for k in range(4))
+        else:
+            jac[act] = res.J
+            for k, name in enumerate(("dp_du", "dv_du", "dp_dphi", "dv_dphi")):
+                slopes[act, k] = getattr(st_, name)
         st = res.states
         valid = st.ok
         for jj, i in enumerate(act):
@@ -270,6 +294,10 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
                     except np.linalg.LinAlgError:
                         pass
         size = np.max(np.abs(step), axis=1)
+        # the pressure residual too: a tiny step in u can still leave a large pressure mismatch where the
+        # gas makes a zone's volume very sensitive (∂r/∂u ≈ 150 for the tricircle's bulged zone)
+        small_r = np.max(np.abs(res.r), axis=1) <= (LOOSE_TOLERANCE if loose else 10 * system.settings.rtol) * (
+            1 + np.abs(res.gas_pressure))
         for jj, i in enumerate(act):
             if done[i]:
                 continue
@@ -277,7 +305,8 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
                 done[i] = True
                 reason[i] = "singular Newton matrix"
                 continue
-            if size[jj] <= tol or (it >= 2 and size[jj] >= 0.5 * prev_step[i] and size[jj] <= 1e3 * tol):
+            if (size[jj] <= tol and small_r[jj]) or (it >= 2 and size[jj] >= 0.5 * prev_step[i]
+                                                    and size[jj] <= 1e3 * tol):
                 done[i] = ok[i] = True
                 keep[i] = (res, jj, None)
                 continue
@@ -361,7 +390,7 @@ class Tracer:
     def __init__(self, system: GroupSystem, phi_window, breakdown_field=None):
         self.system = system
         self.phi_lo, self.phi_hi = float(phi_window[0]), float(phi_window[1])
-        self.w = 2.0 / max(self.phi_hi, 0.02)
+        self.w = VOLTAGE_WEIGHT
         self.breakdown = breakdown_field
         self.M = system.groups
         self.counts = np.asarray(system.configuration.counts)
@@ -454,7 +483,7 @@ class Tracer:
                         break
                 if h <= MIN_STEP:
                     if invalid:
-                        end = self._range_end(prev, cur, 4 * MIN_STEP, failure)
+                        end = self._range_end(prev, cur, 2 * MIN_STEP, failure)
                     if end is None:
                         notes.append(f"continuation stopped at Φ̂ = {cur.phi:.8g}: {failure.reason[0]} "
                                      f"(step {h:.1e})")
@@ -468,7 +497,7 @@ class Tracer:
             new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
             found = self._events_between(cur, new)
             if getattr(self, "stable_only", False):
-                stop = [e for e in found if e.stable_before and not e.stable_after or e.kind == "merge"]
+                stop = [e for e in found if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")]
                 if stop:
                     end = min(stop, key=lambda e: e.s)
                     events.extend(e for e in found if e.s < end.s)
@@ -482,7 +511,7 @@ class Tracer:
                 break
             pts.append(new)
             prev, cur = cur, new
-            h = min(MAX_STEP, h * (1.6 if turn < 0.5 * MAX_TURN else 1.0))
+            h = min(MAX_STEP, h * (2.0 if turn < 0.25 * MAX_TURN else 1.4 if turn < 0.5 * MAX_TURN else 1.0))
         return pts, events, end, notes
 
     # events ---------------------------------------------------------------------------------------------
@@ -509,6 +538,8 @@ class Tracer:
         precise = a.stable != b.stable
         events = []
         for kind, group, key, fa, fb in out:
+            if kind == "breakdown" and fa > 0:
+                continue  # coming back below the breakdown field: the membrane is already destroyed
             frac = fa / (fa - fb)
             if precise or kind in ("merge", "breakdown"):
                 ev = self._locate(a, b, sig_b, key, fa, fb)
@@ -633,7 +664,10 @@ class Tracer:
         M = self.M
         ua, ub = a.z[j], b.z[j]
         low = a if ua < ub else b
-        near = a if abs(a.dv_du[j]) < abs(b.dv_du[j]) else b
+        # dp̂/du at the fold itself (near a spiral's folds its sign can flip within a step)
+        fn = lambda p: p.dv_du[j]  # noqa: E731
+        at, _, _ = self._root(a, b, float(a.tangent @ (b.z - a.z)), a.dv_du[j], b.dv_du[j], fn)
+        near = at if at is not None else (a if abs(a.dv_du[j]) < abs(b.dv_du[j]) else b)
         delta = -int(np.sign(near.dp_du[j] * np.sign(low.dv_du[j])))
         new_index = list(b.index)
         new_index[j] = a.index[j] + (delta if ub > ua else -delta)
@@ -663,26 +697,36 @@ class Tracer:
         return t1 / ((t0 - t1) / ds) < 2 * h
 
     def _range_end(self, prev, cur: Point, h, failure):
-        """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not).
+        """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or
+        return None when the failure was the corrector's (the caller then shortens the step).
 
         Wrinkling: the smallest tension of formally continued states (:func:`coexist.shooting.solve_states`,
         ``formal``) is a smooth function through zero, and its root is found like any event. Any other
-        failure (the chains lock, no clamp is reached): bisection on validity.
+        failure (the chains lock, no clamp is reached): bisection on validity, where a corrector that
+        fails without an invalid state stops the search (undecided).
         """
-        code = None
-        for c in failure.failed_states.values():
-            code = c[2] if c[2] is not None else code
-        if code is None:
+        codes = [c[2] for c in failure.failed_states.values() if c[2] is not None]
+        if not codes:
             return None
+        code = codes[0]
         tmin = lambda p: min(p.eq.min_tension)  # noqa: E731
-        best = None
         if code == WRINKLED:
-            far = self._points_at(cur, None, h, [h], True, formal=True)[0]
-            if far is not None and tmin(far) < 0:
-                best, lo, hi = self._root(cur, far, h, tmin(cur), tmin(far), tmin, formal=True)
-                if best is not None and tmin(best) < 0:
-                    best = None
-        if best is None:  # bisection on validity
+            sig = float(h)
+            for _ in range(8):
+                far = self._points_at(cur, None, sig, [sig], True, formal=True)[0]
+                if far is None:
+                    sig *= 0.5
+                    continue
+                if tmin(far) >= 0:
+                    return None  # valid there after all: the step failed for another reason
+                best, lo, hi = self._root(cur, far, float(cur.tangent @ (far.z - cur.z)), tmin(cur), tmin(far), tmin,
+                                          formal=True)
+                if best is None or tmin(best) < 0:
+                    return None
+                break
+            else:
+                return None
+        else:
             lo, hi = 0.0, float(h)
             best = cur
             tol = 10 * newton_tolerance(self.system.settings.rtol)
@@ -691,11 +735,13 @@ class Tracer:
                 p = self._points_at(cur, None, h, [mid], (hi - lo) > 1e-4)[0]
                 if p is not None and p.tangent @ cur.tangent > 0:
                     lo, best = mid, p
-                else:
-                    hi = mid
-                    for c in getattr(self._last_failure, "failed_states", {}).values():
-                        code = c[2] if c[2] is not None else code
-            if best is cur and hi > 0.5 * h:
+                    continue
+                new_codes = [c[2] for c in getattr(self._last_failure, "failed_states", {}).values()
+                             if c[2] is not None]
+                if not new_codes:
+                    return None  # the corrector failed on a valid state: undecided
+                hi, code = mid, new_codes[0]
+            if best is cur:
                 return None
         tag, text = failure_reason(code)
         return Event(kind="range_end", phi_hat=best.phi, eq=best.eq, z=best.z, s=best.s,
@@ -706,7 +752,8 @@ class Tracer:
 def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
     """Locate ``event`` again with the tighter tracer ``tight`` (same configuration, a smaller ``rtol``)
     and return the change of its voltage: the measured error of the event at ``tracer``'s tolerance.
-    ``event.error`` becomes that change plus the location bracket, and ``event.measured`` True."""
+    ``event.error`` becomes twice that change plus the location bracket and :func:`error_floor`, and
+    ``event.measured`` True."""
     M = tracer.M
     if event.kind == "merge":
         j = event.group or 0
@@ -737,18 +784,30 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
                 fn = lambda p: tight.event_values(p)[key]  # noqa: E731
             if np.sign(fa) == np.sign(fb):
                 continue
-            a, b = pts
-            a.tangent = t if (b.z - a.z) @ t >= 0 else -t
-            best, lo, hi = tight._root(a, b, float(a.tangent @ (b.z - a.z)), fa, fb, fn,
-                                       formal=(event.kind == "range_end"))
-            if best is not None:
-                change = abs(best.phi - event.phi_hat)
-                break
+            # the tight event lies within a few rtol of the loose one: one secant step from ±delta, checked
+            # by one more tight state (whose own event function bounds what the secant left)
+            s_star = -delta + 2 * delta * fa / (fa - fb)
+            p = tight._points_at(base, None, 0.0, [s_star], False, formal=(event.kind == "range_end"))[0]
+            if p is None:
+                continue
+            f_star = fn(p)
+            slope = (fb - fa) / (2 * delta)
+            left = abs(f_star / slope) if slope != 0 else 2 * delta
+            change = abs(p.phi - event.phi_hat) + abs(p.tangent[M]) * left / tight.w
+            break
         if change is None:
             return event.error
-    event.error = float(event.error + change)
+    # twice the change: the tighter value carries noise of its own (near the shooting's noise floor an
+    # event located at rtol/100 is not a hundred times better)
+    event.error = float(event.error + 2 * change + error_floor(event.phi_hat, tracer.system.settings.rtol))
     event.measured = True
     return change
+
+
+def error_floor(phi: float, rtol: float) -> float:
+    """The smallest error a located voltage is given: ``10 rtol |Φ̂|`` (its states and their convergence
+    are no better than the tolerance, whatever the re-location says)."""
+    return 10 * rtol * abs(phi)
 
 
 def _is_stable(eq: Equilibrium, index) -> bool:
@@ -798,7 +857,7 @@ def symmetric_branch_point(system: GroupSystem, j: int, u_guess, phi_guess, max_
             from .equilibria import make_equilibrium as _mk
 
             eq = _mk(system, res, 0)
-            return {"eq": eq, "u": u.copy(), "phi": phi, "error": abs(float(step[M])) + abs(step_phi) * 0}
+            return {"eq": eq, "u": u.copy(), "phi": phi, "error": abs(float(step[M]))}
         prev = size
         step_phi = float(step[M])
         u = u + step[:M]
@@ -889,7 +948,7 @@ class StableSegment:
         Z = np.array([self.predict(p) for p in phis])
         n = np.zeros((phis.size, M + 1))
         n[:, M] = 1.0
-        corr = correct(self.tracer.system, Z, n, phis * w, w)
+        corr = correct(self.tracer.system, Z, n, phis * w, w, chord=True)
         out = []
         index = self.points[0].index
         for i in range(phis.size):
@@ -899,19 +958,21 @@ class StableSegment:
             out.append(make_equilibrium(self.tracer.system, corr.res, corr.rows[i], index))
         return out
 
-    def matches(self, eq: Equilibrium, tol: float = 1e-5) -> bool:
-        """Is ``eq`` (a stable equilibrium) the state of this segment at its voltage?"""
+    def matches(self, eq: Equilibrium, tol: float = 1e-6) -> bool:
+        """Is ``eq`` (a stable equilibrium) the state of this segment at its voltage? The segment's state
+        there is converged (loosely) from its interpolation and compared with ``eq``."""
         if eq.configuration.counts != self.configuration.counts or not self.contains(eq.phi_hat, 1e-12):
             return False
+        w, M = self.tracer.w, self.tracer.M
         z = self.predict(eq.phi_hat)
-        u = np.sort(z[:-1])
-        u_eq = np.sqrt(np.asarray(eq.pole_stretch) - self.tracer.system.model.prestretch)
-        return bool(np.max(np.abs(u - u_eq)) <= max(tol, 1e-3 * self._spacing()))
-
-    def _spacing(self) -> float:
-        if len(self.points) < 2:
-            return 0.0
-        return float(max(np.linalg.norm(b.z - a.z) for a, b in zip(self.points[:-1], self.points[1:])))
+        n = np.zeros(M + 1)
+        n[M] = 1.0
+        corr = correct(self.tracer.system, z[None, :], n[None, :], np.array([eq.phi_hat * w]), w, loose=True)
+        if not corr.ok[0]:
+            return False
+        u = np.sort(corr.z[0, :M])
+        u_eq = np.sort(np.sqrt(np.asarray(eq.pole_stretch) - self.tracer.system.model.prestretch))
+        return bool(np.max(np.abs(u - u_eq)) <= max(tol, 10 * LOOSE_TOLERANCE))
 
 
 class EquilibriumMap:

@@ -188,7 +188,7 @@ class GroupStates:
         return np.all(self.status == OK, axis=1)
 
 
-def shoot_groups(model, u, phi, settings, formal: bool = False) -> GroupStates:
+def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: bool = True) -> GroupStates:
     """Shoot the states of every group at every point in one vectorised call (with derivatives).
 
     ``u`` has shape ``(P, M)`` and ``phi`` shape ``(P,)``.
@@ -203,11 +203,17 @@ def shoot_groups(model, u, phi, settings, formal: bool = False) -> GroupStates:
     # mirror image, with the charge and every Φ̂-derivative changing sign
     sign = np.where(phi < 0, -1.0, 1.0)[:, None]
     phi_rep = np.repeat(np.where(np.isfinite(phi), np.abs(phi), 0.0), M)
-    st = solve_states(model, lam_safe.ravel(), phi_rep, settings, derivatives=True, formal=formal)
+    st = solve_states(model, lam_safe.ravel(), phi_rep, settings, derivatives=derivatives, formal=formal)
     d = st.derivatives
 
     def shaped(a):
         return np.asarray(a, dtype=float).reshape(P, M)
+
+    if d is None:  # residual only: the derivatives are left NaN (a chord step supplies its own Jacobian)
+        nan = np.full(st.p_hat.shape, np.nan)
+        from .shooting import StateDerivatives
+
+        d = StateDerivatives(nan, nan, nan, nan, nan, nan)
 
     status = shaped(st.status).astype(int)
     status[~good] = -1
@@ -267,10 +273,10 @@ class GroupSystem:
     def groups(self) -> int:
         return self.configuration.groups
 
-    def residual(self, u, phi, formal: bool = False) -> Residual:
+    def residual(self, u, phi, formal: bool = False, derivatives: bool = True) -> Residual:
         """Residuals and Jacobian at points ``(u, Φ̂)``; ``u`` of shape ``(P, M)`` (``formal``: see
-        :func:`coexist.shooting.solve_states`)."""
-        st = shoot_groups(self.model, u, phi, self.settings, formal)
+        :func:`coexist.shooting.solve_states`; ``derivatives=False``: the residuals alone, the Jacobian NaN)."""
+        st = shoot_groups(self.model, u, phi, self.settings, formal, derivatives)
         return self._residual(st)
 
     def _residual(self, st: GroupStates) -> Residual:
@@ -325,36 +331,92 @@ def group_block(counts, dp_dv, stiffness):
     return np.diag(np.asarray(dp_dv, dtype=float)) + float(stiffness) * np.outer(s, s)
 
 
-def zone_index(model, u, phi, settings, samples: int = 48) -> int:
-    """Unstable axisymmetric modes at fixed volume of one zone at ``(u, Φ̂)``.
+def fold_index(slopes, u: float, samples: int = 64, depth: int = 4) -> int:
+    """Unstable axisymmetric modes at fixed volume of one zone at ``u``, from the folds of its curve below.
 
-    The zone's curve at ``Φ̂`` is shot from the flat state to ``u``; at each volume fold (a sign change of
-    ``dV̂/du``) the count changes by ``−sign(dp̂/du · σ)``, where ``σ`` is the sign of ``dV̂/du`` before the
-    fold (Maddocks' rule: approached from the stable side a fold has ``dp̂/dV̂ → −∞``). Folds are
-    bracketed on ``samples`` directly shot states with exact derivatives; a pair of folds between two
-    samples changes the count by zero, so only single folds matter, and those show as a sign change.
+    ``slopes(u_array) -> (dV̂/du, dp̂/du)`` along the zone's curve at one voltage. Walking ``u`` up from the
+    flat state, every volume fold (a root of ``dV̂/du``) changes the count by ``−sign(dp̂/du · σ)``, with
+    ``dp̂/du`` taken *at the fold* and ``σ`` the sign of ``dV̂/du`` just below it (Maddocks' rule: approached
+    from its stable side a fold has ``dp̂/dV̂ → −∞``). The folds are bracketed on ``samples`` points,
+    intervals where ``|dV̂/du|`` is small against its largest value are halved up to ``depth`` times (the
+    folds of a spiral crowd together where the volume hardly changes, and two of them inside one
+    interval would not show as a sign change), and each fold is located by the Illinois method, all
+    at once. ``tests/test_zone_stability_fe.py`` checks the count against the negative eigenvalues of a
+    finite-element energy Hessian at fixed volume.
     """
     u = float(u)
     if u <= 0:
         return 0
     grid = np.linspace(0.0, u, samples + 1)[1:]
-    st = solve_states(model, model.prestretch + grid**2, phi, settings, derivatives=True)
-    good = st.ok
-    dv = np.where(good, st.derivatives.dv_dl0, np.nan)
-    dp = np.where(good, st.derivatives.dp_dl0, np.nan)
-    # the states below the first valid one are flat-like (wrinkled at low inflation under voltage):
-    # they carry no fold; only the valid run ending at u counts
-    if not good[-1]:
+    dv, dp = (np.asarray(x, dtype=float) for x in slopes(grid))
+    for _ in range(depth):
+        scale = np.nanmax(np.abs(dv)) if np.isfinite(dv).any() else 1.0
+        small = (np.abs(dv[:-1]) < 0.05 * scale) | (np.abs(dv[1:]) < 0.05 * scale)
+        if not small.any():
+            break
+        mids = 0.5 * (grid[:-1] + grid[1:])[small]
+        dvm, dpm = (np.asarray(x, dtype=float) for x in slopes(mids))
+        grid = np.concatenate([grid, mids])
+        order = np.argsort(grid)
+        grid, dv, dp = grid[order], np.concatenate([dv, dvm])[order], np.concatenate([dp, dpm])[order]
+    ok = np.isfinite(dv)
+    # only the valid run that ends at u counts (below it the states wrinkle or are flat-like: no fold)
+    first = int(np.flatnonzero(~ok)[-1]) + 1 if (~ok).any() else 0
+    grid, dv = grid[first:], dv[first:]
+    idx = np.flatnonzero(dv[:-1] * dv[1:] < 0)
+    if idx.size == 0:
+        return 0
+    a, b, fa, fb = grid[idx].copy(), grid[idx + 1].copy(), dv[idx].copy(), dv[idx + 1].copy()
+    sigma = np.sign(fa)
+    side = np.zeros(idx.size)
+    for _ in range(40):
+        c = b - fb * (b - a) / (fb - fa)
+        fc, _ = (np.asarray(x, dtype=float) for x in slopes(c))
+        left = np.sign(fc) == np.sign(fa)
+        fb = np.where(left & (side == -1), 0.5 * fb, fb)
+        fa = np.where(~left & (side == 1), 0.5 * fa, fa)
+        a, fa = np.where(left, c, a), np.where(left, fc, fa)
+        b, fb = np.where(left, b, c), np.where(left, fb, fc)
+        side = np.where(left, -1, 1)
+        if np.all(np.abs(b - a) <= 1e-10 * np.maximum(1.0, np.abs(b))):
+            break
+    _, dp_fold = (np.asarray(x, dtype=float) for x in slopes(0.5 * (a + b)))
+    return max(int(np.sum(-np.sign(dp_fold * sigma))), 0)
+
+
+def zone_index(model, u, phi, settings, samples: int = 64) -> int:
+    """Unstable axisymmetric modes at fixed volume of one zone at ``(u, Φ̂)``, on directly shot states with
+    exact derivatives (:func:`fold_index`)."""
+    u = float(u)
+    if u <= 0:
+        return 0
+    st = solve_states(model, model.prestretch + u * u, phi, settings)
+    if not st.ok[0]:
         raise SolverError(f"zone_index: the state at u = {u:.6g}, Φ̂ = {phi:.6g} is not valid "
-                          f"({reason_text(int(st.status[-1]))})")
-    first = int(np.flatnonzero(~good)[-1]) + 1 if (~good).any() else 0
-    index = 0
-    for i in range(first, grid.size - 1):
-        if dv[i] * dv[i + 1] < 0:
-            # the pressure slope at the fold: where |dV/du| is smaller (closer to the fold)
-            k = i if abs(dv[i]) < abs(dv[i + 1]) else i + 1
-            index += -int(np.sign(dp[k] * np.sign(dv[i])))
-    return max(index, 0)
+                          f"({reason_text(int(st.status[0]))})")
+
+    def slopes(x):
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        s = solve_states(model, model.prestretch + x * x, phi, settings, derivatives=True)
+        good = s.ok
+        return (np.where(good, s.derivatives.dv_dl0 * 2 * x, np.nan), np.where(good, s.derivatives.dp_dl0 * 2 * x, np.nan))
+
+    return fold_index(slopes, u, samples)
+
+
+def zone_index_on_curve(curve, u) -> int:
+    """:func:`fold_index` on an interpolated zone curve (:class:`~coexist.branches.ZoneCurve`, in ``u``): a first
+    guess of a zone's index where exact states are not at hand (the jumps' gradient flow)."""
+    lo = float(curve.grid[0])
+
+    def slopes(x):
+        x = np.atleast_1d(np.asarray(x, dtype=float))
+        inside = x >= lo
+        xc = np.maximum(x, lo)
+        # below the curve's first point the zone is barely inflated: rising, no fold
+        return np.where(inside, curve.dv(xc), 1.0), np.where(inside, curve.dp(xc), 1.0)
+
+    return fold_index(slopes, min(float(u), float(curve.grid[-1])))
 
 
 # --- an equilibrium ----------------------------------------------------------------------------------

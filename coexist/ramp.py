@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .continuation import Event, EquilibriumMap, StableSegment
-from .equilibria import Configuration, Equilibrium, merged
+from .equilibria import Configuration, Equilibrium, merged, zone_index_on_curve
 from .errors import ModelRangeError, SolverError
 
 
@@ -183,7 +183,7 @@ def _equal_volume_shape(curve, u_fold):
         x = brentq(lambda s: float(curve.v(s)) - v0, g[i], g[i + 1], xtol=1e-14)
         if abs(x - u_fold) < 1e-6 or curve.dv(x) <= 0:
             continue
-        if _zone_index_on_curve(curve, x) == 0:
+        if zone_index_on_curve(curve, x) == 0:
             cands.append(x)
     if not cands:
         return None
@@ -312,7 +312,7 @@ class Ramp:
         if not corr.ok[0]:
             return None
         eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
-        idx = tuple(_zone_index_on_curve(self._curve(phi), x) for x in np.sort(corr.z[0, :M]))
+        idx = tuple(zone_index_on_curve(self._curve(phi), x) for x in np.sort(corr.z[0, :M]))
         eq.zone_index = idx
         return eq
 
@@ -452,22 +452,6 @@ def _same_state(a: Equilibrium, b: Equilibrium, model) -> bool:
     return bool(np.max(np.abs(np.asarray(a.pole_stretch) - np.asarray(b.pole_stretch))) < 1e-3)
 
 
-def _zone_index_on_curve(curve, u) -> int:
-    """Unstable modes of one zone at fixed volume at ``u``, counted on ``curve`` by Maddocks' rule."""
-    grid = curve.grid[curve.grid < u]
-    if grid.size < 2:
-        return 0
-    x = np.append(grid, u)
-    dv = curve.dv(x)
-    dp = curve.dp(x)
-    index = 0
-    for i in range(x.size - 1):
-        if dv[i] * dv[i + 1] < 0:
-            k = i if abs(dv[i]) < abs(dv[i + 1]) else i + 1
-            index += -int(np.sign(dp[k] * np.sign(dv[i])))
-    return max(index, 0)
-
-
 # --- equal free energy ---------------------------------------------------------------------------------
 def _g_of(seg: StableSegment):
     """Free energy along a segment as (Φ̂, Ĝ, dĜ/dΦ̂ = −Σ nj Q̂j) at its points, sorted by Φ̂."""
@@ -496,7 +480,7 @@ def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
     out = []
     for ia, A in enumerate(segments):
         for B in segments[ia + 1:]:
-            if A.configuration.counts == B.configuration.counts and A is B:
+            if A is B:
                 continue
             lo = max(A.phi_range[0], B.phi_range[0])
             hi = min(A.phi_range[1], B.phi_range[1])
@@ -517,9 +501,11 @@ def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
 
 
 def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transition | None:
+    """Newton's method on ``ΔĜ(Φ̂) = 0`` (slope ``−ΔQ̂``) with both states converged at every iterate; it stops
+    where the step is below ``100 rtol Φ̂`` or stops shrinking (the states' own noise)."""
     phi = lo - dlo * (hi - lo) / (dhi - dlo)
-    tol = 10 * A.tracer.system.settings.rtol * max(abs(phi), 1e-3)
-    step = np.inf
+    tol = 100 * A.tracer.system.settings.rtol * max(abs(phi), 1e-3)
+    step, prev = np.inf, np.inf
     for _ in range(12):
         ea, eb = A.states([phi])[0], B.states([phi])[0]
         dG = ea.free_energy - eb.free_energy
@@ -527,10 +513,10 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
         if slope == 0:
             return None
         step = -dG / slope
-        phi_new = float(np.clip(phi + step, lo, hi))
-        if abs(step) <= tol:
+        if abs(step) <= tol or abs(step) >= 0.5 * prev:
             break
-        phi = phi_new
+        prev = abs(step)
+        phi = float(np.clip(phi + step, lo, hi))
     else:
         raise SolverError(f"equal free energy of {A.label} and {B.label} did not converge near Φ̂ = {phi:.10g}")
     # label: from the configuration lower in G below the crossing to the one lower above it

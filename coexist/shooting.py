@@ -481,8 +481,17 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
         a = node[:, cols]
         est = []
         for k, (T, d) in enumerate(((T1, d1), (T2, d2)), start=1):
-            e = hermite_minimum(a[0], a[k], a[2 + k], R, T, d)
-            interior = (a[2 + k] < 0) & (d > 0) & (e < np.minimum(a[k], T))
+            ends = np.minimum(a[k], T)
+            # an interior minimum needs the slope to turn from falling to rising within the step (the
+            # cubic could dip otherwise only by less than the interpolation error): most steps have none
+            interior = (a[2 + k] < 0) & (d > 0)
+            if not interior.any():
+                est.append(ends)
+                continue
+            e = ends.copy()
+            e[interior] = hermite_minimum(a[0][interior], a[k][interior], a[2 + k][interior], R[interior],
+                                          T[interior], d[interior])
+            interior &= e < ends
             near = interior & (e < REFINE_MINIMUM_BELOW) & np.isfinite(e)
             if y_new is not None and near.any():
                 sub = np.flatnonzero(near)

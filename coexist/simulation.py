@@ -16,8 +16,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .continuation import EquilibriumMap, Event, StableSegment, relocate
-from .equilibria import Configuration, Equilibrium, GasChamber, PressureReservoir
+from .continuation import EquilibriumMap, Event, StableSegment, error_floor, relocate
+from .equilibria import Configuration, Equilibrium, GasChamber, PressureReservoir, zone_index_on_curve
 from .errors import ModelRangeError, SceneError, SolverError
 from .ramp import Ramp, RampResult, Transition, equal_free_energy
 from .scene import Scene
@@ -178,30 +178,45 @@ class Simulation:
     def measure_errors(self, transitions) -> None:
         """Re-locate every transition at a tighter tolerance (``rtol/100``, at least 1e-13): its error is
         the change (plus its location bracket). In place."""
-        tight_settings = self.scene.settings.with_rtol(max(self.scene.settings.rtol / 100, 1e-13))
-        tight_map = EquilibriumMap(self.model, self.gas, self.scene.zone_count, tight_settings, self.phi_window,
-                                   self.emap.breakdown)
+        tight_map = self._tight_map()
         done = {}
         for t in transitions:
             if t.kind == "equal_free_energy":
                 seg_a, seg_b = t.segments
                 crossing = _tight_crossing(t, seg_a, seg_b, tight_map)
-                t.phi_hat_error = max(t.phi_hat_error, 0.0) + crossing
+                t.phi_hat_error = max(t.phi_hat_error, 0.0) + crossing + error_floor(t.phi_hat, self.scene.settings.rtol)
                 t.measured = True
                 continue
             ev = getattr(t, "source", None)
             if not isinstance(ev, Event):
                 continue
             if id(ev) not in done:
-                tr = self.emap.tracer(ev.eq.configuration.counts if ev.kind != "merge" else t.source_counts)
-                tight = tight_map.tracer(tr.system.configuration.counts)
-                try:
-                    relocate(ev, tr, tight)
-                except SolverError:
-                    pass
+                self._measure_event(ev, t.source_counts, tight_map)
                 done[id(ev)] = ev.error
             t.phi_hat_error = done[id(ev)]
             t.measured = ev.measured
+
+    def _tight_map(self) -> EquilibriumMap:
+        tight_settings = self.scene.settings.with_rtol(max(self.scene.settings.rtol / 100, 1e-13))
+        return EquilibriumMap(self.model, self.gas, self.scene.zone_count, tight_settings, self.phi_window,
+                              self.emap.breakdown)
+
+    def _measure_event(self, ev: Event, counts, tight_map) -> None:
+        if ev.measured or ev.kind == "window":
+            return
+        tr = self.emap.tracer(counts)
+        try:
+            relocate(ev, tr, tight_map.tracer(tr.system.configuration.counts))
+        except SolverError:
+            pass
+
+    def measure_segment_ends(self, segments) -> None:
+        """Measure the error of every event that ends one of ``segments`` (in place)."""
+        tight_map = self._tight_map()
+        for seg in segments:
+            for ev in (seg.low, seg.high):
+                if isinstance(ev, Event):
+                    self._measure_event(ev, seg.tracer.system.configuration.counts, tight_map)
 
     # ---------------------------------------------------------------------------------------------
     def discover(self, bulged=None, voltages: int = DISCOVERY_VOLTAGES) -> None:
@@ -238,9 +253,8 @@ class Simulation:
                 eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
                 if np.any(np.diff(np.sort(np.sqrt(np.asarray(eq.pole_stretch) - pre))) < 1e-6):
                     continue  # collapsed onto a coarser configuration
-                from .ramp import _zone_index_on_curve
-
-                eq.zone_index = tuple(_zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
+                
+                eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
                 if not eq.stable or self.emap.find(eq) is not None:
                     continue
                 try:
@@ -248,13 +262,48 @@ class Simulation:
                 except SolverError:
                     continue
 
+    def equilibria_at(self, phi: float = 0.0, bulged=None) -> list[Equilibrium]:
+        """Every equilibrium (stable or not) of the homogeneous and the ``(N − k, k)`` configurations at one
+        voltage: first guesses on the zone curve shot at ``Φ̂``, each converged on the exact equations,
+        its stability in closed form and each zone's own index counted on the curve."""
+        from .branches import ZoneCurve
+        from .candidates import candidate_equilibria
+        from .continuation import correct
+        from .equilibria import make_equilibrium
+        
+        pre = self.model.prestretch
+        u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), 240)
+        curve = ZoneCurve.compute(self.model, phi, pre + u**2, self.scene.settings)
+        out = []
+        for cand in candidate_equilibria(curve, self.gas, self.scene.zone_count, bulged):
+            tr = self.emap.tracer(cand.counts)
+            M = len(cand.counts)
+            z = np.concatenate([cand.u, [phi * tr.w]])
+            n = np.zeros(M + 1)
+            n[M] = 1.0
+            corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
+            if not corr.ok[0]:
+                continue
+            eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
+            if np.any(np.diff(np.sort(corr.z[0, :M])) < 1e-6):
+                continue  # collapsed onto a coarser configuration (found on its own)
+            eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
+            if any(e.configuration == eq.configuration and np.allclose(e.pole_stretch, eq.pole_stretch, rtol=1e-7)
+                   for e in out):
+                continue
+            out.append(eq)
+        return sorted(out, key=lambda e: (e.configuration.bulged, e.free_energy))
+
     def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
         """For each ``k`` in ``bulged`` (default ``1..N−1``): the stable segments of ``k`` bulged zones
         (ranges with their exact ends) and the voltages where they have the free energy of the
         homogeneous state, with the coexisting states there."""
         N = self.scene.zone_count
         ks = list(range(1, N)) if bulged is None else sorted(set(int(k) for k in bulged))
-        self.start  # noqa: B018 - the homogeneous segment through the closing state first
+        # every segment a slow ramp can reach (up to the top of the window and back) ...
+        if self.phi_window[1] > self.phi_window[0]:
+            Ramp(self.emap, self.lam_max).run([self.phi_window[1], self.phi_window[0]], self.start)
+        # ... and every other one the first guesses find
         self.discover(ks)
         homog = [s for s in self.emap.segments if s.configuration.groups == 1]
         out = []
@@ -265,6 +314,7 @@ class Simulation:
             crossings = [c for c in crossings if {c.from_label, c.to_label} == {"homogeneous", f"{k} of {N} bulged"}]
             if self.scene.settings.error_estimates:
                 self.measure_errors(crossings)
+                self.measure_segment_ends(segs)
             note = None if segs else f"no stable state with {k} of {N} zones bulged between " \
                                      f"{self.scene.voltage_of(self.phi_window[0]) / 1e3:.4g} and " \
                                      f"{self.scene.voltage_of(self.phi_window[1]) / 1e3:.4g} kV"
@@ -283,17 +333,36 @@ class Simulation:
                 raise ModelRangeError(f"the zones stay homogeneous up to "
                                       f"{self.scene.voltage_of(start.end_phi(+1)) / 1e3:.6g} kV ({why})",
                                       "no_transition")
-            t = Transition(end.phi_hat, "spinodal", "homogeneous", "", "up", end.kind, end.error)
-            t.source = end
+            t = Transition(end.phi_hat, "spinodal", "homogeneous", "", "up", end.kind, end.error, source=end,
+                           source_counts=start.tracer.system.configuration.counts)
             if self.scene.settings.error_estimates:
                 self.measure_errors([t])
             return t
         if kind == "equal_free_energy":
-            entry = self.coexistence([1])[0]
-            if not entry.crossings:
-                raise ModelRangeError(entry.note or "no voltage at which one bulged zone has the free energy "
-                                      "of the homogeneous state", "no_transition")
-            return entry.crossings[0]
+            N = self.scene.zone_count
+            one = (N - 1, 1)
+            # the segment the ramp's first jump lands on is usually the one-bulged one; if not, search
+            if isinstance(end, Event) and end.kind in ("split", "fold"):
+                try:
+                    Ramp(self.emap, self.lam_max).jump(start, end, +1)
+                except SolverError:
+                    pass
+            label = Configuration(one).label
+
+            def crossings():
+                segs = [s for s in self.emap.segments if s.configuration.counts == one]
+                return [c for c in equal_free_energy([start] + segs) if {c.from_label, c.to_label} == {"homogeneous", label}]
+
+            found = crossings()
+            if not found:
+                self.discover([1])
+                found = crossings()
+            if not found:
+                raise ModelRangeError(f"no voltage up to {self.scene.voltage_of(self.phi_window[1]) / 1e3:.6g} kV at "
+                                      f"which {label} has the free energy of the homogeneous state", "no_transition")
+            if self.scene.settings.error_estimates:
+                self.measure_errors(found[:1])
+            return found[0]
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
 
 
@@ -309,20 +378,30 @@ def _tight_crossing(t: Transition, A: StableSegment, B: StableSegment, tight_map
         n = np.zeros(M + 1)
         n[M] = 1.0
         z[M] = phi * tr.w
-        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
+        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w, chord=True)
         if not corr.ok[0]:
             raise SolverError(f"{seg.label}: no state at Φ̂ = {phi:.10g} at the tighter tolerance")
         return make_equilibrium(tr.system, corr.res, corr.rows[0])
 
     phi = t.phi_hat
+    lo = max(A.phi_range[0], B.phi_range[0])
+    hi = min(A.phi_range[1], B.phi_range[1])
+    tol = 100 * tight_map.settings.rtol * max(abs(phi), 1e-3)
+    prev = np.inf
     for _ in range(8):
         ea, eb = tight_state(A, phi), tight_state(B, phi)
         slope = -(ea.total_charge - eb.total_charge)
         step = -(ea.free_energy - eb.free_energy) / slope
-        phi += step
-        if abs(step) <= 1e-13 * max(abs(phi), 1e-3):
+        if not (np.isfinite(step) and lo <= phi + step <= hi):
+            raise SolverError(f"equal free energy of {A.label} and {B.label}: the tighter solve left their "
+                              f"common range near Φ̂ = {t.phi_hat:.10g}")
+        if abs(step) <= tol or abs(step) >= 0.5 * prev:
             break
-    return abs(phi - t.phi_hat)
+        prev = abs(step)
+        phi += step
+    # twice the change (the tighter value has noise of its own), and the last step, which the tight
+    # states still leave open
+    return 2 * abs(phi - t.phi_hat) + abs(step)
 
 
 @dataclass
