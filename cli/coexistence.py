@@ -54,6 +54,7 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
         for seg in r.segments:
             lo, hi = seg.low, seg.high
             ranges.append({
+                "configuration": seg.label,
                 "from_kV": kv(seg.end_phi(-1)), "from_error_kV": kv(getattr(lo, "error", 0.0) or 0.0),
                 "from_event": getattr(lo, "kind", "window") if lo is not None else "window",
                 "to_kV": kv(seg.end_phi(+1)), "to_error_kV": kv(getattr(hi, "error", 0.0) or 0.0),
@@ -79,8 +80,9 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
         if not o["stable_ranges"]:
             click.echo(f"  never stable: {o.get('note', '')}")
         for g in o["stable_ranges"]:
+            which = "" if g["configuration"] == f"{o['bulged_zones']} of {o['zones']} bulged" else f" [{g['configuration']}]"
             click.echo(f"  stable from {format_voltage(g['from_kV'], g['from_error_kV'])} ({g['from_event']}) "
-                       f"to {format_voltage(g['to_kV'], g['to_error_kV'])} ({g['to_event']})")
+                       f"to {format_voltage(g['to_kV'], g['to_error_kV'])} ({g['to_event']}){which}")
         for e in o["equal_free_energy"]:
             click.echo(f"  equal free energy with the homogeneous state at {format_voltage(e['voltage_kV'], e['voltage_error_kV'])}:"
                        f" {e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "

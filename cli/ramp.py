@@ -51,7 +51,8 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
     if plot_path is not None:
         from coexist.plotting import plot_ramp_volumes
 
-        plot_ramp_volumes(report, plot_path, title=_title(sc))
+        info("tracing the visited configurations' branches for the figure ...")
+        plot_ramp_volumes(report, plot_path, title=_title(sc), branches=sim.branches(report.result.segments))
         info(f"wrote {plot_path}")
     if states_path is not None:
         _states_figure(report, sim, states_path)

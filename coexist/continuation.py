@@ -449,6 +449,10 @@ class Tracer:
         exactly; it becomes the branch's end), so the branch is one stable segment.
         """
         self.stable_only = stable_only
+        if self.phi_hi <= self.phi_lo:  # a window of one voltage (a scene without voltage): the seed alone
+            edge = [Event(kind="window", phi_hat=self.phi_lo, eq=seed.eq, z=seed.z, s=0.0, stable_before=seed.stable,
+                          stable_after=seed.stable, note="the window is one voltage") for _ in range(2)]
+            return Branch(self.system, [seed], [], tuple(edge), [])
         fwd, fev, fend, fnotes = self._one_way(seed, +1)
         bwd, bev, bend, bnotes = self._one_way(seed, -1)
         for p in bwd:
@@ -870,9 +874,10 @@ class StableSegment:
     """A stable piece of a configuration's branch (a branch traced with ``stable_only``), a graph over
     ``Φ̂`` (a fold would end it): its points, and the events that end it at low and high voltage."""
 
-    def __init__(self, branch: Branch, tracer: Tracer):
+    def __init__(self, branch: Branch, tracer: Tracer, branches=None):
         self.branch = branch
         self.tracer = tracer
+        self.branches = branches  # per group (ordered by pole stretch), the piece of the zone curve it is on
         pts = branch.points
         self.points = pts
         rising = pts[-1].phi >= pts[0].phi
@@ -887,7 +892,11 @@ class StableSegment:
 
     @property
     def label(self) -> str:
-        return self.configuration.label
+        """The configuration's name, with the branches of the zone curve where they are not the usual ones
+        (:func:`~coexist.equilibria.configuration_label`)."""
+        from .equilibria import configuration_label
+
+        return configuration_label(self.configuration, self.branches)
 
     def end(self, direction: int):
         """The event reached when the voltage moves in ``direction`` (+1 up, −1 down), or None."""
@@ -1025,6 +1034,14 @@ class EquilibriumMap:
         seed = tr.seed(np.concatenate([u, [eq.phi_hat * tr.w]]), index)
         if not seed.stable:
             raise SolverError(f"{eq.label} at Φ̂ = {eq.phi_hat:.8g} is not stable: no stable segment through it")
-        seg = StableSegment(tr.trace(seed, stable_only=True), tr)
+        seg = StableSegment(tr.trace(seed, stable_only=True), tr, self.branches_of(seed.eq))
         self.segments.append(seg)
         return seg
+
+    def branches_of(self, eq: Equilibrium) -> tuple:
+        """Per group of ``eq`` (ordered by pole stretch), the piece of the zone curve it is on."""
+        from .equilibria import pressure_branch
+
+        pre = self.model.prestretch
+        return tuple(pressure_branch(self.model, np.sqrt(lam - pre), eq.phi_hat, self.settings)
+                     for lam in eq.pole_stretch)

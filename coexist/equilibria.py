@@ -384,6 +384,31 @@ def fold_index(slopes, u: float, samples: int = 64, depth: int = 4) -> int:
     return max(int(np.sum(-np.sign(dp_fold * sigma))), 0)
 
 
+def pressure_branch(model, u, phi, settings, samples: int = 64) -> int:
+    """Which monotone piece of its zone curve a zone at ``(u, Φ̂)`` is on: the number of pressure extrema
+    (roots of ``dp̂/du``) between the flat state and ``u`` — 0 on the first rising branch, 1 past the
+    pressure maximum (falling), 2 past the following minimum (re-stiffened), and so on. Counted on
+    ``samples`` directly shot states with exact derivatives."""
+    u = float(u)
+    grid = np.linspace(0.0, u, samples + 1)[1:]
+    s = solve_states(model, model.prestretch + grid**2, phi, settings, derivatives=True)
+    dp = np.where(s.ok, s.derivatives.dp_dl0, np.nan)
+    ok = np.isfinite(dp)
+    first = int(np.flatnonzero(~ok)[-1]) + 1 if (~ok).any() else 0
+    dp = dp[first:]
+    return int(np.sum(dp[:-1] * dp[1:] < 0))
+
+
+def configuration_label(configuration: Configuration, branches=None) -> str:
+    """The configuration's name; a homogeneous state whose zones are past their pressure maximum
+    (``branches[0] ≥ 1``, :func:`pressure_branch`) is "homogeneous, all bulged" (e.g. under pressure
+    control, beside the unbulged homogeneous state)."""
+    base = configuration.label
+    if branches is not None and configuration.groups == 1 and branches[0] >= 1:
+        return f"{base}, all bulged"
+    return base
+
+
 def zone_index(model, u, phi, settings, samples: int = 64) -> int:
     """Unstable axisymmetric modes at fixed volume of one zone at ``(u, Φ̂)``, on directly shot states with
     exact derivatives (:func:`fold_index`)."""

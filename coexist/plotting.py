@@ -55,58 +55,52 @@ def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None
     return _save(fig, path, title)
 
 
-def plot_ramp_volumes(report, path, title=None):
-    """Zone volumes against voltage: every equilibrium (stable solid, unstable dashed), the ramp path
-    with its jumps (thick), transitions marked."""
+def plot_ramp_volumes(report, path, title=None, branches=()):
+    """Zone volumes against voltage: the branches of the configurations the ramp visits (stable solid,
+    unstable dashed; traced on the exact equations), the ramp path with its jumps, transitions marked."""
     plt = _pyplot()
     import numpy as np
 
     res = report.result
     fig, ax = plt.subplots(figsize=(7.2, 4.6))
-    # every equilibrium, grouped by (configuration, role) into polylines over consecutive voltages
-    series = {}
-    grid = sorted({round(s.phi_hat, 12) for s in res.steps})
-    index = {p: i for i, p in enumerate(grid)}
-    for s in res.steps:
-        if s.direction == "down" and s is not res.steps[0]:
+    for br in branches:
+        # the branch's points and, where stability changes between two of them, the exact event there
+        nodes = [(p.s, p.eq, p.stable, p.stable) for p in br.points]
+        nodes += [(e.s, e.eq, e.stable_before, e.stable_after) for e in br.events
+                  if e.eq is not None and e.stable_before != e.stable_after]
+        nodes.sort(key=lambda n: n[0])
+        if len(nodes) < 2:
             continue
-        i = index[round(s.phi_hat, 12)]
-        for e in s.equilibria:
-            roles = [("u", e.v_unbulged)] + ([("b", e.v_bulged)] if e.k else [])
-            for role, v in roles:
-                key = (e.k, e.branch_unbulged, e.branch_bulged, role)
-                series.setdefault(key, []).append((i, report.voltage_kV(s.phi_hat), report.volume_ml(v), e.stable))
-    for pts in series.values():
-        pts.sort()
-        # polylines of neighbouring points with one stability, so that dashes show
-        run = [pts[0]]
-        for prev, cur in zip(pts[:-1], pts[1:]):
-            near = 0 < cur[0] - prev[0] <= 6 and abs(cur[2] - prev[2]) <= 0.1 * max(abs(prev[2]), abs(cur[2]), 1e-9)
-            if near and cur[3] == prev[3]:
-                run.append(cur)
-                continue
-            _draw_run(ax, run, near)
-            run = [prev, cur] if near else [cur]
-        _draw_run(ax, run, False)
+        for g in range(len(nodes[0][1].v_hat)):
+            run = [nodes[0]]
+            for node in nodes[1:]:
+                run.append(node)
+                if node[2] != node[3] or node is nodes[-1]:  # a stability change (or the end) closes the run
+                    stable = run[0][3] if len(run) > 1 else run[0][2]
+                    ax.plot([report.voltage_kV(n[1].phi_hat) for n in run],
+                            [report.volume_ml(n[1].v_hat[g]) for n in run], "-" if stable else "--",
+                            color="0.55" if stable else "0.72", lw=1.0 if stable else 0.9, zorder=1)
+                    run = [node]
     for direction, color, size in (("down", "tab:blue", 2.0), ("up", "tab:red", 3.5)):
         pts = [(report.voltage_kV(s.phi_hat), [report.volume_ml(v) for v in s.state.zone_volumes])
                for s in res.steps if s.direction == direction and s.state is not None]
         if not pts:
             continue
         x = np.array([p[0] for p in pts])
-        y = np.array([p[1] for p in pts])
-        for j in range(y.shape[1]):
-            ax.plot(x, y[:, j], ".", color=color, ms=size, zorder=3 if direction == "up" else 2,
+        width = max(len(p[1]) for p in pts)
+        for j in range(width):
+            y = np.array([p[1][j] if j < len(p[1]) else np.nan for p in pts])
+            ax.plot(x, y, ".", color=color, ms=size, zorder=3 if direction == "up" else 2,
                     label=f"ramp {direction}" if j == 0 else None)
     for t in res.transitions:
-        if t.kind in ("spinodal", "no_stable_state"):
+        if t.kind in ("spinodal", "no_stable_state", "merge", "breakdown"):
             ax.axvline(report.voltage_kV(t.phi_hat), color="tab:red" if t.direction == "up" else "tab:blue",
                        ls=":", lw=1)
     for t in res.equal_free_energy:
         ax.axvline(report.voltage_kV(t.phi_hat), color="k", ls="-.", lw=0.8)
     ax.plot([], [], "-", color="0.55", label="stable equilibria")
-    ax.plot([], [], "--", color="0.75", label="unstable equilibria")
-    ax.plot([], [], ":", color="tab:red", label="jumps (spinodals)")
+    ax.plot([], [], "--", color="0.72", label="unstable equilibria")
+    ax.plot([], [], ":", color="tab:red", label="transitions")
     ax.plot([], [], "-.", color="k", label="equal free energy")
     ax.set_xlabel("voltage (kV)")
     ax.set_ylabel("zone volume (ml)")
@@ -115,14 +109,6 @@ def plot_ramp_volumes(report, path, title=None):
     if title:
         ax.set_title(title, fontsize=10)
     return _save(fig, path)
-
-
-def _draw_run(ax, run, _):
-    if len(run) < 2:
-        return
-    stable = all(p[3] for p in run)
-    ax.plot([p[1] for p in run], [p[2] for p in run], "-" if stable else "--", color="0.55" if stable else "0.7",
-            lw=1.0 if stable else 0.9, zorder=1)
 
 
 def plot_coexisting_states(curve, state, scale_title, path):

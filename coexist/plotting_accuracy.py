@@ -18,20 +18,14 @@ _FAMILY_STYLE = {
     "rtol": ("tab:blue", "o", "rtol sweep"),
     "points": ("tab:orange", "s", "curve points"),
     "n": ("tab:orange", "s", "spline points n"),
-    "n_u": ("tab:orange", "s", "n_u sweep"),
-    "n_s": ("tab:green", "^", "n_s sweep"),
-    "grid": ("tab:purple", "D", "n_u × n_s together"),
 }
 
 
 #: where each family's point labels go, so that crossing families do not write over each other
 _LABEL_PLACE = {
     "rtol": {"xytext": (4, 3), "ha": "left", "va": "bottom"},
-    "grid": {"xytext": (-4, 3), "ha": "right", "va": "bottom"},
-    "n_s": {"xytext": (4, -3), "ha": "left", "va": "top"},
     "points": {"xytext": (4, -3), "ha": "left", "va": "top"},
     "n": {"xytext": (4, -3), "ha": "left", "va": "top"},
-    "n_u": {"xytext": (4, -3), "ha": "left", "va": "top"},
 }
 
 

@@ -381,7 +381,7 @@ class Ramp:
                     cur = phi_end
                     continue
                 kind = "merge" if end.kind == "merge" else "spinodal"
-                transitions.append(Transition(phi_end, kind, seg.label, land.state.label, label_dir, end.kind,
+                transitions.append(Transition(phi_end, kind, seg.label, land.segment.label, label_dir, end.kind,
                                               end.error, _loss_reason(end), land.mode, state_before=end.eq,
                                               state_after=land.state, source=end,
                                               source_counts=seg.tracer.system.configuration.counts))

@@ -162,7 +162,7 @@ class Simulation:
             seed = tr.seed(np.array([u, 0.0]))
             if not seed.stable:
                 raise ModelRangeError("the state the valves closed in is not stable", "no_equilibrium")
-            self._start = StableSegment(tr.trace(seed, stable_only=True), tr)
+            self._start = StableSegment(tr.trace(seed, stable_only=True), tr, self.emap.branches_of(seed.eq))
             self.emap.segments.append(self._start)
         return self._start
 
@@ -174,6 +174,19 @@ class Simulation:
         if self.scene.settings.error_estimates:
             self.measure_errors(result.transitions + result.equal_free_energy)
         return RampReport(self.scene, result, self.gas, self.scene.effects(), dict(self.scene.fitted))
+
+    def branches(self, segments) -> list:
+        """The whole branch of each segment's configuration through it (stable and unstable pieces, through
+        folds, over the window): what a figure draws around the ramp. Tracing only; nothing reported."""
+        out = []
+        for seg in segments:
+            mid = seg.points[len(seg.points) // 2]
+            tr = seg.tracer
+            try:
+                out.append(tr.trace(mid, stable_only=False))
+            except SolverError:
+                continue
+        return out
 
     def measure_errors(self, transitions) -> None:
         """Re-locate every transition at a tighter tolerance (``rtol/100``, at least 1e-13): its error is
@@ -263,36 +276,9 @@ class Simulation:
                     continue
 
     def equilibria_at(self, phi: float = 0.0, bulged=None) -> list[Equilibrium]:
-        """Every equilibrium (stable or not) of the homogeneous and the ``(N − k, k)`` configurations at one
-        voltage: first guesses on the zone curve shot at ``Φ̂``, each converged on the exact equations,
-        its stability in closed form and each zone's own index counted on the curve."""
-        from .branches import ZoneCurve
-        from .candidates import candidate_equilibria
-        from .continuation import correct
-        from .equilibria import make_equilibrium
-        
-        pre = self.model.prestretch
-        u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), 240)
-        curve = ZoneCurve.compute(self.model, phi, pre + u**2, self.scene.settings)
-        out = []
-        for cand in candidate_equilibria(curve, self.gas, self.scene.zone_count, bulged):
-            tr = self.emap.tracer(cand.counts)
-            M = len(cand.counts)
-            z = np.concatenate([cand.u, [phi * tr.w]])
-            n = np.zeros(M + 1)
-            n[M] = 1.0
-            corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
-            if not corr.ok[0]:
-                continue
-            eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
-            if np.any(np.diff(np.sort(corr.z[0, :M])) < 1e-6):
-                continue  # collapsed onto a coarser configuration (found on its own)
-            eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
-            if any(e.configuration == eq.configuration and np.allclose(e.pole_stretch, eq.pole_stretch, rtol=1e-7)
-                   for e in out):
-                continue
-            out.append(eq)
-        return sorted(out, key=lambda e: (e.configuration.bulged, e.free_energy))
+        """Every equilibrium (stable or not) at one voltage on the scene's gas (:func:`equilibria_on_gas`)."""
+        return equilibria_on_gas(self.model, self.gas, self.scene.zone_count, phi, self.scene.settings,
+                                 self.lam_max, bulged, self.emap)
 
     def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
         """For each ``k`` in ``bulged`` (default ``1..N−1``): the stable segments of ``k`` bulged zones
@@ -305,13 +291,17 @@ class Simulation:
             Ramp(self.emap, self.lam_max).run([self.phi_window[1], self.phi_window[0]], self.start)
         # ... and every other one the first guesses find
         self.discover(ks)
-        homog = [s for s in self.emap.segments if s.configuration.groups == 1]
+        # the homogeneous state the valves closed in (other homogeneous ones, e.g. all zones bulged
+        # under pressure control, are configurations of their own)
+        homog = [s for s in self.emap.segments if s.label == "homogeneous"]
         out = []
         for k in ks:
             segs = sorted((s for s in self.emap.segments if s.configuration.counts == (N - k, k)),
                           key=lambda s: s.phi_range[0])
             crossings = equal_free_energy(homog + segs)
-            crossings = [c for c in crossings if {c.from_label, c.to_label} == {"homogeneous", f"{k} of {N} bulged"}]
+            labels = {s.label for s in segs}
+            crossings = [c for c in crossings if "homogeneous" in (c.from_label, c.to_label)
+                         and {c.from_label, c.to_label} & labels]
             if self.scene.settings.error_estimates:
                 self.measure_errors(crossings)
                 self.measure_segment_ends(segs)
@@ -364,6 +354,46 @@ class Simulation:
                 self.measure_errors(found[:1])
             return found[0]
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
+
+
+def equilibria_on_gas(model, gas, zones: int, phi: float, settings: SolverSettings, lam_max: float, bulged=None,
+                      emap: EquilibriumMap | None = None) -> list[Equilibrium]:
+    """Every equilibrium (stable or not) of the homogeneous and the ``(N − k, k)`` configurations of ``zones``
+    zones on ``gas`` at one voltage ``Φ̂``.
+
+    First guesses come from the zone curve shot at ``Φ̂`` (:func:`coexist.candidates.candidate_equilibria`);
+    each is converged on the exact equations, its Hessian's eigenvalues are in closed form and each
+    zone's own index is counted on the curve. States that converge onto a coarser configuration are
+    dropped (that configuration is found on its own), as are duplicates.
+    """
+    from .branches import ZoneCurve
+    from .candidates import candidate_equilibria
+    from .continuation import correct
+    from .equilibria import make_equilibrium
+
+    emap = emap or EquilibriumMap(model, gas, zones, settings, (phi, phi))
+    pre = model.prestretch
+    u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(lam_max - pre), 240)
+    curve = ZoneCurve.compute(model, phi, pre + u**2, settings)
+    out = []
+    for cand in candidate_equilibria(curve, gas, zones, bulged):
+        tr = emap.tracer(cand.counts)
+        M = len(cand.counts)
+        z = np.concatenate([cand.u, [phi * tr.w]])
+        n = np.zeros(M + 1)
+        n[M] = 1.0
+        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
+        if not corr.ok[0]:
+            continue
+        if np.any(np.diff(np.sort(corr.z[0, :M])) < 1e-6):
+            continue  # collapsed onto a coarser configuration (found on its own)
+        eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
+        eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
+        if any(e.configuration == eq.configuration and np.allclose(e.pole_stretch, eq.pole_stretch, rtol=1e-7)
+               for e in out):
+            continue
+        out.append(eq)
+    return sorted(out, key=lambda e: (e.configuration.bulged, e.free_energy))
 
 
 def _tight_crossing(t: Transition, A: StableSegment, B: StableSegment, tight_map: EquilibriumMap) -> float:
@@ -463,6 +493,8 @@ class RampReport:
         for s in self.result.steps:
             d = {"voltage_kV": round(float(self.voltage_kV(s.phi_hat)), 10), "direction": s.direction,
                  **self.state_dict(s.state)}
+            if s.segment is not None:
+                d["configuration"] = s.segment.label
             if check_field and s.state is not None:
                 d["max_field_MV_per_m"] = float(max(s.state.max_field) * self.scene.field_scale / 1e6)
             if s.note:

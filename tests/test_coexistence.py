@@ -13,8 +13,7 @@ from coexist.errors import ModelRangeError
 from coexist.model import build_model
 from coexist.scene import load_scene
 from coexist.shooting import solve_states
-from coexist.simulate import closed_gas, prepare, simulate_ramp
-from coexist.zones import GasChamber, equilibria
+from coexist.simulation import Simulation, simulate_ramp
 
 
 def gent_curve(jlim, phi, n=128):
@@ -83,65 +82,36 @@ def test_phase_diagram_critical_point():
 
 def test_two_interconnected_balloons():
     """Two balloons, no voltage, fixed gas: the symmetric state is stable below the pressure maximum and
-    unstable beyond it, where one balloon grows at the other's expense in a stable asymmetric state."""
-    scene = load_scene("two-balloons")
-    prep = prepare(scene)
-    curve = prep.family.curve(0.0)
-    u_max = [u for u in curve.pressure_extrema() if curve.dp(u - 1e-9) > 0][0]
-    vc, patm = scene.chamber_volume_hat, scene.atmospheric_pressure_hat
-    for du, symmetric_stable in ((-0.05, True), (+0.05, False)):
-        u = u_max + du
-        gas = GasChamber.closed_at(vc, patm, float(curve.p(u)), 2 * float(curve.v(u)))
-        eqs = equilibria(curve, gas, 2)
-        sym = [e for e in eqs if e.k == 0 and abs(e.u_unbulged - u) < 1e-6]
-        assert len(sym) == 1 and sym[0].stable is symmetric_stable
-        if not symmetric_stable:
-            asym = [e for e in eqs if e.k == 1 and e.stable]
-            assert asym, "beyond the maximum a stable asymmetric state must exist"
-            a = asym[0]
-            assert a.v_bulged > sym[0].v_unbulged > a.v_unbulged
-    # the built-in scene closes below the maximum: both balloons stay equal
-    gas = closed_gas(prep)
-    eqs = [e for e in equilibria(curve, gas, 2) if e.stable]
-    assert len(eqs) == 1 and eqs[0].k == 0
+    unstable beyond it, where one balloon grows at the other's expense in a stable asymmetric state.
+    Every equilibrium is converged on the exact equations (Simulation.equilibria_at)."""
+    from coexist.curves import pressure_volume_curve
+    from coexist.equilibria import GasChamber
+    from coexist.shooting import solve_states
+
+    base = load_scene("two-balloons")
+    sim = Simulation.from_scene(base)
+    eqs = sim.equilibria_at(0.0)
+    assert [e.label for e in eqs] == ["homogeneous"] and eqs[0].stable
+    assert eqs[0].p_hat == pytest.approx(base.closing_pressure_hat, rel=1e-9)
+    # the same chamber filled until each zone sits 5 % past its pressure maximum (in pole stretch)
+    lp = [x for x in pressure_volume_curve(sim.model, 0.0).limit_points if x.kind == "pressure_max"][0]
+    past = solve_states(sim.model, [lp.pole_stretch * 1.05], 0.0).require_ok()
+    gas = GasChamber.closed_at(base.chamber_volume_hat, base.atmospheric_pressure_hat, float(past.p_hat[0]),
+                               2 * float(past.v_hat[0]))
+    filled = Simulation(base, sim.model, gas, lp.pole_stretch * 1.05, sim.p_hat_max, sim.lam_max, sim.phi_window,
+                        type(sim.emap)(sim.model, gas, 2, base.settings, sim.phi_window))
+    eqs = filled.equilibria_at(0.0)
+    sym = [e for e in eqs if e.k == 0 and abs(e.pole_stretch[0] - lp.pole_stretch * 1.05) < 1e-6]
+    assert len(sym) == 1 and not sym[0].stable
+    asym = [e for e in eqs if e.k == 1 and e.stable]
+    assert asym, "beyond the maximum a stable asymmetric state must exist"
+    assert asym[0].v_bulged > sym[0].v_unbulged > asym[0].v_unbulged
 
 
 @pytest.fixture(scope="module")
 def tricircle_ramp():
     scene = load_scene("tricircle")
     return scene, simulate_ramp(scene)
-
-
-def _step(report, kv, direction="up"):
-    for s in report.result.steps:
-        if s.direction == direction and abs(report.voltage_kV(s.phi_hat) - kv) < 1e-9:
-            return s
-    raise AssertionError(f"no step at {kv} kV")
-
-
-def test_tricircle_equal_at_3_8_kV(tricircle_ramp):
-    """The paper: at 3.8 kV all three zones are equal (no stored transition voltage is read)."""
-    _, report = tricircle_ramp
-    st = _step(report, 3.8).state
-    assert st.k == 0 and st.stable
-    v = st.zone_volumes
-    assert max(v) - min(v) == 0
-
-
-def test_tricircle_one_zone_bulged_at_4_kV(tricircle_ramp):
-    """The paper: at 4.0 kV one zone bulges and coexists with two unbulged ones, at one pressure, stably."""
-    scene, report = tricircle_ramp
-    st = _step(report, 4.0).state
-    assert st.k == 1 and st.zones == 3 and st.stable and st.min_eigenvalue > 0
-    assert st.v_bulged > 3 * st.v_unbulged
-    # same pressure and voltage in both states, verified by fresh shooting (independent of the splines)
-    model = scene.model()
-    s = solve_states(model, [st.pole_stretch_unbulged, st.pole_stretch_bulged], st.phi_hat).require_ok()
-    assert s.p_hat[0] == pytest.approx(s.p_hat[1], rel=1e-4)
-    # and that pressure is the gas's at the zones' total volume
-    gas = report.gas
-    total = 2 * s.v_hat[0] + s.v_hat[1]
-    assert float(gas.pressure(total)) == pytest.approx(s.p_hat[0], rel=1e-4)
 
 
 def test_tricircle_transitions_and_hysteresis(tricircle_ramp):
@@ -156,17 +126,20 @@ def test_tricircle_transitions_and_hysteresis(tricircle_ramp):
 
 
 def test_neo_hookean_tricircle_bulges_without_bound():
-    """Under the paper's conditions a neo-Hookean zone has no stable bulged state: no coexistence."""
+    """Under the paper's conditions a neo-Hookean zone has no stable bulged state: when the homogeneous
+    state is lost, the bulging zone's flow runs to its largest volume (a volume fold of its curve) with
+    nothing stable beyond: no coexistence, and the ramp says why."""
     scene = replace(load_scene("tricircle"), material="neo-hookean", jlim=None, zone_radius=0.0205206)
     report = simulate_ramp(scene)
-    kinds = [t.kind for t in report.result.transitions]
-    assert "no_stable_state" in kinds
+    (lost,) = [t for t in report.result.transitions if t.kind == "no_stable_state"]
+    assert lost.from_label == "homogeneous" and "largest volume" in lost.reason
     assert not any(s.state is not None and s.state.k > 0 for s in report.result.steps)
 
 
 def test_breakdown_effect_ends_the_ramp_only_when_asked_for():
-    """single-zone with a 15 MV/m breakdown field: the path ends where the largest field passes it
-    (fields measured 8.6 MV/m at 2 kV, 22.6 MV/m at 4 kV); without the field nothing is checked."""
+    """single-zone with a 15 MV/m breakdown field: the path ends where the largest field reaches it, an
+    event located on the exact equations (3.16393 kV; the field is 14.9 MV/m at 3.15 kV); without the
+    field nothing is checked."""
     from coexist.scene import builtin_scene_text, parse_scene
 
     text = builtin_scene_text("single-zone").replace("breakdown_field_MV_per_m = 100", "breakdown_field_MV_per_m = 15")
@@ -174,37 +147,42 @@ def test_breakdown_effect_ends_the_ramp_only_when_asked_for():
     assert "breakdown-check" in scene.effects()
     report = simulate_ramp(scene)
     (bd,) = [t for t in report.result.transitions if t.kind == "breakdown"]
-    assert 2.0 < report.voltage_kV(bd.phi_hat) < 4.0
+    assert report.voltage_kV(bd.phi_hat) == pytest.approx(3.16393, abs=1e-5)
+    assert max(bd.state_before.max_field) * scene.field_scale == pytest.approx(15e6, rel=1e-8)
     after = [s for s in report.result.steps if s.phi_hat > bd.phi_hat or s.direction == "down"]
     assert after and all(s.state is None for s in after)
-    fields = [s.max_field for s in report.result.steps if s.max_field is not None]
-    assert max(fields) > 15e6 and all(np.isfinite(fields))
-    plain = simulate_ramp(load_scene("tricircle"))
-    assert all(s.max_field is None for s in plain.result.steps)
+    fields = [s.max_field * scene.field_scale for s in report.result.steps if s.max_field is not None]
+    assert max(fields) < 15e6 and all(np.isfinite(fields))
+    assert "max_field_MV_per_m" in report.to_dict()["steps"][0]
+    plain = simulate_ramp(load_scene("tricircle")).to_dict()
+    assert "max_field_MV_per_m" not in plain["steps"][0]
     assert "breakdown-check" not in load_scene("tricircle").effects()
 
 
 def test_pressure_control_equal_free_energy_is_the_maxwell_voltage():
     """Without a chamber the zones are pressure-controlled (the gas effect is off). Then the voltage at
-    which bulged zones have the free energy of unbulged ones must be where the CasADi Maxwell
-    construction on the single-zone curve gives exactly the controlled pressure: two independent
-    routes to one number (agreement to the curve interpolation error)."""
+    which one bulged zone has the free energy of none (the coexistence table, on exact states) must be
+    where the CasADi Maxwell construction on the single-zone curve gives exactly the controlled
+    pressure: two independent routes to one number (to the Maxwell solver's spline error)."""
+    from coexist.equilibria import PressureReservoir
     from coexist.scene import parse_scene
-    from coexist.zones import PressureReservoir
 
     text = ('[membrane]\nmaterial = "gent"\njlim = 97\nzone_radius_mm = 21.4165\n[zones]\ncount = 3\n'
             'pressure_mbar = 17\n[voltage]\nstop_kV = 5\nstep_kV = 0.05\n')
     scene = parse_scene(text)
     assert "pressure-control" in scene.effects() and "gas:isothermal-ideal-gas" not in scene.effects()
-    report = simulate_ramp(scene)
-    assert isinstance(report.gas, PressureReservoir)
-    eq = [t for t in report.result.equal_free_energy if t.to_label == "1 of 3 bulged"]
-    assert len(eq) == 1
-    phi = eq[0].phi_hat
+    sim = Simulation.from_scene(scene)
+    assert isinstance(sim.gas, PressureReservoir)
+    (entry,) = sim.coexistence([1])
+    # one bulged zone against the homogeneous unbulged state (beside it, the three zones can also all be
+    # bulged: a homogeneous configuration of its own, labelled so)
+    assert [(c.from_label, c.to_label) for c in entry.crossings] == [("homogeneous", "1 of 3 bulged")]
+    assert any(s.label == "homogeneous, all bulged" for s in sim.emap.segments)
+    phi = entry.crossings[0].phi_hat
     model = scene.model()
     u = np.linspace(np.sqrt(0.002), np.sqrt(0.95 * np.sqrt(100 / 2) - 1), 256)
     co = maxwell_coexistence(ZoneCurve.compute(model, phi, 1 + u**2))
-    assert co.p_hat == pytest.approx(scene.p_hat(17 * 100), rel=2e-4)
+    assert co.p_hat == pytest.approx(scene.p_hat(17 * 100), rel=1e-6)
 
 
 def test_scene_with_chamber_and_controlled_pressure_is_rejected():

@@ -436,8 +436,7 @@ def test_fuzzed_scenes_fail_cleanly(text, as_json):
 
 def test_zero_voltage_gives_the_numbers_of_no_voltage():
     """The electrostatics effect at zero strength (0 V) equals the scene without it."""
-    from coexist.simulate import closed_gas, prepare
-    from coexist.zones import equilibria
+    from coexist.simulation import Simulation
 
     base = load_scene("two-balloons")
     text = builtin_scene_text("two-balloons") + "\n[voltage]\nvalues_kV = [0.0]\n"
@@ -446,8 +445,7 @@ def test_zero_voltage_gives_the_numbers_of_no_voltage():
     assert "electrostatics:ideal-dielectric" not in base.effects()
     results = []
     for sc in (base, with_voltage):
-        prep = prepare(sc)
-        eqs = equilibria(prep.family.curve(0.0), closed_gas(prep, sc), sc.zone_count)
+        eqs = Simulation.from_scene(sc).equilibria_at(0.0)
         results.append([(e.k, e.p_hat, e.v_unbulged, e.free_energy) for e in eqs])
     assert len(results[0]) == len(results[1]) == 1
     np.testing.assert_allclose(np.array(results[0], dtype=float), np.array(results[1], dtype=float), rtol=1e-13)
