@@ -149,8 +149,8 @@ class CasadiStepper:
         fun = self._maps.get(n)
         if fun is None:
             fun = self._maps[n] = self._step.map(n, "serial") if n > 1 else self._step
-        out = fun(np.broadcast_to(t, (n,))[None, :], np.broadcast_to(h, (n,))[None, :], y)
-        out = np.asarray(out).reshape(4, self._rows, n)
+        out = fun(np.broadcast_to(t, (n,))[None, :], np.broadcast_to(h, (n,))[None, :], y).full()
+        out = out.reshape(4, self._rows, n)
         return out[0], out[1], out[2], out[3]
 
 

@@ -234,9 +234,13 @@ def _check_inputs(model, l0, phi):
 #: slope vanishes) when its interpolated estimate is below this: where the onset of wrinkling is decided
 REFINE_MINIMUM_BELOW = 0.02
 
-#: batches of at most this many live trajectories are integrated by the CasADi step function, larger ones by
-#: numpy (measured crossover on this machine: ~50; see benchmarks/bench_curve.py)
-CASADI_BATCH_LIMIT = 48
+#: batches of at most this many live trajectories are integrated by the CasADi attempt function in CasADi's
+#: virtual machine, larger ones by numpy (measured crossover on this machine: ~25)
+CASADI_BATCH_LIMIT = 24
+#: the same limit once the attempt function is compiled to machine code (crossover ~300)
+COMPILED_BATCH_LIMIT = 256
+#: uses of a model's attempt function in one process after which it is compiled (once per machine)
+COMPILE_AFTER = 12
 
 
 class _Integrators:
@@ -273,6 +277,35 @@ class _Integrators:
         out[2:7] = d[2:] * inv
         return out
 
+    def attempts(self, kind: str):
+        """The attempt function (:func:`attempt_function`) for ``kind``: CasADi's virtual machine at first,
+        compiled machine code (:mod:`coexist.compiled`) from the :data:`COMPILE_AFTER`-th use in a process
+        on (a model used that often is worth the one-time compilation; it is cached on disk)."""
+        from .compiled import compiled
+
+        entry = self._casadi.setdefault(("attempts", kind), {"fun": None, "uses": 0, "compiled": False, "maps": {}})
+        if entry["fun"] is None:
+            rows = {"radius": 9, "radius_sens": 19}[kind]
+            entry["fun"] = attempt_function(self.model, kind, rows)
+            fast = compiled(entry["fun"], f"coexist_attempts_{kind}", cached_only=True)
+            if fast is not None:  # compiled by an earlier process
+                entry["fun"], entry["fast"], entry["compiled"] = fast, True, True
+        entry["uses"] += 1
+        if not entry["compiled"] and entry["uses"] >= COMPILE_AFTER:
+            fast = compiled(entry["fun"], f"coexist_attempts_{kind}")
+            entry["compiled"] = True  # tried (whether it worked or not)
+            if fast is not None:
+                entry["fun"], entry["maps"], entry["fast"] = fast, {}, True
+        return entry
+
+    def small_batch_limit(self, kind: str, m: int) -> int:
+        """Largest batch the attempt function takes (compiled it beats numpy up to a few hundred)."""
+        entry = self._casadi.get(("attempts", kind))
+        if entry is None and m <= COMPILED_BATCH_LIMIT:
+            entry = self.attempts(kind)  # built now: it may already be compiled on this machine
+            entry["uses"] -= 1
+        return COMPILED_BATCH_LIMIT if entry is not None and entry.get("fast") else CASADI_BATCH_LIMIT
+
     def stepper(self, kind: str, n: int):
         """A stepper for ``n`` trajectories of the right-hand side ``kind``."""
         fun = getattr(self, kind)
@@ -303,6 +336,134 @@ class _Integrators:
         inv = 1 / d[1]
         return ca.Function("rhs", [t, z], [ca.vertcat(inv, d[0] * inv, d[2] * inv, d[3] * inv, d[4] * inv,
                                                       d[5] * inv, d[6] * inv, 0, 0)])
+
+
+#: attempts (trial steps) per call of the CasADi attempt function
+ATTEMPTS_PER_CALL = 8
+#: layout of the packed per-trajectory state of the attempt function (then y, f, atol, candidate y)
+_HEAD = ("t", "h", "t_end", "rtol", "status", "steps", "max_steps", "formal",
+         "Ra", "T1a", "T2a", "d1a", "d2a", "minT", "maxE", "failR",
+         "cand_est", "cand_Ra", "cand_h", "cand_da", "cand_db", "cand_k")
+_H = {k: i for i, k in enumerate(_HEAD)}
+
+
+def _sx_hermite_minimum(ca, xa, ya, da, xb, yb, db):
+    """:func:`hermite_minimum` as a CasADi expression (interior stationary points that are minima)."""
+    h = xb - xa
+    A = 6 * (ya - yb) + 3 * h * (da + db)
+    B = -6 * (ya - yb) - 4 * h * da - 2 * h * db
+    C = h * da
+    disc = B * B - 4 * A * C
+    sq = ca.sqrt(ca.fmax(disc, 0))
+    best = ca.fmin(ya, yb)
+    for sgn in (-1.0, 1.0):
+        s = ca.if_else(ca.fabs(A) > 1e-300, (-B + sgn * sq) / (2 * A + (ca.fabs(A) <= 1e-300)),
+                       -C / (B + (B == 0)))
+        ok = (disc >= 0) * (s > 0) * (s < 1)
+        s2, s3 = s * s, s * s * s
+        p = ya * (2 * s3 - 3 * s2 + 1) + h * da * (s3 - 2 * s2 + s) + yb * (-2 * s3 + 3 * s2) + h * db * (s3 - s2)
+        best = ca.if_else(ok * (p < best), p, best)
+    return best
+
+
+def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMPTS_PER_CALL):
+    """``K`` DOP853 attempts of one trajectory as one CasADi function of its packed state.
+
+    One attempt is what :func:`coexist.integrate.integrate` does per step, with the checks of
+    :func:`_shoot`: the step (stages and error estimate), its acceptance and the new step size; at the
+    new node the tensions and their slopes dT/dR, the crossing of the clamp stretch (the step is then
+    discarded and the trajectory stops), the failures (a node tension not positive, Gent locking, loss
+    of ellipticity, a meridian folding back), the smallest tension and largest field so far, and, where
+    the cubic Hermite estimate of a tension's minimum between the last two nodes comes below
+    :data:`REFINE_MINIMUM_BELOW`, the step that holds it (the caller locates that minimum exactly).
+    A finished trajectory (status ≠ 0) passes through unchanged.
+    """
+    import casadi as ca
+
+    fns = _integrators(model)
+    rhs = fns._casadi_rhs(kind)
+    step = _int.casadi_step_function(rhs, rows, f"dop853_{kind}")
+    aux = model.casadi_functions["aux"]
+    R = rows
+    n = len(_HEAD) + 4 * R
+    x = ca.SX.sym("x", n)
+    g = {k: x[i] for k, i in _H.items()}
+    o = len(_HEAD)
+    y, f, atol, cy = x[o:o + R], x[o + R:o + 2 * R], x[o + 2 * R:o + 3 * R], x[o + 3 * R:o + 4 * R]
+    t, h = g["t"], g["h"]
+    active = g["status"] == 0
+    span = g["t_end"] - t
+    last = h >= span
+    hs = ca.if_else(last, span, h)
+    out = step(t, hs, y)
+    y_new, f_new, e5, e3 = out[:R], out[R:2 * R], out[2 * R:3 * R], out[3 * R:4 * R]
+    scale = atol + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * g["rtol"]
+    s5 = ca.sumsqr(e5 / scale)
+    s3 = ca.sumsqr(e3 / scale)
+    den = s5 + 0.01 * s3
+    err = ca.fabs(hs) * s5 / ca.sqrt(ca.if_else(den > 0, den, 1) * R)
+    total = ca.sum1(y_new) + ca.sum1(f_new)
+    finite = (total == total) * (ca.fabs(total) < 1e300)
+    accepted = active * finite * (err <= 1)
+    grow = 0.9 * ca.if_else(err > 0, err, 1) ** (-1.0 / 8)
+    factor = ca.if_else(err == 0, 10, ca.fmin(ca.fmax(grow, 0.2), 10))
+    factor = ca.if_else(accepted, factor, ca.fmin(1, factor))
+    factor = ca.if_else(finite, factor, 0.25)
+    t_new = ca.if_else(last, g["t_end"], t + hs)
+    P = R - 2
+    T1, T2, T11, T12, margin, E, T22 = aux(y_new[0], y_new[1], y_new[P + 1])
+    d1 = T11 * f_new[0] + T12 * f_new[1]
+    d2 = T12 * f_new[0] + T22 * f_new[1]
+    crossed = y_new[1] <= model.prestretch
+    node_min = ca.fmin(T1, T2)
+    inf = ca.inf
+    ests = []
+    for k, (Ta, da, T, d) in enumerate(((g["T1a"], g["d1a"], T1, d1), (g["T2a"], g["d2a"], T2, d2)), start=1):
+        interior = (da < 0) * (d > 0)
+        e = _sx_hermite_minimum(ca, g["Ra"], Ta, da, t_new, T, d)
+        ests.append((k, ca.if_else(interior * (e < ca.fmin(Ta, T)), e, inf), da, d))
+    e_min = ca.fmin(ests[0][1], ests[1][1])
+    near = e_min < REFINE_MINIMUM_BELOW
+    # the smallest tension so far: nodes and the estimates not near zero (those are located exactly later)
+    step_min = ca.fmin(node_min, ca.if_else(near, inf, e_min))
+    certain = ca.if_else(g["formal"] > 0, T1 <= 0, node_min <= 0)
+    code = ca.if_else(certain, WRINKLED, 0)
+    code = ca.if_else((code == 0) * (margin <= 0), LOCKED, code)
+    code = ca.if_else((code == 0) * (T11 <= 0), LOST_ELLIPTICITY, code)
+    code = ca.if_else((code == 0) * (ca.fabs(y_new[2]) > math.pi), FOLDED_BACK, code)
+    code = ca.if_else(crossed, 0, code)
+    move = accepted * (1 - crossed)
+    status = g["status"]
+    status = ca.if_else(accepted * crossed, _int.CROSSED, status)
+    status = ca.if_else(move * (code != 0), code, status)
+    status = ca.if_else(move * last * (code == 0), _int.REACHED_END, status)
+    steps = g["steps"] + active
+    status = ca.if_else((status == 0) * (steps >= g["max_steps"]), _int.STEP_LIMIT, status)
+    better = move * near * (e_min < g["cand_est"])
+    k_best = ca.if_else(ests[0][1] <= ests[1][1], 1, 2)
+    da_best = ca.if_else(k_best == 1, ests[0][2], ests[1][2])
+    db_best = ca.if_else(k_best == 1, ests[0][3], ests[1][3])
+    new = {
+        "t": ca.if_else(move, t_new, t), "h": ca.if_else(active, hs * factor, h), "t_end": g["t_end"],
+        "rtol": g["rtol"], "status": status, "steps": steps, "max_steps": g["max_steps"], "formal": g["formal"],
+        "Ra": ca.if_else(move, t_new, g["Ra"]), "T1a": ca.if_else(move, T1, g["T1a"]),
+        "T2a": ca.if_else(move, T2, g["T2a"]), "d1a": ca.if_else(move, d1, g["d1a"]),
+        "d2a": ca.if_else(move, d2, g["d2a"]), "minT": ca.if_else(move, ca.fmin(g["minT"], step_min), g["minT"]),
+        "maxE": ca.if_else(move, ca.fmax(g["maxE"], ca.fabs(E)), g["maxE"]),
+        "failR": ca.if_else(move * (code != 0), t_new, g["failR"]),
+        "cand_est": ca.if_else(better, e_min, g["cand_est"]), "cand_Ra": ca.if_else(better, t, g["cand_Ra"]),
+        "cand_h": ca.if_else(better, t_new - t, g["cand_h"]), "cand_da": ca.if_else(better, da_best, g["cand_da"]),
+        "cand_db": ca.if_else(better, db_best, g["cand_db"]), "cand_k": ca.if_else(better, k_best, g["cand_k"]),
+    }
+    head = ca.vertcat(*[new[k] for k in _HEAD])
+    x_new = ca.vertcat(head, ca.if_else(move, y_new, y), ca.if_else(move, f_new, f), atol, ca.if_else(better, y, cy))
+    one = ca.Function(f"attempt_{kind}", [x], [ca.cse(x_new)])
+    if K == 1:
+        return one
+    # K attempts in a loop (mapaccum keeps the graph one attempt long); only the last state comes out
+    acc = one.mapaccum(f"attempts_{kind}_acc", K)
+    xm = ca.MX.sym("x", n)
+    return ca.Function(f"attempts_{kind}", [xm], [acc(xm)[:, K - 1]])
 
 
 def _integrators(model: MembraneModel) -> _Integrators:
@@ -534,10 +695,28 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
         return result
 
     R_end = np.full(m, settings.max_radius_factor)
-    res = _int.integrate(fns.stepper(kind, m), np.full(m, R0), y0, R_end, rtol, atol,
-                         settings.max_steps, event=check)
+    small = shapes is None and m <= fns.small_batch_limit(kind, m)
+    if small:
+        res, cand = _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, settings.max_steps, formal, T0,
+                                        local_max_E, local_min_T, local_fail_R, local_code)
+    else:
+        res = _int.integrate(fns.stepper(kind, m), np.full(m, R0), y0, R_end, rtol, atol,
+                             settings.max_steps, event=check)
     steps[live] += res.steps
     code = np.where(res.status == _int.CROSSED, OK, local_code)
+    if small and cand is not None:
+        # the minima whose estimate came near zero, located exactly (what check() does within the loop)
+        idx, k, Ra, ya, hh, da, db = cand
+        exact = np.full(idx.size, np.inf)
+        for kk in (1, 2):
+            sel = k == kk
+            if sel.any():
+                exact[sel] = exact_min(idx[sel], kk, Ra[sel], ya[:, sel], hh[sel], da[sel], db[sel])
+        local_min_T[idx] = np.minimum(local_min_T[idx], exact)
+        if not formal:
+            wr = (exact <= 0) & (code[idx] == OK)
+            code[idx[wr]] = WRINKLED
+            local_fail_R[idx[wr]] = Ra[wr]
     code[res.status == _int.REACHED_END] = NO_CLAMP
     code[res.status == _int.STEP_LIMIT] = STEP_LIMIT
     code[(res.status >= _int.FAILED) & (local_code == 0)] = NOT_FINITE
@@ -594,6 +773,49 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
     max_field[live] = local_max_E
     if shapes is not None:
         _collect_shapes(trace, live, out, shapes, lam_clamp)
+
+
+def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal, T0, max_E, min_T, fail_R, code):
+    """Integrate a small batch with the attempt function, :data:`ATTEMPTS_PER_CALL` attempts per call, until
+    every trajectory stops. Fills ``min_T``, ``max_E``, ``fail_R`` and ``code`` in place and returns an
+    :class:`~coexist.integrate.IntegrationResult` and the steps whose tension minimum must be located
+    exactly (``(columns, tension, R_a, y_a, h, slope_a, slope_b)``, or None)."""
+    R, m = y0.shape
+    entry = fns.attempts(kind)
+    stepper = fns.stepper(kind, m)
+    t0 = np.full(m, float(R0))
+    f0 = stepper.rhs(t0, y0)
+    h0 = _int.initial_step(stepper.rhs, t0, y0, f0, np.ones(m), np.asarray(rtol)[None, :], atol)
+    o = len(_HEAD)
+    X = np.zeros((o + 4 * R, m))
+    H = _H
+    X[H["t"]], X[H["h"]], X[H["t_end"]], X[H["rtol"]] = t0, h0, R_end, rtol
+    X[H["max_steps"]], X[H["formal"]] = max_steps, 1.0 if formal else 0.0
+    X[H["Ra"]], X[H["T1a"]], X[H["T2a"]] = t0, T0, T0
+    X[H["minT"]], X[H["maxE"]], X[H["failR"]], X[H["cand_est"]] = min_T, max_E, np.nan, np.inf
+    X[o:o + R], X[o + R:o + 2 * R], X[o + 2 * R:o + 3 * R] = y0, f0, np.where(np.isfinite(atol), atol, 1e300)
+    active = np.arange(m)
+    while active.size:
+        n = active.size
+        fun = entry["maps"].get(n)
+        if fun is None:
+            fun = entry["maps"][n] = entry["fun"].map(n, "serial") if n > 1 else entry["fun"]
+        X[:, active] = fun(X[:, active]).full()
+        active = active[X[H["status"], active] == 0]
+    status = X[H["status"]].astype(int)
+    min_T[:] = X[H["minT"]]
+    max_E[:] = X[H["maxE"]]
+    failed = status >= _int.FAILED
+    code[failed] = status[failed]
+    fail_R[failed] = X[H["failR"]][failed]
+    res = _int.IntegrationResult(t=X[H["t"]].copy(), y=X[o:o + R].copy(), status=np.where(failed, _int.FAILED, status),
+                                 steps=X[H["steps"]].astype(int), t_previous=X[H["t"]].copy(), y_previous=X[o:o + R].copy())
+    has = np.flatnonzero(np.isfinite(X[H["cand_est"]]))
+    if has.size == 0:
+        return res, None
+    cand = (has, X[H["cand_k"], has].astype(int), X[H["cand_Ra"], has], X[o + 3 * R:o + 4 * R][:, has],
+            X[H["cand_h"], has], X[H["cand_da"], has], X[H["cand_db"], has])
+    return res, cand
 
 
 def _end_derivatives(fns, y_h, R_h, z_end, rtol, atol, settings, out, idx, steps, step_idx):
