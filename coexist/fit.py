@@ -76,19 +76,37 @@ def fit_zone_radius(scene: Scene, target_voltage: float, kind: str = "spinodal",
     top = a_max * 1e3
     gaps = np.geomspace(top - lo_mm, max(top - hi_mm, 1e-12), BRACKET_SAMPLES)
     radii = top - gaps
-    values, why = [], []
+    tried = {}
+    why = []
+
+    def value(a):
+        if a not in tried:
+            try:
+                tried[a] = f(a)
+            except CoexistError as exc:
+                tried[a] = None
+                why.append(f"{a:.4g} mm: {exc}")
+        return tried[a]
+
     for a in radii:
-        try:
-            values.append(f(a))
-        except CoexistError as exc:
-            values.append(None)
-            why.append(f"{a:.4g} mm: {exc}")
-    valid = [(a, v) for a, v in zip(radii, values) if v is not None]
-    for (a0, v0), (a1, v1) in zip(valid[:-1], valid[1:]):
-        if v0 == 0:
-            return a0 / 1e3
-        if v0 * v1 < 0:
-            return brentq(f, a0, a1, xtol=1e-9) / 1e3
+        value(a)
+    for _ in range(3):
+        valid = sorted((a, v) for a, v in tried.items() if v is not None)
+        for (a0, v0), (a1, v1) in zip(valid[:-1], valid[1:]):
+            if v0 == 0:
+                return a0 / 1e3
+            if v0 * v1 < 0:
+                return brentq(f, a0, a1, xtol=1e-9) / 1e3
+        # no bracket yet: where the transition starts to exist (a radius without one next to a radius
+        # with one), the transitions run furthest; sample there, closer each round
+        order = sorted(tried)
+        edges = [(a, b) for a, b in zip(order[:-1], order[1:]) if (tried[a] is None) != (tried[b] is None)]
+        if not edges:
+            break
+        for a, b in edges:
+            for frac in (0.25, 0.5, 0.75):
+                value(a + frac * (b - a))
+    valid = sorted((a, v) for a, v in tried.items() if v is not None)
     reach = (f"transitions between {min(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} and "
              f"{max(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} kV") if valid else "no transition at all"
     raise ModelRangeError(f"no zone radius in {lo_mm:.4g}..{hi_mm:.4g} mm puts the {kind} transition at "

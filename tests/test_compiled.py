@@ -1,0 +1,54 @@
+"""The compiled attempt functions: the same numbers as CasADi's virtual machine, a disk cache that is
+keyed by the generated source, and a switch that turns compilation off."""
+
+import numpy as np
+import pytest
+
+from coexist import compiled as C
+from coexist.model import build_model
+from coexist.shooting import _Integrators, attempt_function, solve_states
+
+
+def test_compiled_function_equals_the_virtual_machine(tmp_path, monkeypatch):
+    monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
+    model = build_model("gent", 97.0)
+    fun = attempt_function(model, "radius", 9, K=2)
+    fast = C.compiled(fun, "coexist_test_attempts")
+    if fast is None:
+        pytest.skip(f"no compiled code on this machine: {C.STATUS['last']}")
+    assert C.STATUS["last"] == "compiled" and len(list(tmp_path.glob("coexist_test_attempts-*.so"))) == 1
+    x = np.random.default_rng(1).uniform(0.5, 1.5, (fun.size1_in(0), 3))
+    x[4] = 0  # status: active
+    np.testing.assert_allclose(fast(x).full(), fun(x).full(), rtol=1e-13, atol=1e-300)
+    # a second process (here: a second call) finds it in the cache, without compiling
+    again = C.compiled(fun, "coexist_test_attempts", cached_only=True)
+    assert again is not None and C.STATUS["last"] == "cached"
+
+
+def test_compilation_can_be_turned_off(monkeypatch, tmp_path):
+    monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
+    monkeypatch.setenv("COEXIST_COMPILE", "0")
+    fun = attempt_function(build_model("neo-hookean"), "radius", 9, K=2)
+    assert C.compiled(fun, "coexist_off") is None and "turned off" in C.STATUS["last"]
+    assert not list(tmp_path.iterdir())
+
+
+def test_states_do_not_depend_on_the_path_taken(monkeypatch, tmp_path):
+    """Small batches in the virtual machine, the compiled attempt function, and large batches in numpy:
+    the same statuses and the same states (1e-12)."""
+    monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
+    model = build_model("gent", 97.0)
+    l0 = np.linspace(1.05, 6.8, 12)
+    phi = np.linspace(0.0, 0.32, 12)
+    big = solve_states(model, np.tile(l0, 30), np.tile(phi, 30), derivatives=True)  # 360 > every small limit
+    vm = solve_states(model, l0, phi, derivatives=True)
+    fns = model._built["integrators"]
+    assert isinstance(fns, _Integrators)
+    for _ in range(20):  # past COMPILE_AFTER uses: compiled from here on where a compiler exists
+        solve_states(model, l0[:2], phi[:2], derivatives=True)
+    fast = solve_states(model, l0, phi, derivatives=True)
+    for st in (vm, fast):
+        np.testing.assert_array_equal(st.status, big.status[:12])
+        ok = st.ok
+        np.testing.assert_allclose(st.p_hat[ok], big.p_hat[:12][ok], rtol=1e-12)
+        np.testing.assert_allclose(st.derivatives.dv_dl0[ok], big.derivatives.dv_dl0[:12][ok], rtol=1e-10)
