@@ -39,9 +39,10 @@ class DirectFamily:
 
 
 def bench_ramp():
+    from coexist.simulate import closed_gas, prepare, simulate_ramp
+
     from coexist.ramp import run_ramp
     from coexist.scene import load_scene
-    from coexist.simulate import closed_gas, prepare, simulate_ramp
 
     scene = load_scene("tricircle")
     prepare(scene)  # warm-up (imports, CasADi model build)

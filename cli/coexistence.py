@@ -80,11 +80,13 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
         if not o["stable_ranges"]:
             click.echo(f"  never stable: {o.get('note', '')}")
         for g in o["stable_ranges"]:
-            which = "" if g["configuration"] == f"{o['bulged_zones']} of {o['zones']} bulged" else f" [{g['configuration']}]"
+            plain = f"{o['bulged_zones']} of {o['zones']} bulged"
+            which = "" if g["configuration"] == plain else f" [{g['configuration']}]"
             click.echo(f"  stable from {format_voltage(g['from_kV'], g['from_error_kV'])} ({g['from_event']}) "
                        f"to {format_voltage(g['to_kV'], g['to_error_kV'])} ({g['to_event']}){which}")
         for e in o["equal_free_energy"]:
-            click.echo(f"  equal free energy with the homogeneous state at {format_voltage(e['voltage_kV'], e['voltage_error_kV'])}:"
+            at = format_voltage(e["voltage_kV"], e["voltage_error_kV"])
+            click.echo(f"  equal free energy with the homogeneous state at {at}:"
                        f" {e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "
                        f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {e['bulged_volume_ml']:.4f} ml "
                        f"(λ0 {e['bulged_pole_stretch']:.4f})")

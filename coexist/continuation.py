@@ -331,6 +331,17 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
     return out
 
 
+def solve_at_voltage(tracer: Tracer, z_guess, phi: float, loose: bool = False, chord: bool = False) -> Corrected:
+    """Newton's method at a fixed voltage ``Φ̂`` from ``z_guess`` (its voltage entry is replaced)."""
+    M = tracer.M
+    z = np.array(z_guess, dtype=float, copy=True)
+    z[M] = phi * tracer.w
+    n = np.zeros(M + 1)
+    n[M] = 1.0
+    return correct(tracer.system, z[None, :], n[None, :], np.array([phi * tracer.w]), tracer.w, loose=loose,
+                   chord=chord)
+
+
 def _gather(items):
     """One :class:`Residual` made of rows of several (each item ``(res, row, _)``)."""
     from .equilibria import GroupStates, Residual
@@ -501,7 +512,8 @@ class Tracer:
             new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
             found = self._events_between(cur, new)
             if getattr(self, "stable_only", False):
-                stop = [e for e in found if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")]
+                stop = [e for e in found
+                        if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")]
                 if stop:
                     end = min(stop, key=lambda e: e.s)
                     events.extend(e for e in found if e.s < end.s)
@@ -972,11 +984,8 @@ class StableSegment:
         there is converged (loosely) from its interpolation and compared with ``eq``."""
         if eq.configuration.counts != self.configuration.counts or not self.contains(eq.phi_hat, 1e-12):
             return False
-        w, M = self.tracer.w, self.tracer.M
-        z = self.predict(eq.phi_hat)
-        n = np.zeros(M + 1)
-        n[M] = 1.0
-        corr = correct(self.tracer.system, z[None, :], n[None, :], np.array([eq.phi_hat * w]), w, loose=True)
+        M = self.tracer.M
+        corr = solve_at_voltage(self.tracer, self.predict(eq.phi_hat), eq.phi_hat, loose=True)
         if not corr.ok[0]:
             return False
         u = np.sort(corr.z[0, :M])

@@ -424,7 +424,8 @@ def zone_index(model, u, phi, settings, samples: int = 64) -> int:
         x = np.atleast_1d(np.asarray(x, dtype=float))
         s = solve_states(model, model.prestretch + x * x, phi, settings, derivatives=True)
         good = s.ok
-        return (np.where(good, s.derivatives.dv_dl0 * 2 * x, np.nan), np.where(good, s.derivatives.dp_dl0 * 2 * x, np.nan))
+        d = s.derivatives
+        return np.where(good, d.dv_dl0 * 2 * x, np.nan), np.where(good, d.dp_dl0 * 2 * x, np.nan)
 
     return fold_index(slopes, u, samples)
 

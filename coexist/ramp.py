@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .continuation import Event, EquilibriumMap, StableSegment
+from .continuation import EquilibriumMap, Event, StableSegment
 from .equilibria import Configuration, Equilibrium, merged, zone_index_on_curve
 from .errors import ModelRangeError, SolverError
 
@@ -274,8 +274,9 @@ class Ramp:
             du = 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12)
             counts_end, u_end, status, snaps = gradient_flow(curve, self.emap.gas, counts, u + du)
             if snaps:
-                mode += f"; on the way {len(snaps)} zone{'s' if len(snaps) > 1 else ''} snapped at fixed volume " \
-                        f"past a volume fold (pole stretch {', '.join(f'{1 + a*a:.4g} -> {1 + b*b:.4g}' for a, b in snaps)})"
+                where = ", ".join(f"{1 + a * a:.4g} -> {1 + b * b:.4g}" for a, b in snaps)
+                mode += (f"; on the way {len(snaps)} zone{'s' if len(snaps) > 1 else ''} snapped at fixed volume "
+                         f"past a volume fold (pole stretch {where})")
             if status == "volume_fold":
                 return Landing(None, None, f"a zone of {seg.label} reaches its largest volume (a volume fold of "
                                            "its curve): past it no axisymmetric state is stable", mode)
@@ -301,15 +302,12 @@ class Ramp:
         raise SolverError(f"jump from {seg.label} at Φ̂ = {phi_e:.10g}: {last_err or 'no landing found'}")
 
     def _polish(self, conf: Configuration, u, phi) -> Equilibrium | None:
-        from .continuation import correct
+        from .continuation import solve_at_voltage
         from .equilibria import make_equilibrium
 
         tr = self.emap.tracer(conf.counts)
         M = conf.groups
-        z = np.concatenate([u, [phi * tr.w]])
-        n = np.zeros(M + 1)
-        n[M] = 1.0
-        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
+        corr = solve_at_voltage(tr, np.concatenate([u, [0.0]]), phi)
         if not corr.ok[0]:
             return None
         eq = make_equilibrium(tr.system, corr.res, corr.rows[0])

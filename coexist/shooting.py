@@ -68,27 +68,62 @@ REASONS = {
 }
 
 
-def hermite_minimum(xa, ya, da, xb, yb, db):
+class _NumpyOps:
+    """The few operations :func:`_hermite_min` needs, for numpy arrays."""
+
+    fmin, fmax = staticmethod(np.minimum), staticmethod(np.maximum)
+    sqrt, fabs = staticmethod(np.sqrt), staticmethod(np.abs)
+
+    @staticmethod
+    def where(cond, a, b):
+        return np.where(cond, a, b)
+
+    @staticmethod
+    def both(a, b):
+        return a & b
+
+
+class _CasadiOps:
+    """The same operations for CasADi expressions (imported only when an attempt function is built)."""
+
+    def __init__(self):
+        import casadi as ca
+
+        self.fmin, self.fmax, self.sqrt, self.fabs, self.where = ca.fmin, ca.fmax, ca.sqrt, ca.fabs, ca.if_else
+
+    @staticmethod
+    def both(a, b):
+        return a * b
+
+
+def _hermite_min(ops, xa, ya, da, xb, yb, db):
     """Smallest value on ``[xa, xb]`` of the cubic Hermite interpolant with values ``ya, yb`` and slopes
-    ``da, db`` at the ends (vectorised): the ends, and the interior stationary points that are minima.
-    Used to refine a tension's minimum between two integration nodes (error O(h⁴))."""
-    with np.errstate(all="ignore"):
-        h = xb - xa
-        # p(s) on s in [0, 1]: p'(s) = A s² + B s + C
-        A = 6 * (ya - yb) + 3 * h * (da + db)
-        B = -6 * (ya - yb) - 4 * h * da - 2 * h * db
-        C = h * da
-        disc = B * B - 4 * A * C
-        sq = np.sqrt(np.maximum(disc, 0.0))
-        best = np.minimum(ya, yb)
-        for sgn in (-1.0, 1.0):
-            s = np.where(np.abs(A) > 1e-300, (-B + sgn * sq) / (2 * A), -C / np.where(B != 0, B, 1.0))
-            ok = (disc >= 0) & (s > 0) & (s < 1) & np.isfinite(s)
-            s2, s3 = s * s, s * s * s
-            p = (ya * (2 * s3 - 3 * s2 + 1) + h * da * (s3 - 2 * s2 + s) + yb * (-2 * s3 + 3 * s2)
-                 + h * db * (s3 - s2))
-            best = np.where(ok & (p < best), p, best)
+    ``da, db`` at the ends: the ends, and the interior stationary points that are minima. In ``s`` on
+    ``[0, 1]``, ``p'(s) = A s² + B s + C`` with the coefficients below. Written once for numpy
+    (:func:`hermite_minimum`) and for CasADi (the attempt function), through ``ops``."""
+    h = xb - xa
+    A = 6 * (ya - yb) + 3 * h * (da + db)
+    B = -6 * (ya - yb) - 4 * h * da - 2 * h * db
+    C = h * da
+    disc = B * B - 4 * A * C
+    sq = ops.sqrt(ops.fmax(disc, 0.0))
+    flat = ops.fabs(A) <= 1e-300
+    best = ops.fmin(ya, yb)
+    for sgn in (-1.0, 1.0):
+        # a vanishing A leaves the linear root -C/B (the guards keep both branches finite)
+        s = ops.where(flat, -C / (B + (B == 0)), (-B + sgn * sq) / (2 * A + flat))
+        ok = ops.both(ops.both(disc >= 0, s > 0), s < 1)
+        s2, s3 = s * s, s * s * s
+        p = ya * (2 * s3 - 3 * s2 + 1) + h * da * (s3 - 2 * s2 + s) + yb * (-2 * s3 + 3 * s2) + h * db * (s3 - s2)
+        best = ops.where(ops.both(ok, p < best), p, best)
     return best
+
+
+def hermite_minimum(xa, ya, da, xb, yb, db):
+    """:func:`_hermite_min` on numpy arrays (vectorised): refines a tension's minimum between two
+    integration nodes (error O(h⁴))."""
+    with np.errstate(all="ignore"):
+        return _hermite_min(_NumpyOps, *(np.asarray(v, dtype=float) for v in (xa, ya, da, xb, yb, db)))
 
 
 def first_valid_run(ok) -> slice:
@@ -347,25 +382,6 @@ _HEAD = ("t", "h", "t_end", "rtol", "status", "steps", "max_steps", "formal",
 _H = {k: i for i, k in enumerate(_HEAD)}
 
 
-def _sx_hermite_minimum(ca, xa, ya, da, xb, yb, db):
-    """:func:`hermite_minimum` as a CasADi expression (interior stationary points that are minima)."""
-    h = xb - xa
-    A = 6 * (ya - yb) + 3 * h * (da + db)
-    B = -6 * (ya - yb) - 4 * h * da - 2 * h * db
-    C = h * da
-    disc = B * B - 4 * A * C
-    sq = ca.sqrt(ca.fmax(disc, 0))
-    best = ca.fmin(ya, yb)
-    for sgn in (-1.0, 1.0):
-        s = ca.if_else(ca.fabs(A) > 1e-300, (-B + sgn * sq) / (2 * A + (ca.fabs(A) <= 1e-300)),
-                       -C / (B + (B == 0)))
-        ok = (disc >= 0) * (s > 0) * (s < 1)
-        s2, s3 = s * s, s * s * s
-        p = ya * (2 * s3 - 3 * s2 + 1) + h * da * (s3 - 2 * s2 + s) + yb * (-2 * s3 + 3 * s2) + h * db * (s3 - s2)
-        best = ca.if_else(ok * (p < best), p, best)
-    return best
-
-
 def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMPTS_PER_CALL):
     """``K`` DOP853 attempts of one trajectory as one CasADi function of its packed state.
 
@@ -384,6 +400,7 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     rhs = fns._casadi_rhs(kind)
     step = _int.casadi_step_function(rhs, rows, f"dop853_{kind}")
     aux = model.casadi_functions["aux"]
+    ops = _CasadiOps()
     R = rows
     n = len(_HEAD) + 4 * R
     x = ca.SX.sym("x", n)
@@ -420,7 +437,7 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     ests = []
     for k, (Ta, da, T, d) in enumerate(((g["T1a"], g["d1a"], T1, d1), (g["T2a"], g["d2a"], T2, d2)), start=1):
         interior = (da < 0) * (d > 0)
-        e = _sx_hermite_minimum(ca, g["Ra"], Ta, da, t_new, T, d)
+        e = _hermite_min(ops, g["Ra"], Ta, da, t_new, T, d)
         ests.append((k, ca.if_else(interior * (e < ca.fmin(Ta, T)), e, inf), da, d))
     e_min = ca.fmin(ests[0][1], ests[1][1])
     near = e_min < REFINE_MINIMUM_BELOW
@@ -808,8 +825,9 @@ def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal,
     failed = status >= _int.FAILED
     code[failed] = status[failed]
     fail_R[failed] = X[H["failR"]][failed]
-    res = _int.IntegrationResult(t=X[H["t"]].copy(), y=X[o:o + R].copy(), status=np.where(failed, _int.FAILED, status),
-                                 steps=X[H["steps"]].astype(int), t_previous=X[H["t"]].copy(), y_previous=X[o:o + R].copy())
+    res = _int.IntegrationResult(t=X[H["t"]].copy(), y=X[o:o + R].copy(),
+                                 status=np.where(failed, _int.FAILED, status), steps=X[H["steps"]].astype(int),
+                                 t_previous=X[H["t"]].copy(), y_previous=X[o:o + R].copy())
     has = np.flatnonzero(np.isfinite(X[H["cand_est"]]))
     if has.size == 0:
         return res, None

@@ -132,8 +132,9 @@ class Simulation:
             p_close = scene.p_hat(scene.controlled_pressure)
             field_name = "[zones].pressure"
             if not p_close < p_max:
-                raise SceneError(f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar (p̂ = {p_close:.4g}): "
-                                 f"it is at or above their snap-through pressure p̂max = {p_max:.4g}", field_name)
+                raise SceneError(f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar "
+                                 f"(p̂ = {p_close:.4g}): it is at or above their snap-through pressure "
+                                 f"p̂max = {p_max:.4g}", field_name)
         else:
             raise SceneError("this computation needs a [chamber] (a gas the zones share) or a controlled "
                              "pressure [zones].pressure_mbar", "[chamber]")
@@ -197,7 +198,8 @@ class Simulation:
             if t.kind == "equal_free_energy":
                 seg_a, seg_b = t.segments
                 crossing = _tight_crossing(t, seg_a, seg_b, tight_map)
-                t.phi_hat_error = max(t.phi_hat_error, 0.0) + crossing + error_floor(t.phi_hat, self.scene.settings.rtol)
+                floor = error_floor(t.phi_hat, self.scene.settings.rtol)
+                t.phi_hat_error = max(t.phi_hat_error, 0.0) + crossing + floor
                 t.measured = True
                 continue
             ev = getattr(t, "source", None)
@@ -238,8 +240,6 @@ class Simulation:
         traced). Configurations: homogeneous and ``(N − k, k)`` for ``k`` in ``bulged``."""
         from .branches import ZoneCurve
         from .candidates import candidate_equilibria
-        from .continuation import correct
-        from .equilibria import make_equilibrium
 
         lo, hi = self.phi_window
         pre = self.model.prestretch
@@ -255,19 +255,9 @@ class Simulation:
             except ModelRangeError:
                 continue
             for cand in candidate_equilibria(curve, self.gas, self.scene.zone_count, bulged):
-                tr = self.emap.tracer(cand.counts)
-                M = len(cand.counts)
-                z = np.concatenate([cand.u, [phi * tr.w]])
-                nrm = np.zeros(M + 1)
-                nrm[M] = 1.0
-                corr = correct(tr.system, z[None, :], nrm[None, :], np.array([phi * tr.w]), tr.w)
-                if not corr.ok[0]:
+                eq = converge_candidate(self.emap, cand, curve)
+                if eq is None:
                     continue
-                eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
-                if np.any(np.diff(np.sort(np.sqrt(np.asarray(eq.pole_stretch) - pre))) < 1e-6):
-                    continue  # collapsed onto a coarser configuration
-                
-                eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
                 if not eq.stable or self.emap.find(eq) is not None:
                     continue
                 try:
@@ -341,7 +331,8 @@ class Simulation:
 
             def crossings():
                 segs = [s for s in self.emap.segments if s.configuration.counts == one]
-                return [c for c in equal_free_energy([start] + segs) if {c.from_label, c.to_label} == {"homogeneous", label}]
+                return [c for c in equal_free_energy([start] + segs)
+                        if {c.from_label, c.to_label} == {"homogeneous", label}]
 
             found = crossings()
             if not found:
@@ -368,8 +359,6 @@ def equilibria_on_gas(model, gas, zones: int, phi: float, settings: SolverSettin
     """
     from .branches import ZoneCurve
     from .candidates import candidate_equilibria
-    from .continuation import correct
-    from .equilibria import make_equilibrium
 
     emap = emap or EquilibriumMap(model, gas, zones, settings, (phi, phi))
     pre = model.prestretch
@@ -377,18 +366,9 @@ def equilibria_on_gas(model, gas, zones: int, phi: float, settings: SolverSettin
     curve = ZoneCurve.compute(model, phi, pre + u**2, settings)
     out = []
     for cand in candidate_equilibria(curve, gas, zones, bulged):
-        tr = emap.tracer(cand.counts)
-        M = len(cand.counts)
-        z = np.concatenate([cand.u, [phi * tr.w]])
-        n = np.zeros(M + 1)
-        n[M] = 1.0
-        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w)
-        if not corr.ok[0]:
+        eq = converge_candidate(emap, cand, curve)
+        if eq is None:
             continue
-        if np.any(np.diff(np.sort(corr.z[0, :M])) < 1e-6):
-            continue  # collapsed onto a coarser configuration (found on its own)
-        eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
-        eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
         if any(e.configuration == eq.configuration and np.allclose(e.pole_stretch, eq.pole_stretch, rtol=1e-7)
                for e in out):
             continue
@@ -396,19 +376,31 @@ def equilibria_on_gas(model, gas, zones: int, phi: float, settings: SolverSettin
     return sorted(out, key=lambda e: (e.configuration.bulged, e.free_energy))
 
 
+def converge_candidate(emap: EquilibriumMap, cand, curve) -> Equilibrium | None:
+    """The exact equilibrium a first guess (:class:`~coexist.candidates.Candidate`) converges to at its
+    voltage, with each zone's index counted on ``curve``; None if Newton fails or the groups collapse onto
+    a coarser configuration (that one is found on its own)."""
+    from .continuation import solve_at_voltage
+    from .equilibria import make_equilibrium
+
+    tr = emap.tracer(cand.counts)
+    M = len(cand.counts)
+    corr = solve_at_voltage(tr, np.concatenate([cand.u, [0.0]]), cand.phi_hat)
+    if not corr.ok[0] or np.any(np.diff(np.sort(corr.z[0, :M])) < 1e-6):
+        return None
+    eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
+    eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
+    return eq
+
+
 def _tight_crossing(t: Transition, A: StableSegment, B: StableSegment, tight_map: EquilibriumMap) -> float:
     """The change of an equal-free-energy voltage when both states are converged at the tighter tolerance."""
-    from .continuation import correct
+    from .continuation import solve_at_voltage
     from .equilibria import make_equilibrium
 
     def tight_state(seg, phi):
         tr = tight_map.tracer(seg.configuration.counts)
-        z = seg.predict(phi)
-        M = tr.M
-        n = np.zeros(M + 1)
-        n[M] = 1.0
-        z[M] = phi * tr.w
-        corr = correct(tr.system, z[None, :], n[None, :], np.array([phi * tr.w]), tr.w, chord=True)
+        corr = solve_at_voltage(tr, seg.predict(phi), phi, chord=True)
         if not corr.ok[0]:
             raise SolverError(f"{seg.label}: no state at Φ̂ = {phi:.10g} at the tighter tolerance")
         return make_equilibrium(tr.system, corr.res, corr.rows[0])

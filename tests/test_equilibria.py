@@ -63,7 +63,8 @@ def test_gas_law_and_reservoir():
         GasChamber(-1.0, 50.0, 2.0)
 
 
-@pytest.mark.parametrize("counts, u, phi", [((3,), [0.9], 0.2), ((2, 1), [0.6, 2.1], 0.22), ((1, 1, 2), [0.5, 1.2, 2.0], 0.1)])
+@pytest.mark.parametrize("counts, u, phi", [((3,), [0.9], 0.2), ((2, 1), [0.6, 2.1], 0.22),
+                                           ((1, 1, 2), [0.5, 1.2, 2.0], 0.1)])
 def test_residual_jacobian_is_the_derivative_of_the_residual(counts, u, phi):
     """Every column of the exact Jacobian (variational equations, chain rule through the gas and the
     divided differences) against five-point differences of the residual itself (rtol 1e-12 states)."""

@@ -31,6 +31,7 @@ from scipy.optimize import brentq
 from coexist.branches import ZoneCurve
 from coexist.coexistence import maxwell_coexistence, phase_diagram
 from coexist.curves import pressure_volume_curve, voltage_at_pressure, voltage_charge_curve
+from coexist.equilibria import GasChamber, PressureReservoir
 from coexist.errors import CoexistError, ModelRangeError, SceneError
 from coexist.model import QUADRATURE_FACTORS, build_model
 from coexist.scene import parse_scene
@@ -47,7 +48,6 @@ from coexist.shooting import (
     reason_text,
     solve_states,
 )
-from coexist.equilibria import GasChamber, PressureReservoir
 from coexist.simulation import Simulation, equilibria_on_gas, simulate_ramp
 
 TIGHT = SolverSettings(rtol=1e-12)

@@ -21,17 +21,16 @@ import math
 import signal
 
 import numpy as np
-from scipy.optimize import brentq
 import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
+from scipy.optimize import brentq
 
-from coexist.branches import ZoneCurve
+from coexist.equilibria import GasChamber
 from coexist.errors import ModelRangeError
 from coexist.model import build_model
 from coexist.settings import SolverSettings
 from coexist.shooting import LOCKED, OK, REASONS, WRINKLED_AT_POLE, reason_tag, reason_text, solve_states
-from coexist.equilibria import GasChamber
 from coexist.simulation import equilibria_on_gas
 
 TIGHT = SolverSettings(rtol=1e-12)
