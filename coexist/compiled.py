@@ -48,10 +48,31 @@ def _compiler() -> str | None:
     return shutil.which(cc) or shutil.which("gcc") or shutil.which("clang")
 
 
-def compiled(fun, name: str, cached_only: bool = False):
+def library_path(name: str, key: str) -> Path:
+    """Where the library ``name`` with cache key ``key`` lives (whether it exists or not)."""
+    return cache_dir() / f"{name}-{key}.so"
+
+
+def load_cached(name: str, key: str, function_name: str):
+    """The library ``name`` under ``key`` if a process has compiled it before, else None (no source is
+    generated: the key stands for it)."""
+    import casadi as ca
+
+    lib = library_path(name, key)
+    if not enabled() or not lib.exists():
+        return None
+    try:
+        STATUS["last"] = "cached"
+        return ca.external(function_name, str(lib))
+    except RuntimeError:
+        return None
+
+
+def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
     """``fun`` (a CasADi ``Function``) compiled to a shared library and loaded, or None when compiling is
     off, no compiler is found, or it fails (:data:`STATUS` says which). ``cached_only``: load it if the
-    cache has it, never compile (generating the source to find its key costs ~10 ms)."""
+    cache has it, never compile. ``key``: the cache key (default: the SHA-256 of the generated source
+    with the compiler, its flags and CasADi's version)."""
     import casadi as ca
 
     if not enabled():
@@ -68,10 +89,11 @@ def compiled(fun, name: str, cached_only: bool = False):
         cg.add(fun)
         src_path = Path(cg.generate(str(work) + os.sep))
         source = src_path.read_bytes()
-        key = hashlib.sha256(source + " ".join((cc, *FLAGS, ca.__version__)).encode()).hexdigest()[:20]
+        if key is None:
+            key = hashlib.sha256(source + " ".join((cc, *FLAGS, ca.__version__)).encode()).hexdigest()[:20]
         root = cache_dir()
         root.mkdir(parents=True, exist_ok=True)
-        lib = root / f"{name}-{key}.so"
+        lib = library_path(name, key)
         if lib.exists():
             STATUS["last"] = "cached"
         elif cached_only:

@@ -125,78 +125,6 @@ class Branch:
     def configuration(self) -> Configuration:
         return self.system.configuration
 
-    def stable_segments(self) -> list:
-        """Maximal runs of stable points, each with its bounding events (``Segment``)."""
-        out = []
-        pts = self.points
-        i = 0
-        while i < len(pts):
-            if not pts[i].stable:
-                i += 1
-                continue
-            j = i
-            while j + 1 < len(pts) and pts[j + 1].stable and not self._stability_event_between(j):
-                j += 1
-            lo = self._bounding_event(i, -1)
-            hi = self._bounding_event(j, +1)
-            out.append(Segment(self, i, j, lo, hi))
-            i = j + 1
-        return out
-
-    def _stability_event_between(self, i) -> bool:
-        return any(e.s > self.points[i].s and e.s < self.points[i + 1].s and e.stable_before != e.stable_after
-                   for e in self.events)
-
-    def _bounding_event(self, i, side):
-        """The event that ends the stable run at point ``i`` on ``side`` (−1: lower s, +1: higher s)."""
-        s0 = self.points[i].s
-        if side > 0:
-            nxt = self.points[i + 1].s if i + 1 < len(self.points) else np.inf
-            cands = [e for e in self.events if s0 < e.s <= nxt and e.stable_before and not e.stable_after]
-            if not cands and i + 1 >= len(self.points):
-                return self.ends[1]
-            return min(cands, key=lambda e: e.s) if cands else None
-        prv = self.points[i - 1].s if i > 0 else -np.inf
-        cands = [e for e in self.events if prv <= e.s < s0 and e.stable_after and not e.stable_before]
-        if not cands and i == 0:
-            return self.ends[0]
-        return max(cands, key=lambda e: e.s) if cands else None
-
-
-@dataclass
-class Segment:
-    """A stable piece of a branch: points ``first..last`` and the events that bound it."""
-
-    branch: Branch
-    first: int
-    last: int
-    low: Event | None
-    high: Event | None
-
-    @property
-    def points(self) -> list:
-        return self.branch.points[self.first:self.last + 1]
-
-    @property
-    def phi_range(self) -> tuple:
-        """``(Φ̂min, Φ̂max)`` over the segment including its bounding events."""
-        phis = [p.phi for p in self.points]
-        for e in (self.low, self.high):
-            if isinstance(e, Event):
-                phis.append(e.phi_hat)
-        return min(phis), max(phis)
-
-    def end_at(self, direction: int):
-        """The bounding event reached when the voltage moves in ``direction`` (+1 up, −1 down)."""
-        pts = self.points
-        rising = pts[-1].phi >= pts[0].phi if len(pts) > 1 else (
-            (self.high.phi_hat if isinstance(self.high, Event) else np.inf) >= pts[0].phi)
-        return self.high if (direction > 0) == rising else self.low
-
-    @property
-    def configuration(self) -> Configuration:
-        return self.points[0].eq.configuration
-
 
 # --- the corrector --------------------------------------------------------------------------------
 @dataclass
@@ -701,16 +629,6 @@ class Tracer:
         if L <= 0 or h > 2 * L:
             return cur.z + h * cur.tangent
         return hermite(prev.z, prev.tangent, cur.z, cur.tangent, 1.0 + h / L)
-
-    def _end_ahead(self, prev, cur, h) -> bool:
-        """Does the smallest tension, extrapolated from the last two points, vanish within the step?"""
-        if prev is None:
-            return True
-        t1, t0 = min(cur.eq.min_tension), min(prev.eq.min_tension)
-        ds = cur.s - prev.s
-        if ds <= 0 or t1 >= t0:
-            return h < 1e-3
-        return t1 / ((t0 - t1) / ds) < 2 * h
 
     def _range_end(self, prev, cur: Point, h, failure):
         """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or

@@ -89,6 +89,10 @@ class RampResult:
 
 
 # --- the jump ----------------------------------------------------------------------------------------
+#: points of the zone curve a jump's gradient flow runs on (it only decides the basin; the landing state
+#: is then solved exactly)
+JUMP_CURVE_POINTS = 160
+
 @dataclass
 class Landing:
     """Where a jump ends: a stable equilibrium (and its segment), or None with the reason."""
@@ -213,7 +217,7 @@ class Ramp:
         key = round(phi, 15)
         if key not in self._curves:
             pre = self.emap.model.prestretch
-            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), 240)
+            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), JUMP_CURVE_POINTS)
             self._curves[key] = ZoneCurve.compute(self.emap.model, abs(phi), pre + u**2, self.emap.settings)
         return self._curves[key]
 
@@ -227,7 +231,7 @@ class Ramp:
         if end.kind == "split":
             # the group at its pressure extremum: one of its zones inflates, the others deflate (the
             # antisymmetric mode that keeps the group's volume; it leads to one zone bulging)
-            j = _group_of(end, eq, self.emap.model)
+            j = _group_of(eq)
             nj = counts[j]
             counts[j:j + 1] = [nj - 1, 1]
             u[j:j + 1] = [u[j], u[j]]
@@ -292,7 +296,7 @@ class Ramp:
             if eq is None:
                 last_err = f"no exact equilibrium of {conf.label} near the flow's end at Φ̂ = {phi_f:.8g}"
                 continue
-            if _same_state(eq, end.eq, self.emap.model) and end.kind != "merge":
+            if _same_state(eq, end.eq) and end.kind != "merge":
                 continue  # still in the lost state's basin on the interpolated curve: go further
             if not eq.stable:
                 last_err = f"the flow ended on {eq.label}, which is not stable on the exact equations"
@@ -380,9 +384,15 @@ class Ramp:
                     cur = phi_end
                     continue
                 kind = "merge" if end.kind == "merge" else "spinodal"
+                after = land.state
+                if land.segment.contains(phi_end):  # the landing state at the transition voltage itself
+                    try:
+                        after = land.segment.states([phi_end])[0]
+                    except SolverError:
+                        pass
                 transitions.append(Transition(phi_end, kind, seg.label, land.segment.label, label_dir, end.kind,
                                               end.error, _loss_reason(end), land.mode, state_before=end.eq,
-                                              state_after=land.state, source=end,
+                                              state_after=after, source=end,
                                               source_counts=seg.tracer.system.configuration.counts))
                 seg = land.segment
                 cur = phi_end
@@ -422,7 +432,7 @@ def _loss_reason(end: Event) -> str:
             "merge": "the groups meet (a symmetric branch point)"}.get(end.kind, end.note)
 
 
-def _group_of(end: Event, eq: Equilibrium, model) -> int:
+def _group_of(eq: Equilibrium) -> int:
     """The group (in ``eq``'s order) that sits at its pressure extremum at a split event."""
     counts = eq.configuration.counts
     cands = [j for j, n in enumerate(counts) if n >= 2]
@@ -445,7 +455,7 @@ def _merge_loose(conf: Configuration, u, tol):
     return Configuration(tuple(counts)), np.asarray(us)
 
 
-def _same_state(a: Equilibrium, b: Equilibrium, model) -> bool:
+def _same_state(a: Equilibrium, b: Equilibrium) -> bool:
     if a.configuration.counts != b.configuration.counts:
         return False
     return bool(np.max(np.abs(np.asarray(a.pole_stretch) - np.asarray(b.pole_stretch))) < 1e-3)

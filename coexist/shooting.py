@@ -316,18 +316,20 @@ class _Integrators:
         """The attempt function (:func:`attempt_function`) for ``kind``: CasADi's virtual machine at first,
         compiled machine code (:mod:`coexist.compiled`) from the :data:`COMPILE_AFTER`-th use in a process
         on (a model used that often is worth the one-time compilation; it is cached on disk)."""
-        from .compiled import compiled
+        from .compiled import compiled, load_cached
 
         entry = self._casadi.setdefault(("attempts", kind), {"fun": None, "uses": 0, "compiled": False, "maps": {}})
+        name, key = f"coexist_attempts_{kind}", _attempts_key(self.model, kind)
         if entry["fun"] is None:
-            rows = {"radius": 9, "radius_sens": 19}[kind]
-            entry["fun"] = attempt_function(self.model, kind, rows)
-            fast = compiled(entry["fun"], f"coexist_attempts_{kind}", cached_only=True)
-            if fast is not None:  # compiled by an earlier process
+            fast = load_cached(name, key, f"attempts_{kind}")
+            if fast is not None:  # compiled by an earlier process: no symbolic graph to build at all
                 entry["fun"], entry["fast"], entry["compiled"] = fast, True, True
+            else:
+                rows = {"radius": 9, "radius_sens": 19}[kind]
+                entry["fun"] = attempt_function(self.model, kind, rows)
         entry["uses"] += 1
         if not entry["compiled"] and entry["uses"] >= COMPILE_AFTER:
-            fast = compiled(entry["fun"], f"coexist_attempts_{kind}")
+            fast = compiled(entry["fun"], name, key=key)
             entry["compiled"] = True  # tried (whether it worked or not)
             if fast is not None:
                 entry["fun"], entry["maps"], entry["fast"] = fast, {}, True
@@ -408,6 +410,8 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     o = len(_HEAD)
     y, f, atol, cy = x[o:o + R], x[o + R:o + 2 * R], x[o + 2 * R:o + 3 * R], x[o + 3 * R:o + 4 * R]
     t, h = g["t"], g["h"]
+    # the first attempt of a trajectory computes the derivative at its start (the caller leaves it unset)
+    f = ca.if_else(g["steps"] == 0, rhs(t, y), f)
     active = g["status"] == 0
     span = g["t_end"] - t
     last = h >= span
@@ -481,6 +485,29 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     acc = one.mapaccum(f"attempts_{kind}_acc", K)
     xm = ca.MX.sym("x", n)
     return ca.Function(f"attempts_{kind}", [xm], [acc(xm)[:, K - 1]])
+
+
+_SOURCE_DIGEST: dict = {}
+
+
+def _attempts_key(model: MembraneModel, kind: str) -> str:
+    """The cache key of a model's compiled attempt function: what the model is (effects, parameters),
+    which function, the settings baked into it, the library's own source files that generate it and the
+    CasADi version — so that a library is reused exactly when it would be generated the same again."""
+    import hashlib
+    from pathlib import Path
+
+    import casadi as ca
+
+    if "digest" not in _SOURCE_DIGEST:
+        here = Path(__file__).parent
+        h = hashlib.sha256()
+        for f in ("model.py", "effects.py", "integrate.py", "shooting.py", "symbolic.py", "compiled.py"):
+            h.update((here / f).read_bytes())
+        _SOURCE_DIGEST["digest"] = h.hexdigest()
+    text = repr((model.describe(), model.electrostatics.name, kind, ATTEMPTS_PER_CALL, REFINE_MINIMUM_BELOW,
+                 _SOURCE_DIGEST["digest"], ca.__version__))
+    return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
 def _integrators(model: MembraneModel) -> _Integrators:
@@ -799,10 +826,11 @@ def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal,
     exactly (``(columns, tension, R_a, y_a, h, slope_a, slope_b)``, or None)."""
     R, m = y0.shape
     entry = fns.attempts(kind)
-    stepper = fns.stepper(kind, m)
     t0 = np.full(m, float(R0))
-    f0 = stepper.rhs(t0, y0)
-    h0 = _int.initial_step(stepper.rhs, t0, y0, f0, np.ones(m), np.asarray(rtol)[None, :], atol)
+    # no separate starting-step estimate: from the series radius the step grows tenfold per accepted attempt
+    # (a rejected first attempt costs microseconds here, a numpy estimate half a millisecond)
+    h0 = np.full(m, float(R0))
+    f0 = np.zeros_like(y0)  # computed by the first attempt
     o = len(_HEAD)
     X = np.zeros((o + 4 * R, m))
     H = _H

@@ -35,7 +35,8 @@ def test_compilation_can_be_turned_off(monkeypatch, tmp_path):
 
 def test_states_do_not_depend_on_the_path_taken(monkeypatch, tmp_path):
     """Small batches in the virtual machine, the compiled attempt function, and large batches in numpy:
-    the same statuses and the same states (1e-12)."""
+    the same statuses, and the same states to the tolerance (the small batches start from another first
+    step, so their steps differ: 10 rtol for the states, 100 rtol for their derivatives)."""
     monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
     model = build_model("gent", 97.0)
     l0 = np.linspace(1.05, 6.8, 12)
@@ -50,5 +51,5 @@ def test_states_do_not_depend_on_the_path_taken(monkeypatch, tmp_path):
     for st in (vm, fast):
         np.testing.assert_array_equal(st.status, big.status[:12])
         ok = st.ok
-        np.testing.assert_allclose(st.p_hat[ok], big.p_hat[:12][ok], rtol=1e-12)
-        np.testing.assert_allclose(st.derivatives.dv_dl0[ok], big.derivatives.dv_dl0[:12][ok], rtol=1e-10)
+        np.testing.assert_allclose(st.p_hat[ok], big.p_hat[:12][ok], rtol=1e-9)
+        np.testing.assert_allclose(st.derivatives.dv_dl0[ok], big.derivatives.dv_dl0[:12][ok], rtol=1e-8)

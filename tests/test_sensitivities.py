@@ -97,8 +97,8 @@ def test_derivatives_on_the_states_steps_carry_the_states_accuracy(rtol, bound):
 
 
 def test_numpy_and_casadi_steppers_agree():
-    """Large batches are integrated by numpy, small ones by one CasADi call per step: the same DOP853
-    tableau, so the same states and derivatives to roundoff."""
+    """Large batches are integrated by numpy, small ones by the CasADi attempt function: the same DOP853
+    tableau and step control (from another first step), so the same states to the tolerance."""
     model = build_model("gent", 97.0)
     l0 = np.linspace(1.2, 5.5, CASADI_BATCH_LIMIT + 12)
     big = solve_states(model, l0, 0.15, derivatives=True)
@@ -106,9 +106,9 @@ def test_numpy_and_casadi_steppers_agree():
         one = solve_states(model, l0[i:i + 1], 0.15, derivatives=True)
         assert one.status[0] == big.status[i]
         if one.ok[0]:
-            assert one.p_hat[0] == pytest.approx(big.p_hat[i], rel=1e-13)
-            assert one.v_hat[0] == pytest.approx(big.v_hat[i], rel=1e-13)
-            assert one.derivatives.dp_dl0[0] == pytest.approx(big.derivatives.dp_dl0[i], rel=1e-11, abs=1e-13)
+            assert one.p_hat[0] == pytest.approx(big.p_hat[i], rel=1e-9)
+            assert one.v_hat[0] == pytest.approx(big.v_hat[i], rel=1e-9)
+            assert one.derivatives.dp_dl0[0] == pytest.approx(big.derivatives.dp_dl0[i], rel=1e-8, abs=1e-10)
 
 
 def test_smallest_tension_is_located_between_nodes():
