@@ -74,7 +74,13 @@ def _study_panel(ax, study):
         ax.axhline(floor, color="0.5", lw=0.7, ls=":", zorder=0)
         ax.text(0.99, floor, "reference resolution", transform=ax.get_yaxis_transform(), ha="right",
                 va="bottom", fontsize=6.5, color="0.4")
-    ax.set_xscale("log")
+    times = [m.time for m in study.measurements if m.time]
+    if times and max(times) / min(times) > 3:
+        ax.set_xscale("log")
+    else:  # a narrow range of times: log ticks would crowd; plain seconds read better
+        from matplotlib.ticker import MaxNLocator
+
+        ax.xaxis.set_major_locator(MaxNLocator(4))
     ax.set_yscale("log")
     ax.margins(x=0.12, y=0.08)
     ax.set_xlabel("wall time (s)")
