@@ -2,7 +2,7 @@
 
 The continuation (:mod:`coexist.continuation`) needs a seed on each stable piece of every
 configuration it has not reached along the ramp. Here a zone curve at one voltage
-(:class:`~coexist.branches.ZoneCurve`, cubic splines through directly shot states) is cut into its
+(:class:`~coexist.zone_curves.ZoneCurve`, cubic splines through directly shot states) is cut into its
 monotone pieces, and every configuration ``(N − k, k)`` with its two groups on two pieces is
 bracketed on a dense sample of the pressure and refined on the splines. Nothing found here is
 reported: each candidate is only a starting point for Newton's method on the exact equations.
@@ -14,8 +14,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .branches import Branch, ZoneCurve
 from .errors import SceneError
+from .zone_curves import Branch, ZoneCurve
 
 
 @dataclass(frozen=True)

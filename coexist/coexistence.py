@@ -9,7 +9,7 @@ i.e. equal areas on the ``p̂–V̂`` curve at fixed ``Φ̂``. The same two stat
 rule on the ``Φ̂–Q̂`` curve at fixed ``p̂`` (the potential at fixed ``p`` and ``Φ``, ``Ψ − pV``, is
 equal in both), so one solver serves both readings.
 
-The curve is the cubic spline of :class:`~coexist.branches.ZoneCurve`, rebuilt piece by piece as
+The curve is the cubic spline of :class:`~coexist.zone_curves.ZoneCurve`, rebuilt piece by piece as
 a CasADi expression so that the Newton solve has exact derivatives of exactly the function the
 rest of the project uses; its own error against shooting is measured by the curve
 (``interpolation_error``). A solution with the two states merged (the trivial one) is never
@@ -24,8 +24,8 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .branches import ZoneCurve
 from .errors import ModelRangeError, SolverError
+from .zone_curves import ZoneCurve
 
 #: iterations allowed to every CasADi Newton solve
 MAX_NEWTON_ITERATIONS = 60

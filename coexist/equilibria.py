@@ -431,7 +431,7 @@ def zone_index(model, u, phi, settings, samples: int = 64) -> int:
 
 
 def zone_index_on_curve(curve, u) -> int:
-    """:func:`fold_index` on an interpolated zone curve (:class:`~coexist.branches.ZoneCurve`, in ``u``): a first
+    """:func:`fold_index` on an interpolated zone curve (:class:`~coexist.zone_curves.ZoneCurve`, in ``u``): a first
     guess of a zone's index where exact states are not at hand (the jumps' gradient flow)."""
     lo = float(curve.grid[0])
 

@@ -1,7 +1,7 @@
 """The membrane model: free energy at fixed voltage, tensions, and the shooting equations.
 
 Built once, symbolically with CasADi, from the effects it is given (:mod:`coexist.effects`);
-then translated into numpy (:mod:`coexist.symbolic`) for the vectorised integrator.
+then translated into numpy (:mod:`coexist.numerics.codegen`) for the vectorised integrator.
 
 Equations (PHYSICS.md, normalised with ``μ``, ``H`` and the zone radius ``A``; ``' = d/dR̂``):
 
@@ -32,7 +32,7 @@ from .effects import (
     first_invariant_derivatives,
 )
 from .errors import SceneError
-from .symbolic import numpy_function
+from .numerics.codegen import numpy_function
 
 #: constant factors of the quadratures V̂, Q̂, Ψ̂, ẑ: the right-hand side integrates V̂/π, Q̂/2π,
 #: Ψ̂/2π and ẑ (one multiplication fewer per stage each), the shooting multiplies them back

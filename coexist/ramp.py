@@ -113,7 +113,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     membrane snaps, at that volume, to the other shape of equal volume that is stable (one zone of
     the group; the others follow only if the flow takes them there), and the flow goes on.
 
-    Each group moves on ``curve`` (a :class:`~coexist.branches.ZoneCurve` at the jump's voltage, used
+    Each group moves on ``curve`` (a :class:`~coexist.zone_curves.ZoneCurve` at the jump's voltage, used
     only to decide *which* state the flow reaches; that state is then solved exactly). Returns
     ``(counts, u, status, snaps)``; status ``"converged"``, ``"volume_fold"`` (a zone reaches its
     largest volume and no other stable shape holds it), ``"range_end"`` (a zone leaves the curve's
@@ -212,7 +212,7 @@ class Ramp:
 
     # ---------------------------------------------------------------------------------------------
     def _curve(self, phi):
-        from .branches import ZoneCurve
+        from .zone_curves import ZoneCurve
 
         key = round(phi, 15)
         if key not in self._curves:

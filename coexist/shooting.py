@@ -21,9 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import integrate as _int
 from .errors import ModelRangeError, SceneError
 from .model import QUADRATURE_FACTORS, MembraneModel
+from .numerics import dop853 as _int
 from .settings import SolverSettings
 
 #: pole stretches closer than this (relative) to the clamp stretch are below double-precision resolution
@@ -314,9 +314,9 @@ class _Integrators:
 
     def attempts(self, kind: str):
         """The attempt function (:func:`attempt_function`) for ``kind``: CasADi's virtual machine at first,
-        compiled machine code (:mod:`coexist.compiled`) from the :data:`COMPILE_AFTER`-th use in a process
+        compiled machine code (:mod:`coexist.numerics.compiled`) from the :data:`COMPILE_AFTER`-th use in a process
         on (a model used that often is worth the one-time compilation; it is cached on disk)."""
-        from .compiled import compiled, load_cached
+        from .numerics.compiled import compiled, load_cached
 
         entry = self._casadi.setdefault(("attempts", kind), {"fun": None, "uses": 0, "compiled": False, "maps": {}})
         name, key = f"coexist_attempts_{kind}", _attempts_key(self.model, kind)
@@ -387,7 +387,7 @@ _H = {k: i for i, k in enumerate(_HEAD)}
 def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMPTS_PER_CALL):
     """``K`` DOP853 attempts of one trajectory as one CasADi function of its packed state.
 
-    One attempt is what :func:`coexist.integrate.integrate` does per step, with the checks of
+    One attempt is what :func:`coexist.numerics.dop853.integrate` does per step, with the checks of
     :func:`_shoot`: the step (stages and error estimate), its acceptance and the new step size; at the
     new node the tensions and their slopes dT/dR, the crossing of the clamp stretch (the step is then
     discarded and the trajectory stops), the failures (a node tension not positive, Gent locking, loss
@@ -502,7 +502,8 @@ def _attempts_key(model: MembraneModel, kind: str) -> str:
     if "digest" not in _SOURCE_DIGEST:
         here = Path(__file__).parent
         h = hashlib.sha256()
-        for f in ("model.py", "effects.py", "integrate.py", "shooting.py", "symbolic.py", "compiled.py"):
+        for f in ("model.py", "effects.py", "shooting.py", "numerics/dop853.py", "numerics/codegen.py",
+                  "numerics/compiled.py"):
             h.update((here / f).read_bytes())
         _SOURCE_DIGEST["digest"] = h.hexdigest()
     text = repr((model.describe(), model.electrostatics.name, kind, ATTEMPTS_PER_CALL, REFINE_MINIMUM_BELOW,
@@ -822,7 +823,7 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
 def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal, T0, max_E, min_T, fail_R, code):
     """Integrate a small batch with the attempt function, :data:`ATTEMPTS_PER_CALL` attempts per call, until
     every trajectory stops. Fills ``min_T``, ``max_E``, ``fail_R`` and ``code`` in place and returns an
-    :class:`~coexist.integrate.IntegrationResult` and the steps whose tension minimum must be located
+    :class:`~coexist.numerics.dop853.IntegrationResult` and the steps whose tension minimum must be located
     exactly (``(columns, tension, R_a, y_a, h, slope_a, slope_b)``, or None)."""
     R, m = y0.shape
     entry = fns.attempts(kind)

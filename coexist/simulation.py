@@ -238,8 +238,8 @@ class Simulation:
         """Seed the map with every stable equilibrium found at ``voltages`` voltages across the window
         (first guesses on zone curves shot at each voltage, then converged exactly; each new one is
         traced). Configurations: homogeneous and ``(N − k, k)`` for ``k`` in ``bulged``."""
-        from .branches import ZoneCurve
         from .candidates import candidate_equilibria
+        from .zone_curves import ZoneCurve
 
         lo, hi = self.phi_window
         pre = self.model.prestretch
@@ -357,8 +357,8 @@ def equilibria_on_gas(model, gas, zones: int, phi: float, settings: SolverSettin
     zone's own index is counted on the curve. States that converge onto a coarser configuration are
     dropped (that configuration is found on its own), as are duplicates.
     """
-    from .branches import ZoneCurve
     from .candidates import candidate_equilibria
+    from .zone_curves import ZoneCurve
 
     emap = emap or EquilibriumMap(model, gas, zones, settings, (phi, phi))
     pre = model.prestretch

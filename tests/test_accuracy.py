@@ -1,7 +1,7 @@
 """The work-precision study (``coexist accuracy``): what the tolerance buys, and the default's accuracy.
 
 The quick study is run once, through the command line in-process (``accuracy --quick --json``),
-and the assertions are made on the JSON it prints (the library's :func:`coexist.accuracy.report`).
+and the assertions are made on the JSON it prints (the library's :func:`coexist.studies.accuracy.report`).
 Study 1 is also run through the Python API. Together about 20 s on an idle 2-core machine.
 
 Thresholds are measured values with a stated margin, not tuned: see each test.
@@ -11,9 +11,9 @@ import json
 
 import pytest
 from click.testing import CliRunner
-from coexist.cli.main import cli
 
-from coexist.accuracy import Measurement, Study, pareto_front, pressure_max_study
+from coexist.cli.main import cli
+from coexist.studies.accuracy import Measurement, Study, pareto_front, pressure_max_study
 
 
 @pytest.fixture(scope="module")

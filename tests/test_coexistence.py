@@ -7,13 +7,13 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
-from coexist.branches import ZoneCurve
 from coexist.coexistence import MaxwellSolver, maxwell_coexistence, phase_diagram
 from coexist.errors import ModelRangeError
 from coexist.model import build_model
 from coexist.scene import load_scene
 from coexist.shooting import solve_states
 from coexist.simulation import Simulation, simulate_ramp
+from coexist.zone_curves import ZoneCurve
 
 
 def gent_curve(jlim, phi, n=128):

@@ -4,8 +4,8 @@ keyed by the generated source, and a switch that turns compilation off."""
 import numpy as np
 import pytest
 
-from coexist import compiled as C
 from coexist.model import build_model
+from coexist.numerics import compiled as C
 from coexist.shooting import _Integrators, attempt_function, solve_states
 
 

@@ -28,7 +28,6 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
-from coexist.branches import ZoneCurve
 from coexist.coexistence import maxwell_coexistence, phase_diagram
 from coexist.curves import pressure_volume_curve, voltage_at_pressure, voltage_charge_curve
 from coexist.equilibria import GasChamber, PressureReservoir
@@ -49,6 +48,7 @@ from coexist.shooting import (
     solve_states,
 )
 from coexist.simulation import Simulation, equilibria_on_gas, simulate_ramp
+from coexist.zone_curves import ZoneCurve
 
 TIGHT = SolverSettings(rtol=1e-12)
 #: wall-clock limit of any single library call in this file (s); the machine is shared, so generous

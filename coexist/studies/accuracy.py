@@ -17,7 +17,7 @@ The three studies
    (of ``p̂max`` and of every state of the curve) against the requested ``rtol``.
 2. ``maxwell_pressure``: the Maxwell coexistence pressure of a Gent (``Jlim = 100``) zone at
    ``Φ̂ = 0`` (:func:`~coexist.coexistence.maxwell_coexistence` on a
-   :class:`~coexist.branches.ZoneCurve`), against the spline points ``n`` and ``rtol``.
+   :class:`~coexist.zone_curves.ZoneCurve`), against the spline points ``n`` and ``rtol``.
 3. ``transition_voltage``: the first (spinodal) transition voltage, in kV, of the built-in
    ``tricircle`` scene (:func:`~coexist.fit.transition_voltage`: an event of the continuation on the
    exact equations), against ``rtol``. The scene is read when the study runs; if its transition cannot
@@ -44,8 +44,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import CoexistError, ModelRangeError
-from .settings import SolverSettings
+from ..errors import CoexistError, ModelRangeError
+from ..settings import SolverSettings
 
 #: the project's default tolerance (``SolverSettings()``)
 DEFAULT_RTOL = SolverSettings().rtol
@@ -75,7 +75,7 @@ def _default_of(func, name):
 
 def _defaults():
     """The project's default sampling, read from the library so the study follows any change."""
-    from .coexistence import phase_diagram
+    from ..coexistence import phase_diagram
 
     return {
         "curve_points": DEFAULT_CURVE_POINTS,
@@ -330,9 +330,9 @@ def pressure_max_study(quick: bool = False, progress: Callable[[str], None] | No
     The ``tolerance`` list holds, per requested ``rtol``, the achieved relative error of ``p̂max`` and
     the largest relative error of ``p̂`` and ``V̂`` over the 200 states of the curve.
     """
-    from .curves import pressure_volume_curve
-    from .model import MembraneModel
-    from .shooting import solve_states
+    from ..curves import pressure_volume_curve
+    from ..model import MembraneModel
+    from ..shooting import solve_states
 
     progress = progress or _noop
     repeats = repeats or (2 if quick else 5)
@@ -412,9 +412,9 @@ def maxwell_pressure_study(quick: bool = False, progress: Callable[[str], None] 
     ``rtol`` (at the default ``n = 128``) and ``n`` (at the default ``rtol``). Reference:
     ``rtol = 1e-13``, ``n = 1024``, checked against ``n = 512`` and (unless ``quick``) ``n = 2048``.
     """
-    from .branches import ZoneCurve
-    from .coexistence import maxwell_coexistence
-    from .model import build_model
+    from ..coexistence import maxwell_coexistence
+    from ..model import build_model
+    from ..zone_curves import ZoneCurve
 
     progress = progress or _noop
     repeats = repeats or (1 if quick else 3)
@@ -464,7 +464,7 @@ def maxwell_pressure_study(quick: bool = False, progress: Callable[[str], None] 
 
 # --- study 3: transition voltage of the tricircle scene ----------------------------------------------
 def _transition_kV(scene, rtol):
-    from .fit import Shared, transition_voltage
+    from ..fit import Shared, transition_voltage
 
     sc = dataclasses.replace(scene, settings=SolverSettings(rtol=rtol, error_estimates=False))
     return transition_voltage(sc, "spinodal", Shared.of(sc))[0] / 1e3
@@ -481,7 +481,7 @@ def transition_voltage_study(quick: bool = False, progress: Callable[[str], None
     loaded has no transition (:class:`ModelRangeError`), the study uses it with
     :data:`FALLBACK_SCENE_CHANGES` and notes it.
     """
-    from .scene import load_scene
+    from ..scene import load_scene
 
     progress = progress or _noop
     repeats = repeats or (1 if quick else 3)

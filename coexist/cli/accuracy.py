@@ -41,7 +41,7 @@ def accuracy(study, quick, plot, as_json, overwrite):
     study 3 (the transition voltage) is an event located on the exact equations, so only rtol
     matters there. Timings depend on the machine and its load. The full run takes a few minutes.
     """
-    from coexist.accuracy import report, run_studies, summary_lines
+    from coexist.studies.accuracy import report, run_studies, summary_lines
 
     numbers = _parse_studies(study)
     plot_path = check_output_path(plot, overwrite, "--plot")
@@ -57,7 +57,7 @@ def accuracy(study, quick, plot, as_json, overwrite):
         info(f"note: the machine is busy (load {load_before[0]:.2f} on {os.cpu_count()} CPUs); timings will be slower")
     studies = run_studies(numbers, quick=quick, progress=info)
     if plot_path is not None:
-        from coexist.plotting_accuracy import plot_accuracy
+        from coexist.studies.plotting import plot_accuracy
 
         plot_accuracy(studies, plot_path, title="What accuracy costs in time" + (" (quick)" if quick else ""))
         info(f"wrote {plot_path}")

@@ -69,8 +69,8 @@ def _title(sc):
 
 
 def _states_figure(report, sim, path):
-    from coexist.branches import ZoneCurve
     from coexist.plotting import plot_coexisting_states
+    from coexist.zone_curves import ZoneCurve
 
     for s in report.result.steps:
         if s.state is not None and s.state.k > 0:
