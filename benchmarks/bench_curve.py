@@ -132,8 +132,16 @@ def baseline_shoot(l0, p, phi, rtol):
         ``V̂`` at ``R̂ = 1`` (NaN if it did not get there).
     """
     y0 = baseline_pole_start(l0, p, phi, BASELINE_POLE_RADIUS)
-    solution = solve_ivp(baseline_rhs, (BASELINE_POLE_RADIUS, 1.0), y0, method="DOP853", rtol=rtol,
-                         atol=1e-2 * rtol, args=(p, phi), events=_hoop_collapsed)
+    solution = solve_ivp(
+        baseline_rhs,
+        (BASELINE_POLE_RADIUS, 1.0),
+        y0,
+        method="DOP853",
+        rtol=rtol,
+        atol=1e-2 * rtol,
+        args=(p, phi),
+        events=_hoop_collapsed,
+    )
     if solution.status != 0:  # collapsed (event) or failed: overshoot
         return -1.0, math.nan
     return solution.y[1, -1] - 1.0, solution.y[3, -1]
@@ -191,8 +199,10 @@ def main(argv=None):
         if not np.all(reference.status == OK):
             raise RuntimeError("the reference curve has failed states")
         p_ref, v_ref = reference.p_hat, reference.v_hat
-        log(f"reference: rtol {REFERENCE_RTOL:g}, p̂ in [{p_ref.min():.4f}, {p_ref.max():.4f}], "
-            f"V̂ in [{v_ref.min():.4f}, {v_ref.max():.4f}]")
+        log(
+            f"reference: rtol {REFERENCE_RTOL:g}, p̂ in [{p_ref.min():.4f}, {p_ref.max():.4f}], "
+            f"V̂ in [{v_ref.min():.4f}, {v_ref.max():.4f}]"
+        )
 
         # project: loosest rtol meeting the target on the full curve
         project_scan = {}
@@ -215,8 +225,10 @@ def main(argv=None):
         project_time = min(project_times)
         project_error_p = max_relative_error(project.p_hat, p_ref)
         project_error_v = max_relative_error(project.v_hat, v_ref)
-        log(f"project:  rtol {project_rtol:.0e}, best of {PROJECT_REPEATS}: {project_time * 1e3:.2f} ms, "
-            f"max rel error p̂ {project_error_p:.2e}, V̂ {project_error_v:.2e}")
+        log(
+            f"project:  rtol {project_rtol:.0e}, best of {PROJECT_REPEATS}: {project_time * 1e3:.2f} ms, "
+            f"max rel error p̂ {project_error_p:.2e}, V̂ {project_error_v:.2e}"
+        )
 
         # baseline: loosest rtol meeting the target on a subset, then the full curve
         subset = slice(None, None, BASELINE_SUBSET_STEP)
@@ -225,8 +237,10 @@ def main(argv=None):
         for rtol in BASELINE_RTOLS:
             p_sub, _ = baseline_curve(POLE_STRETCHES[subset], PHI_HAT, rtol)
             baseline_scan[rtol] = max_relative_error(p_sub, p_ref[subset])
-            log(f"baseline rtol {rtol:.0e}: max rel error p̂ {baseline_scan[rtol]:.2e} "
-                f"(every {BASELINE_SUBSET_STEP}th point)")
+            log(
+                f"baseline rtol {rtol:.0e}: max rel error p̂ {baseline_scan[rtol]:.2e} "
+                f"(every {BASELINE_SUBSET_STEP}th point)"
+            )
             if baseline_scan[rtol] <= TARGET_ERROR:
                 baseline_rtol = rtol
                 break
@@ -240,12 +254,16 @@ def main(argv=None):
             tighter = BASELINE_RTOLS.index(baseline_rtol) + 1
             if baseline_error_p <= TARGET_ERROR or tighter == len(BASELINE_RTOLS):
                 break
-            log(f"baseline rtol {baseline_rtol:.0e}: max rel error p̂ {baseline_error_p:.2e} on the full curve, "
-                "tightening")
+            log(
+                f"baseline rtol {baseline_rtol:.0e}: max rel error p̂ {baseline_error_p:.2e} on the full curve, "
+                "tightening"
+            )
             baseline_rtol = BASELINE_RTOLS[tighter]
         baseline_error_v = max_relative_error(v_base, v_ref)
-        log(f"baseline: rtol {baseline_rtol:.0e}, one run: {baseline_time:.2f} s, "
-            f"max rel error p̂ {baseline_error_p:.2e}, V̂ {baseline_error_v:.2e}")
+        log(
+            f"baseline: rtol {baseline_rtol:.0e}, one run: {baseline_time:.2f} s, "
+            f"max rel error p̂ {baseline_error_p:.2e}, V̂ {baseline_error_v:.2e}"
+        )
 
     ratio = baseline_time / project_time
     log(f"ratio baseline/project: {ratio:.0f}")
@@ -253,22 +271,39 @@ def main(argv=None):
         log(f"warning: an error exceeds the target {TARGET_ERROR:g}")
 
     results = {
-        "curve": {"material": "neo-hookean", "phi_hat": PHI_HAT, "points": int(POLE_STRETCHES.size),
-                  "pole_stretch": [float(POLE_STRETCHES[0]), float(POLE_STRETCHES[-1])]},
+        "curve": {
+            "material": "neo-hookean",
+            "phi_hat": PHI_HAT,
+            "points": int(POLE_STRETCHES.size),
+            "pole_stretch": [float(POLE_STRETCHES[0]), float(POLE_STRETCHES[-1])],
+        },
         "target_max_relative_error_p": TARGET_ERROR,
         "reference_rtol": REFERENCE_RTOL,
         "model_build_s": build_time,
-        "project": {"rtol": project_rtol, "time_s": project_time, "repeats": PROJECT_REPEATS,
-                    "times_s": project_times, "max_relative_error_p": project_error_p,
-                    "max_relative_error_v": project_error_v,
-                    "rtol_scan": {f"{k:g}": v for k, v in project_scan.items()}},
-        "baseline": {"method": "solve_ivp DOP853 + brentq per point", "rtol": baseline_rtol,
-                     "time_s": baseline_time, "max_relative_error_p": baseline_error_p,
-                     "max_relative_error_v": baseline_error_v,
-                     "rtol_scan_subset": {f"{k:g}": v for k, v in baseline_scan.items()}},
+        "project": {
+            "rtol": project_rtol,
+            "time_s": project_time,
+            "repeats": PROJECT_REPEATS,
+            "times_s": project_times,
+            "max_relative_error_p": project_error_p,
+            "max_relative_error_v": project_error_v,
+            "rtol_scan": {f"{k:g}": v for k, v in project_scan.items()},
+        },
+        "baseline": {
+            "method": "solve_ivp DOP853 + brentq per point",
+            "rtol": baseline_rtol,
+            "time_s": baseline_time,
+            "max_relative_error_p": baseline_error_p,
+            "max_relative_error_v": baseline_error_v,
+            "rtol_scan_subset": {f"{k:g}": v for k, v in baseline_scan.items()},
+        },
         "ratio_baseline_over_project": ratio,
-        "environment": {"python": platform.python_version(), "numpy": np.__version__,
-                        "scipy": scipy.__version__, "machine": platform.machine()},
+        "environment": {
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "scipy": scipy.__version__,
+            "machine": platform.machine(),
+        },
     }
     if args.json:
         print(json.dumps(results, indent=2))

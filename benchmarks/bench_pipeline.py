@@ -122,8 +122,12 @@ def transition_voltages(report) -> dict:
     up = [t for t in res.transitions if t.kind == "spinodal" and t.direction == "up"]
     down = [t for t in res.transitions if t.kind == "spinodal" and t.direction == "down"]
     end = [t for t in res.transitions if t.kind == "no_stable_state"]
-    out = {"up_spinodal": up[0], "range_end": end[0], "down_fold": down[0],
-           "equal_free_energy": res.equal_free_energy[0]}
+    out = {
+        "up_spinodal": up[0],
+        "range_end": end[0],
+        "down_fold": down[0],
+        "equal_free_energy": res.equal_free_energy[0],
+    }
     return {k: {"kV": float(kv(t.phi_hat)), "error_kV": float(kv(t.phi_hat_error))} for k, t in out.items()}
 
 
@@ -268,6 +272,7 @@ class ScipyBaseline:
             states["down"].append(homog[phi])
         if phi_fold is None:
             raise RuntimeError("the bulged state reaches the end of the ramp")
+
         # 4. equal free energy: sign change of G_bulged − G_homogeneous on the grid, then bisected
         def dG(phi, xb_guess, xh_guess):
             xb_ = bulged(phi, xb_guess)
@@ -276,8 +281,11 @@ class ScipyBaseline:
                 raise RuntimeError(f"a state is lost at Φ̂ = {phi:.12g} while bisecting the free energies")
             return self.free_energy(xb_, phi) - self.free_energy(xh_, phi), xb_, xh_
 
-        signs = [(phi, xb_, self.free_energy(xb_, phi) - self.free_energy(homog[phi], phi))
-                 for phi, xb_ in bulged_down if phi in homog]
+        signs = [
+            (phi, xb_, self.free_energy(xb_, phi) - self.free_energy(homog[phi], phi))
+            for phi, xb_ in bulged_down
+            if phi in homog
+        ]
         cross = [(a, b) for a, b in zip(signs, signs[1:]) if np.sign(a[2]) != np.sign(b[2])]
         if len(cross) != 1:
             raise RuntimeError(f"{len(cross)} sign changes of G_bulged − G_homogeneous on the grid")
@@ -293,11 +301,15 @@ class ScipyBaseline:
         phi_eq = 0.5 * (lo + hi)
         kv = lambda phi: float(self.scene.voltage_of(phi) / 1e3)  # noqa: E731
         return {
-            "up_spinodal": kv(phi_up), "range_end": kv(phi_end), "down_fold": kv(phi_fold),
-            "equal_free_energy": kv(phi_eq), "landing_guess": [float(v) for v in self.landing_guess],
+            "up_spinodal": kv(phi_up),
+            "range_end": kv(phi_end),
+            "down_fold": kv(phi_fold),
+            "equal_free_energy": kv(phi_eq),
+            "landing_guess": [float(v) for v in self.landing_guess],
             "landing_pole_stretch": [float(v) for v in landing],
             "states": states["up"] + states["down"],
-            "voltages": len(path), "solve_states_calls": self.shots,
+            "voltages": len(path),
+            "solve_states_calls": self.shots,
         }
 
 
@@ -325,11 +337,15 @@ def bench_default(repeats: int) -> dict:
         times_err.append(time.perf_counter() - t1)
     best_b, times_b, _ = best_of(lambda: Simulation.from_scene(scene), repeats)
     return {
-        "default": {"voltages": len(scene.voltage_hat_path),
-                    "states_printed": sum(s.state is not None for s in report.result.steps),
-                    "seconds": spread(times), "no_error_estimates_seconds": spread(times_ne),
-                    "measure_errors_seconds": spread(times_err),
-                    "from_scene_seconds": spread(times_b), "transitions": transition_voltages(report)},
+        "default": {
+            "voltages": len(scene.voltage_hat_path),
+            "states_printed": sum(s.state is not None for s in report.result.steps),
+            "seconds": spread(times),
+            "no_error_estimates_seconds": spread(times_ne),
+            "measure_errors_seconds": spread(times_err),
+            "from_scene_seconds": spread(times_b),
+            "transitions": transition_voltages(report),
+        },
         "_report": report,
     }
 
@@ -351,12 +367,14 @@ def bench_baseline(report, repeats: int) -> dict:
     # the printed states, voltage by voltage: the same configuration and pole stretches
     mine = out.pop("states")
     theirs = [None if s.state is None else s.state.pole_stretch for s in report.result.steps]
-    if len(mine) != len(theirs) or any((a is None) != (b is None) or (a is not None and len(a) != len(b))
-                                       for a, b in zip(mine, theirs)):
+    if len(mine) != len(theirs) or any(
+        (a is None) != (b is None) or (a is not None and len(a) != len(b)) for a, b in zip(mine, theirs)
+    ):
         raise AssertionError("the baseline prints states at other voltages or in other configurations")
     out["states_printed"] = sum(a is not None for a in mine)
-    out["state_difference"] = float(max(np.max(np.abs(np.asarray(a) - np.asarray(b)))
-                                        for a, b in zip(mine, theirs) if a is not None))
+    out["state_difference"] = float(
+        max(np.max(np.abs(np.asarray(a) - np.asarray(b))) for a, b in zip(mine, theirs) if a is not None)
+    )
     out["seconds"] = spread(times)
     out["difference_kV"] = diff
     bad = {k: v for k, v in diff.items() if not v <= AGREE_KV}
@@ -372,9 +390,16 @@ def bench_zones(repeats: int) -> dict:
         log(f"count = {n}: warm-up, then best of {repeats} ...")
         compute(scene)
         best, times, report = best_of(lambda scene=scene: compute(scene), repeats)
-        rows.append({"count": n, "seconds": spread(times),
-                     "transitions": [f"{t.kind} ({t.event}) {t.direction} {report.voltage_kV(t.phi_hat):.7f}"
-                                     for t in report.result.transitions]})
+        rows.append(
+            {
+                "count": n,
+                "seconds": spread(times),
+                "transitions": [
+                    f"{t.kind} ({t.event}) {t.direction} {report.voltage_kV(t.phi_hat):.7f}"
+                    for t in report.result.transitions
+                ],
+            }
+        )
     return {"zones": rows, "zones_ratio_1000_to_3": rows[-1]["seconds"]["best"] / rows[0]["seconds"]["best"]}
 
 
@@ -389,9 +414,16 @@ def bench_voltages(repeats: int) -> dict:
         compute(scene)
         _, peak = tracemalloc.get_traced_memory()
         tracemalloc.stop()
-        rows.append({"stop_kV": stop, "step_kV": step, "voltages": len(scene.voltage_hat_path),
-                     "states_printed": sum(s.state is not None for s in report.result.steps),
-                     "seconds": spread(times), "peak_MB": peak / 1e6})
+        rows.append(
+            {
+                "stop_kV": stop,
+                "step_kV": step,
+                "voltages": len(scene.voltage_hat_path),
+                "states_printed": sum(s.state is not None for s in report.result.steps),
+                "seconds": spread(times),
+                "peak_MB": peak / 1e6,
+            }
+        )
     return {"voltages": rows}
 
 
@@ -403,8 +435,12 @@ def bench_phase() -> dict:
     model = build_model("gent", 40.0)
     t0 = time.perf_counter()
     d = phase_diagram(model, np.linspace(0, 0.36, 37), 0.95 * np.sqrt(43 / 2))
-    return {"phase_diagram": {"seconds": time.perf_counter() - t0,
-                              "critical_phi_hat": None if d.critical_point is None else float(d.critical_point[0])}}
+    return {
+        "phase_diagram": {
+            "seconds": time.perf_counter() - t0,
+            "critical_phi_hat": None if d.critical_point is None else float(d.critical_point[0]),
+        }
+    }
 
 
 def bench_help() -> dict:
@@ -429,12 +465,18 @@ def print_table(out: dict) -> None:
     print(f"   ... without error estimates      : {fmt_t(d['no_error_estimates_seconds'])}")
     print(f"   ... from_scene alone             : {fmt_t(d['from_scene_seconds'])}")
     m = d["measure_errors_seconds"]
-    print(f"   ... the error measurement alone  : {m['best']:.3f} s (worst {m['worst']:.3f}, {m['runs']} runs; "
-          f"Simulation.measure_errors on the transitions of a ramp run without it)")
-    print(f"\n2. scipy baseline (root/hybr + bisection, same states): {fmt_t(b['seconds'])}, "
-          f"{b['solve_states_calls']} solve_states calls, {b['states_printed']} states printed")
-    print(f"   ratio baseline / fast path: {b['seconds']['best'] / d['seconds']['best']:.1f}x (/ fast path without "
-          f"error estimates: {b['seconds']['best'] / d['no_error_estimates_seconds']['best']:.1f}x)")
+    print(
+        f"   ... the error measurement alone  : {m['best']:.3f} s (worst {m['worst']:.3f}, {m['runs']} runs; "
+        f"Simulation.measure_errors on the transitions of a ramp run without it)"
+    )
+    print(
+        f"\n2. scipy baseline (root/hybr + bisection, same states): {fmt_t(b['seconds'])}, "
+        f"{b['solve_states_calls']} solve_states calls, {b['states_printed']} states printed"
+    )
+    print(
+        f"   ratio baseline / fast path: {b['seconds']['best'] / d['seconds']['best']:.1f}x (/ fast path without "
+        f"error estimates: {b['seconds']['best'] / d['no_error_estimates_seconds']['best']:.1f}x)"
+    )
     print(f"   {'voltage (kV)':<18} {'fast path':>14} {'± error':>9} {'baseline':>14} {'|difference|':>12}")
     for k, t in d["transitions"].items():
         print(f"   {k:<18} {t['kV']:>14.9f} {t['error_kV']:>9.1e} {b[k]:>14.9f} {b['difference_kV'][k]:>12.1e}")
@@ -446,17 +488,22 @@ def print_table(out: dict) -> None:
     print(f"   ratio N = 1000 / N = 3: {out['zones_ratio_1000_to_3']:.2f}")
     kinds = [{t.split()[0] for t in r["transitions"]} for r in out["zones"]]
     if kinds[0] != kinds[-1]:
-        print(f"   (not like for like: N = {out['zones'][0]['count']} meets {sorted(kinds[0])}, "
-              f"N = {out['zones'][-1]['count']} only {sorted(kinds[-1])}: its jump finds no stable state, "
-              "so no bulged branch is traced)")
+        print(
+            f"   (not like for like: N = {out['zones'][0]['count']} meets {sorted(kinds[0])}, "
+            f"N = {out['zones'][-1]['count']} only {sorted(kinds[-1])}: its jump finds no stable state, "
+            "so no bulged branch is traced)"
+        )
     print("\n4. cost and memory against the voltage range and step (from_scene + ramp)")
     print(f"   {'stop_kV':>7} {'step_kV':>7} {'voltages':>8} {'states':>6} {'time':>30} {'peak MB':>8}")
     for r in out["voltages"]:
-        print(f"   {r['stop_kV']:>7g} {r['step_kV']:>7g} {r['voltages']:>8} {r['states_printed']:>6} "
-              f"{fmt_t(r['seconds']):>30} {r['peak_MB']:>8.1f}")
+        print(
+            f"   {r['stop_kV']:>7g} {r['step_kV']:>7g} {r['voltages']:>8} {r['states_printed']:>6} "
+            f"{fmt_t(r['seconds']):>30} {r['peak_MB']:>8.1f}"
+        )
     p, h = out["phase_diagram"], out["help"]
-    print(f"\n5. phase diagram (Gent Jlim 40, 37 Φ̂, one run): {p['seconds']:.2f} s "
-          f"(critical Φ̂ = {p['critical_phi_hat']})")
+    print(
+        f"\n5. phase diagram (Gent Jlim 40, 37 Φ̂, one run): {p['seconds']:.2f} s (critical Φ̂ = {p['critical_phi_hat']})"
+    )
     print(f"   coexist --help: {h['mean_seconds'] * 1e3:.0f} ms mean of 5 (min {h['min_seconds'] * 1e3:.0f} ms)")
     print(f"\nscript runtime: {out['script_seconds']:.0f} s")
 
@@ -468,8 +515,10 @@ def main():
     args = ap.parse_args()
     t_start = time.perf_counter()
     r5, r3 = (1, 1) if args.quick else (5, 3)
-    out = {"machine": f"{platform.machine()}, {platform.python_version()}, numpy {np.__version__}, "
-                      f"scipy {scipy.__version__}"}
+    out = {
+        "machine": f"{platform.machine()}, {platform.python_version()}, numpy {np.__version__}, "
+        f"scipy {scipy.__version__}"
+    }
     out.update(bench_help())
     out.update(bench_default(r5))
     report = out.pop("_report")

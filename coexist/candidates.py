@@ -90,7 +90,7 @@ def candidate_equilibria(curve: ZoneCurve, gas, zones: int, bulged=None, samples
         return out
     inverses = {b.index: _BranchInverse(curve, b, samples) for b in usable}
     for ia, a in enumerate(usable):
-        for b in usable[ia + 1:]:
+        for b in usable[ia + 1 :]:
             lo = max(a.p_range[0], b.p_range[0])
             hi = min(a.p_range[1], b.p_range[1])
             if not hi > lo:

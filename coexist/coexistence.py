@@ -99,8 +99,9 @@ class MaxwellSolver:
         # equal pressure; equal potential Ψ − p̂V with the mean pressure (symmetric in the two states)
         g = ca.vertcat(p_b - p_u, (psi_b - psi_u) - 0.5 * (p_u + p_b) * (v_b - v_u))
         residual = ca.Function("maxwell_residual", [x], [g])
-        rootfinder = ca.rootfinder("maxwell", "newton", residual,
-                                   {"max_iter": MAX_NEWTON_ITERATIONS, "abstol": 1e-13, "error_on_fail": False})
+        rootfinder = ca.rootfinder(
+            "maxwell", "newton", residual, {"max_iter": MAX_NEWTON_ITERATIONS, "abstol": 1e-13, "error_on_fail": False}
+        )
         bounds = [(c.grid[w[0]], c.grid[w[1] + 1]) for w in windows]
         return residual, rootfinder, bounds
 
@@ -121,7 +122,9 @@ class MaxwellSolver:
             why = f"; {self.curve.stopped_because}" if self.curve.stopped_because else ""
             raise ModelRangeError(
                 f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the curve has no second stable branch "
-                f"(no stiffening within the model's range{why})", "no_coexistence")
+                f"(no stiffening within the model's range{why})",
+                "no_coexistence",
+            )
         return rising[0], rising[1]
 
     def initial_guess(self, samples: int = 200):
@@ -129,8 +132,10 @@ class MaxwellSolver:
         a, b = self._stable_pair()
         lo, hi = max(a.p_range[0], b.p_range[0]), min(a.p_range[1], b.p_range[1])
         if not hi > lo:
-            raise ModelRangeError(f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the two stable branches "
-                                  "share no pressure", "no_coexistence")
+            raise ModelRangeError(
+                f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the two stable branches share no pressure",
+                "no_coexistence",
+            )
         P = np.linspace(lo, hi, samples)[1:-1]
         area = np.array([self.equal_area(x) for x in P])
         sign = np.flatnonzero(area[:-1] * area[1:] < 0)
@@ -141,9 +146,12 @@ class MaxwellSolver:
                 raise ModelRangeError(
                     f"coexistence ends near Φ̂ = {c.phi_hat:.6g}: so close to the critical point that the "
                     f"equal-area condition is below the curve's resolution (pressure loop {loop:.1e})",
-                    "critical_point")
-            raise ModelRangeError(f"no coexistence at Φ̂ = {c.phi_hat:.6g}: the equal-area pressure "
-                                  "lies outside the stable branches", "no_coexistence")
+                    "critical_point",
+                )
+            raise ModelRangeError(
+                f"no coexistence at Φ̂ = {c.phi_hat:.6g}: the equal-area pressure lies outside the stable branches",
+                "no_coexistence",
+            )
         P0 = 0.5 * (P[sign[0]] + P[sign[0] + 1])
         return self.curve.stretch_at_pressure(a, P0), self.curve.stretch_at_pressure(b, P0)
 
@@ -156,25 +164,38 @@ class MaxwellSolver:
         res = float(np.max(np.abs(np.array(residual(x)).ravel())))
         c = self.curve
         if not all(lo <= xi <= hi for xi, (lo, hi) in zip(x, bounds)):
-            raise SolverError(f"equal-free-energy solve at Φ̂ = {c.phi_hat:.6g} left the spline pieces around "
-                              "its initial guess")
+            raise SolverError(
+                f"equal-free-energy solve at Φ̂ = {c.phi_hat:.6g} left the spline pieces around its initial guess"
+            )
         if not (stats.get("success", False) and np.all(np.isfinite(x)) and res < 1e-9):
-            raise SolverError(f"equal-free-energy solve failed at Φ̂ = {c.phi_hat:.6g}: "
-                              f"{stats.get('return_status', 'no convergence')} (residual {res:.2e})")
+            raise SolverError(
+                f"equal-free-energy solve failed at Φ̂ = {c.phi_hat:.6g}: "
+                f"{stats.get('return_status', 'no convergence')} (residual {res:.2e})"
+            )
         uu, ub = x
         lo, hi = c.grid[0], c.grid[-1]
         if not (lo <= uu <= hi and lo <= ub <= hi):
             raise SolverError(f"equal-free-energy solve left the curve at Φ̂ = {c.phi_hat:.6g}")
         if abs(ub - uu) <= 1e-6 * max(1.0, abs(ub)):
-            raise ModelRangeError(f"coexistence ends at Φ̂ = {c.phi_hat:.6g}: the bulged and unbulged states "
-                                  "merge (critical point)", "critical_point")
+            raise ModelRangeError(
+                f"coexistence ends at Φ̂ = {c.phi_hat:.6g}: the bulged and unbulged states merge (critical point)",
+                "critical_point",
+            )
         if c.dp(uu) <= 0 or c.dp(ub) <= 0:
             raise SolverError(f"equal-free-energy solve converged onto an unstable branch at Φ̂ = {c.phi_hat:.6g}")
         return Coexistence(
-            phi_hat=c.phi_hat, p_hat=float(c.p(uu)), pole_stretch_unbulged=float(c.to_stretch(uu)),
-            pole_stretch_bulged=float(c.to_stretch(ub)), v_unbulged=float(c.v(uu)), v_bulged=float(c.v(ub)),
-            q_unbulged=float(c.q(uu)), q_bulged=float(c.q(ub)), psi_unbulged=float(c.psi(uu)),
-            psi_bulged=float(c.psi(ub)), residual=res, iterations=int(stats.get("iter_count", -1)),
+            phi_hat=c.phi_hat,
+            p_hat=float(c.p(uu)),
+            pole_stretch_unbulged=float(c.to_stretch(uu)),
+            pole_stretch_bulged=float(c.to_stretch(ub)),
+            v_unbulged=float(c.v(uu)),
+            v_bulged=float(c.v(ub)),
+            q_unbulged=float(c.q(uu)),
+            q_bulged=float(c.q(ub)),
+            psi_unbulged=float(c.psi(uu)),
+            psi_bulged=float(c.psi(ub)),
+            residual=res,
+            iterations=int(stats.get("iter_count", -1)),
         )
 
 
@@ -211,8 +232,11 @@ class PhaseDiagram:
             "spinodal_min_p_hat": clean(self.spinodal_min),
             "binodal_p_hat": clean(self.binodal),
             "coexisting_states": [c.to_dict() for c in self.coexistence],
-            "critical_point": (None if self.critical_point is None else
-                               dict(zip(("phi_hat", "p_hat", "pole_stretch"), map(float, self.critical_point)))),
+            "critical_point": (
+                None
+                if self.critical_point is None
+                else dict(zip(("phi_hat", "p_hat", "pole_stretch"), map(float, self.critical_point)))
+            ),
             "notes": self.notes,
         }
 
@@ -288,7 +312,8 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings=None, poi
         if loop is not None:
             um = 0.5 * (loop[0] + loop[1])
             critical = (edge, float(c.p(um)), float(c.to_stretch(um)))
-            notes.append(f"critical point at Φ̂ = {edge:.8f}: the pressure maximum and minimum merge; "
-                         "coexistence ends there")
+            notes.append(
+                f"critical point at Φ̂ = {edge:.8f}: the pressure maximum and minimum merge; coexistence ends there"
+            )
         break
     return PhaseDiagram(phi_values, smax, smin, bino, states, critical, notes)

@@ -44,6 +44,7 @@ from .equilibria import (
     Configuration,
     Equilibrium,
     GroupSystem,
+    Residual,
     failure_reason,
     make_equilibrium,
 )
@@ -99,7 +100,7 @@ class Event:
 
     kind: str
     phi_hat: float
-    eq: Equilibrium
+    eq: Equilibrium  # the state there (for an approximate event, that of the nearer point)
     z: np.ndarray
     s: float
     group: int | None = None
@@ -134,8 +135,9 @@ class Corrected:
     z: np.ndarray
     ok: np.ndarray
     reason: list
-    res: object  # Residual at the last evaluation (the converged points)
+    res: Residual  # the converged points' residuals and states (rows ``rows``)
     rows: np.ndarray  # row of each point in ``res`` (−1 if failed)
+    failed_states: dict = field(default_factory=dict)  # point -> (res, row, status code) where a state failed
 
 
 def _scaled_jacobian(J, w):
@@ -154,8 +156,17 @@ LOOSE_TOLERANCE = 1e-6
 CHORD_BELOW = 1e-4
 
 
-def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int = MAX_NEWTON,
-            loose: bool = False, formal: bool = False, chord: bool = False) -> Corrected:
+def correct(
+    system: GroupSystem,
+    z0,
+    normals,
+    targets,
+    w: float,
+    max_iter: int = MAX_NEWTON,
+    loose: bool = False,
+    formal: bool = False,
+    chord: bool = False,
+) -> Corrected:
     """Newton's method for ``r(z) = 0``, ``n · z = target`` at ``P`` points at once.
 
     ``z0`` ``(P, M + 1)`` initial guesses, ``normals`` ``(P, M + 1)`` constraint normals (the previous
@@ -179,7 +190,7 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
     prev_step = np.full(P, np.inf)
     rows = np.full(P, -1)
     last_res = None
-    keep = {}
+    keep: dict = {}
     jac = np.full((P, M, M1), np.nan)
     slopes = np.full((P, 4, M), np.nan)  # dp/du, dV/du, dp/dΦ̂, dV/dΦ̂ of the last full evaluation
     for it in range(max_iter):
@@ -225,7 +236,8 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
         # the pressure residual too: a tiny step in u can still leave a large pressure mismatch where the
         # gas makes a zone's volume very sensitive (∂r/∂u ≈ 150 for the tricircle's bulged zone)
         small_r = np.max(np.abs(res.r), axis=1) <= (LOOSE_TOLERANCE if loose else 10 * system.settings.rtol) * (
-            1 + np.abs(res.gas_pressure))
+            1 + np.abs(res.gas_pressure)
+        )
         for jj, i in enumerate(act):
             if done[i]:
                 continue
@@ -233,8 +245,9 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
                 done[i] = True
                 reason[i] = "singular Newton matrix"
                 continue
-            if (size[jj] <= tol and small_r[jj]) or (it >= 2 and size[jj] >= 0.5 * prev_step[i]
-                                                    and size[jj] <= 1e3 * tol):
+            if (size[jj] <= tol and small_r[jj]) or (
+                it >= 2 and size[jj] >= 0.5 * prev_step[i] and size[jj] <= 1e3 * tol
+            ):
                 done[i] = ok[i] = True
                 keep[i] = (res, jj, None)
                 continue
@@ -254,9 +267,7 @@ def correct(system: GroupSystem, z0, normals, targets, w: float, max_iter: int =
         rows[conv] = np.arange(conv.size)
     else:
         merged_res = last_res
-    out = Corrected(z, ok, reason, merged_res, rows)
-    out.failed_states = {i: keep[i] for i in keep if not ok[i]}
-    return out
+    return Corrected(z, ok, reason, merged_res, rows, {i: keep[i] for i in keep if not ok[i]})
 
 
 def solve_at_voltage(tracer: Tracer, z_guess, phi: float, loose: bool = False, chord: bool = False) -> Corrected:
@@ -266,8 +277,9 @@ def solve_at_voltage(tracer: Tracer, z_guess, phi: float, loose: bool = False, c
     z[M] = phi * tracer.w
     n = np.zeros(M + 1)
     n[M] = 1.0
-    return correct(tracer.system, z[None, :], n[None, :], np.array([phi * tracer.w]), tracer.w, loose=loose,
-                   chord=chord)
+    return correct(
+        tracer.system, z[None, :], n[None, :], np.array([phi * tracer.w]), tracer.w, loose=loose, chord=chord
+    )
 
 
 def _gather(items):
@@ -279,9 +291,14 @@ def _gather(items):
 
     st_fields = {k: pick(lambda r, k=k: getattr(r.states, k)) for k in GroupStates.__dataclass_fields__}
     states = GroupStates(**st_fields)
-    return Residual(r=pick(lambda r: r.r), J=pick(lambda r: r.J), states=states,
-                    total_volume=pick(lambda r: r.total_volume), gas_pressure=pick(lambda r: r.gas_pressure),
-                    gas_stiffness=pick(lambda r: r.gas_stiffness))
+    return Residual(
+        r=pick(lambda r: r.r),
+        J=pick(lambda r: r.J),
+        states=states,
+        total_volume=pick(lambda r: r.total_volume),
+        gas_pressure=pick(lambda r: r.gas_pressure),
+        gas_stiffness=pick(lambda r: r.gas_stiffness),
+    )
 
 
 def tangents(J, w, orient):
@@ -310,8 +327,7 @@ def hermite(a_z, a_t, b_z, b_t, tau):
     """Cubic Hermite point between two branch points (chord parameter ``tau`` in [0, 1])."""
     L = float(np.linalg.norm(b_z - a_z))
     t2, t3 = tau * tau, tau * tau * tau
-    return ((2 * t3 - 3 * t2 + 1) * a_z + (t3 - 2 * t2 + tau) * L * a_t + (-2 * t3 + 3 * t2) * b_z
-            + (t3 - t2) * L * b_t)
+    return (2 * t3 - 3 * t2 + 1) * a_z + (t3 - 2 * t2 + tau) * L * a_t + (-2 * t3 + 3 * t2) * b_z + (t3 - t2) * L * b_t
 
 
 class Tracer:
@@ -338,16 +354,23 @@ class Tracer:
     def _point(self, corr: Corrected, i: int, orient, index) -> Point:
         res = corr.res
         r = corr.rows[i]
-        t = tangents(res.J[r:r + 1], self.w, np.asarray(orient, dtype=float)[None, :])[0]
+        t = tangents(res.J[r : r + 1], self.w, np.asarray(orient, dtype=float)[None, :])[0]
         eq = make_equilibrium(self.system, res, r, index)
         st = res.states
-        return Point(corr.z[i].copy(), t, eq, st.dp_du[r].copy(), st.dv_du[r].copy(), tuple(index),
-                     _is_stable(eq, index))
+        return Point(
+            corr.z[i].copy(), t, eq, st.dp_du[r].copy(), st.dv_du[r].copy(), tuple(index), _is_stable(eq, index)
+        )
 
     def _solve(self, z_guess, normal, target, orient, index, loose=False) -> Point | None:
         """One point (loose or tight) on the constraint ``normal · z = target``; None if it fails."""
-        corr = correct(self.system, np.asarray(z_guess, dtype=float)[None, :], np.asarray(normal)[None, :],
-                       np.array([target]), self.w, loose=loose)
+        corr = correct(
+            self.system,
+            np.asarray(z_guess, dtype=float)[None, :],
+            np.asarray(normal)[None, :],
+            np.array([target]),
+            self.w,
+            loose=loose,
+        )
         if not corr.ok[0]:
             self._last_failure = corr
             return None
@@ -377,8 +400,10 @@ class Tracer:
         index = tuple(index) if index is not None else (0,) * M
         p = self._solve(z, n, z[M], n, index)
         if p is None:
-            raise SolverError(f"no equilibrium of {self.system.configuration.label} near the seed at "
-                              f"Φ̂ = {z[M] / self.w:.6g}: {self._last_failure.reason[0]}")
+            raise SolverError(
+                f"no equilibrium of {self.system.configuration.label} near the seed at "
+                f"Φ̂ = {z[M] / self.w:.6g}: {self._last_failure.reason[0]}"
+            )
         return p
 
     def trace(self, seed: Point, stable_only: bool = False) -> Branch:
@@ -389,8 +414,19 @@ class Tracer:
         """
         self.stable_only = stable_only
         if self.phi_hi <= self.phi_lo:  # a window of one voltage (a scene without voltage): the seed alone
-            edge = [Event(kind="window", phi_hat=self.phi_lo, eq=seed.eq, z=seed.z, s=0.0, stable_before=seed.stable,
-                          stable_after=seed.stable, note="the window is one voltage") for _ in range(2)]
+            edge = [
+                Event(
+                    kind="window",
+                    phi_hat=self.phi_lo,
+                    eq=seed.eq,
+                    z=seed.z,
+                    s=0.0,
+                    stable_before=seed.stable,
+                    stable_after=seed.stable,
+                    note="the window is one voltage",
+                )
+                for _ in range(2)
+            ]
             return Branch(self.system, [seed], [], tuple(edge), [])
         fwd, fev, fend, fnotes = self._one_way(seed, +1)
         bwd, bev, bend, bnotes = self._one_way(seed, -1)
@@ -405,7 +441,9 @@ class Tracer:
         return Branch(self.system, points, events, (bend, fend), bnotes + fnotes)
 
     def _one_way(self, seed: Point, sign: int):
-        pts, events, notes = [], [], []
+        pts: list[Point] = []
+        events: list[Event] = []
+        notes: list[str] = []
         cur = Point(seed.z.copy(), sign * seed.tangent, seed.eq, seed.dp_du, seed.dv_du, seed.index, seed.stable, 0.0)
         prev = None
         h = INITIAL_STEP
@@ -414,8 +452,9 @@ class Tracer:
             if len(pts) >= MAX_POINTS:
                 notes.append(f"continuation stopped after {MAX_POINTS} points at Φ̂ = {cur.phi:.8g}")
                 break
-            new = self._solve(self._predict(prev, cur, h), cur.tangent, cur.tangent @ cur.z + h, cur.tangent,
-                              cur.index, loose=True)
+            new = self._solve(
+                self._predict(prev, cur, h), cur.tangent, cur.tangent @ cur.z + h, cur.tangent, cur.index, loose=True
+            )
             if new is None:
                 failure = self._last_failure
                 codes = [c[2] for c in getattr(failure, "failed_states", {}).values() if c[2] is not None]
@@ -428,8 +467,7 @@ class Tracer:
                     if invalid:
                         end = self._range_end(prev, cur, 2 * MIN_STEP, failure)
                     if end is None:
-                        notes.append(f"continuation stopped at Φ̂ = {cur.phi:.8g}: {failure.reason[0]} "
-                                     f"(step {h:.1e})")
+                        notes.append(f"continuation stopped at Φ̂ = {cur.phi:.8g}: {failure.reason[0]} (step {h:.1e})")
                     break
                 h *= 0.5
                 continue
@@ -440,17 +478,25 @@ class Tracer:
             new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
             found = self._events_between(cur, new)
             if getattr(self, "stable_only", False):
-                stop = [e for e in found
-                        if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")]
+                stop = [
+                    e for e in found if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")
+                ]
                 if stop:
                     end = min(stop, key=lambda e: e.s)
                     events.extend(e for e in found if e.s < end.s)
                     break
             events.extend(found)
             if not (self.phi_lo <= new.phi <= self.phi_hi):
-                end = Event(kind="window", phi_hat=self.phi_hi if new.phi > self.phi_hi else self.phi_lo, eq=new.eq,
-                            z=new.z, s=new.s, stable_before=cur.stable, stable_after=cur.stable,
-                            note="the voltage leaves the window asked for")
+                end = Event(
+                    kind="window",
+                    phi_hat=self.phi_hi if new.phi > self.phi_hi else self.phi_lo,
+                    eq=new.eq,
+                    z=new.z,
+                    s=new.s,
+                    stable_before=cur.stable,
+                    stable_after=cur.stable,
+                    note="the voltage leaves the window asked for",
+                )
                 pts.append(new)
                 break
             pts.append(new)
@@ -478,7 +524,8 @@ class Tracer:
             out.append((kind, group, key, fa, fb))
         # the zone's own index first (it decides stability after the step)
         for j in vfolds:
-            self._update_index(a, b, j)
+            if j is not None:
+                self._update_index(a, b, j)
         precise = a.stable != b.stable
         events = []
         for kind, group, key, fa, fb in out:
@@ -491,8 +538,15 @@ class Tracer:
                 ev = None
             if ev is None:
                 z = hermite(a.z, a.tangent, b.z, b.tangent, frac)
-                ev = Event(kind=key, phi_hat=float(z[self.M] / self.w), eq=None, z=z, s=a.s + frac * (b.s - a.s),
-                           error=abs(b.phi - a.phi), note="approximate (not on a stability change)")
+                ev = Event(
+                    kind=key,
+                    phi_hat=float(z[self.M] / self.w),
+                    eq=(a if frac < 0.5 else b).eq,
+                    z=z,
+                    s=a.s + frac * (b.s - a.s),
+                    error=abs(b.phi - a.phi),
+                    note="approximate (not on a stability change)",
+                )
             ev.kind, ev.group = kind, group
             ev.stable_before, ev.stable_after = a.stable, b.stable
             events.append(ev)
@@ -509,7 +563,7 @@ class Tracer:
         N = np.repeat(a.tangent[None, :], sigmas.size, axis=0)
         corr = correct(self.system, Z, N, a.tangent @ a.z + sigmas, self.w, loose=loose, formal=formal)
         self._last_failure = corr
-        out = []
+        out: list[Point | None] = []
         for i in range(sigmas.size):
             if not corr.ok[i]:
                 out.append(None)
@@ -546,13 +600,13 @@ class Tracer:
             # branch by up to LOOSE_TOLERANCE, which can put it on the wrong side of a close root)
             redo = [] if loose else [e for e in (A, B) if e[3]]
             pts = self._points_at(a, b, sig_b, cands + [e[0] for e in redo], loose, formal)
-            for e, p in zip(redo, pts[len(cands):]):
+            for e, p in zip(redo, pts[len(cands) :]):
                 fixed = (e[0], float(fn(p)), p, False) if p is not None else None
                 if e is A:
                     A = fixed if fixed is not None else A
                 else:
                     B = fixed if fixed is not None else B
-            pts = pts[:len(cands)]
+            pts = pts[: len(cands)]
             nodes = [A] + [(s, float(fn(p)), p, loose) for s, p in zip(cands, pts) if p is not None] + [B]
             if len(nodes) == 2 and not redo:
                 break
@@ -583,23 +637,39 @@ class Tracer:
             best = a
         if merge:
             return self._merge_point(best, int(key.partition(":")[2]))
-        return Event(kind=key, phi_hat=best.phi, eq=best.eq, z=best.z, s=best.s,
-                     error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w, tangent=best.tangent.copy())
+        return Event(
+            kind=key,
+            phi_hat=best.phi,
+            eq=best.eq,
+            z=best.z,
+            s=best.s,
+            error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w,
+            tangent=best.tangent.copy(),
+        )
 
     def _merge_point(self, near: Point, j: int) -> Event:
         """Where groups ``j`` and ``j + 1`` meet: the symmetric branch point of the coarser configuration
         (its merged group at a pressure extremum, ``dp̂/du = 0``), solved exactly from ``near``."""
         counts = list(self.counts)
-        merged_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2:]
-        coarse = GroupSystem(self.system.model, self.system.gas, Configuration(tuple(merged_counts)),
-                             self.system.settings)
-        u = list(near.z[:self.M])
-        uc = u[:j] + [0.5 * (u[j] + u[j + 1])] + u[j + 2:]
+        merged_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2 :]
+        coarse = GroupSystem(
+            self.system.model, self.system.gas, Configuration(tuple(merged_counts)), self.system.settings
+        )
+        u = list(near.z[: self.M])
+        uc = u[:j] + [0.5 * (u[j] + u[j + 1])] + u[j + 2 :]
         bp = symmetric_branch_point(coarse, j, np.array(uc), near.phi)
         eq = bp["eq"]
-        z = np.array(list(bp["u"][:j]) + [bp["u"][j]] * 2 + list(bp["u"][j + 1:]) + [bp["phi"] * self.w])
-        return Event(kind="merge", phi_hat=bp["phi"], eq=eq, z=z, s=near.s, group=j, error=bp["error"],
-                     note=f"meets {coarse.configuration.label} at its symmetric branch point")
+        z = np.array(list(bp["u"][:j]) + [bp["u"][j]] * 2 + list(bp["u"][j + 1 :]) + [bp["phi"] * self.w])
+        return Event(
+            kind="merge",
+            phi_hat=bp["phi"],
+            eq=eq,
+            z=z,
+            s=near.s,
+            group=j,
+            error=bp["error"],
+            note=f"meets {coarse.configuration.label} at its symmetric branch point",
+        )
 
     def _update_index(self, a: Point, b: Point, j: int):
         """Maddocks' rule at a volume fold of group ``j``: the zone's own index changes by
@@ -653,8 +723,9 @@ class Tracer:
                     continue
                 if tmin(far) >= 0:
                     return None  # valid there after all: the step failed for another reason
-                best, lo, hi = self._root(cur, far, float(cur.tangent @ (far.z - cur.z)), tmin(cur), tmin(far), tmin,
-                                          formal=True)
+                best, lo, hi = self._root(
+                    cur, far, float(cur.tangent @ (far.z - cur.z)), tmin(cur), tmin(far), tmin, formal=True
+                )
                 if best is None or tmin(best) < 0:
                     return None
                 break
@@ -670,17 +741,27 @@ class Tracer:
                 if p is not None and p.tangent @ cur.tangent > 0:
                     lo, best = mid, p
                     continue
-                new_codes = [c[2] for c in getattr(self._last_failure, "failed_states", {}).values()
-                             if c[2] is not None]
+                new_codes = [
+                    c[2] for c in getattr(self._last_failure, "failed_states", {}).values() if c[2] is not None
+                ]
                 if not new_codes:
                     return None  # the corrector failed on a valid state: undecided
                 hi, code = mid, new_codes[0]
             if best is cur:
                 return None
         tag, text = failure_reason(code)
-        return Event(kind="range_end", phi_hat=best.phi, eq=best.eq, z=best.z, s=best.s,
-                     error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w, note=f"{tag}: {text}",
-                     stable_before=best.stable, stable_after=False, tangent=best.tangent.copy())
+        return Event(
+            kind="range_end",
+            phi_hat=best.phi,
+            eq=best.eq,
+            z=best.z,
+            s=best.s,
+            error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w,
+            note=f"{tag}: {text}",
+            stable_before=best.stable,
+            stable_after=False,
+            tangent=best.tangent.copy(),
+        )
 
 
 def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
@@ -692,11 +773,12 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
     if event.kind == "merge":
         j = event.group or 0
         counts = list(tracer.counts)
-        coarse_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2:]
-        coarse = GroupSystem(tight.system.model, tight.system.gas, Configuration(tuple(coarse_counts)),
-                             tight.system.settings)
+        coarse_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2 :]
+        coarse = GroupSystem(
+            tight.system.model, tight.system.gas, Configuration(tuple(coarse_counts)), tight.system.settings
+        )
         u = list(event.z[:M])
-        uc = u[:j] + [u[j]] + u[j + 2:]
+        uc = u[:j] + [u[j]] + u[j + 2 :]
         bp = symmetric_branch_point(coarse, j, np.array(uc), event.phi_hat)
         change = abs(bp["phi"] - event.phi_hat)
     elif event.tangent is None:
@@ -777,8 +859,9 @@ def symmetric_branch_point(system: GroupSystem, j: int, u_guess, phi_guess, max_
         if not res.states.ok.all():
             bad = res.states.status[~res.states.ok][0]
             code = int(bad[bad != 0][0])
-            raise SolverError(f"symmetric branch point of {system.configuration.label}: "
-                              f"{failure_reason(code)[1]} near Φ̂ = {phi:.8g}")
+            raise SolverError(
+                f"symmetric branch point of {system.configuration.label}: {failure_reason(code)[1]} near Φ̂ = {phi:.8g}"
+            )
         dp = res.states.dp_du[:, j]
         F = np.concatenate([res.r[0], [dp[0]]])
         A = np.zeros((M + 1, M + 1))
@@ -892,8 +975,9 @@ class StableSegment:
         index = self.points[0].index
         for i in range(phis.size):
             if not corr.ok[i]:
-                raise SolverError(f"{self.label}: no converged state at Φ̂ = {phis[i]:.10g} on its stable "
-                                  f"segment ({corr.reason[i]})")
+                raise SolverError(
+                    f"{self.label}: no converged state at Φ̂ = {phis[i]:.10g} on its stable segment ({corr.reason[i]})"
+                )
             out.append(make_equilibrium(self.tracer.system, corr.res, corr.rows[i], index))
         return out
 
@@ -935,7 +1019,7 @@ class EquilibriumMap:
         self.phi_window = (float(phi_window[0]), float(phi_window[1]))
         self.breakdown = breakdown_field
         self.segments: list[StableSegment] = []
-        self._tracers = {}
+        self._tracers: dict = {}
 
     def tracer(self, counts) -> Tracer:
         counts = tuple(int(c) for c in counts)
@@ -970,5 +1054,6 @@ class EquilibriumMap:
         from .equilibria import pressure_branch
 
         pre = self.model.prestretch
-        return tuple(pressure_branch(self.model, np.sqrt(lam - pre), eq.phi_hat, self.settings)
-                     for lam in eq.pole_stretch)
+        return tuple(
+            pressure_branch(self.model, np.sqrt(lam - pre), eq.phi_hat, self.settings) for lam in eq.pole_stretch
+        )

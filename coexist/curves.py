@@ -17,8 +17,17 @@ from .model import MembraneModel
 from .settings import SolverSettings
 from .shooting import OK, MembraneStates, first_valid_run, reason_tag, reason_text, solve_states
 
-_STATE_FIELDS = ("pole_stretch", "phi_hat", "p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field",
-                 "min_tension")
+_STATE_FIELDS = (
+    "pole_stretch",
+    "phi_hat",
+    "p_hat",
+    "v_hat",
+    "q_hat",
+    "psi_hat",
+    "apex_height",
+    "max_field",
+    "min_tension",
+)
 
 
 @dataclass
@@ -113,16 +122,6 @@ def _take(states: MembraneStates, index) -> MembraneStates:
     return MembraneStates(**kw)
 
 
-def _concat(a: MembraneStates, b: MembraneStates) -> MembraneStates:
-    kw = {}
-    for name, value in a.__dict__.items():
-        if isinstance(value, np.ndarray):
-            kw[name] = np.concatenate([value, getattr(b, name)])
-        else:
-            kw[name] = None
-    return MembraneStates(**kw)
-
-
 def _valid_run(states: MembraneStates, pole_stretch):
     """The first contiguous run of valid states, and why the range was cut before and after it."""
     ok = states.ok
@@ -138,13 +137,11 @@ def _valid_run(states: MembraneStates, pole_stretch):
     starts = None
     if first > 0:
         code = states.status[first - 1]
-        starts = (f"{reason_tag(code)}: below pole stretch {pole_stretch[first]:.6g} "
-                  f"{reason_text(code)}")
+        starts = f"{reason_tag(code)}: below pole stretch {pole_stretch[first]:.6g} {reason_text(code)}"
     stopped = None
     if last + 1 < ok.size:
         code = states.status[last + 1]
-        stopped = (f"{reason_tag(code)}: beyond pole stretch {pole_stretch[last]:.6g} "
-                   f"{reason_text(code)}")
+        stopped = f"{reason_tag(code)}: beyond pole stretch {pole_stretch[last]:.6g} {reason_text(code)}"
     return run, starts, stopped
 
 
@@ -184,7 +181,7 @@ def refine_extrema(evaluate, brackets, settings: SolverSettings, nodes: int = 9)
         idx = np.flatnonzero(open_)
         if idx.size == 0:
             break
-        x = (0.5 * (a[idx] + b[idx])[:, None] + 0.5 * (b[idx] - a[idx])[:, None] * unit[None, :])
+        x = 0.5 * (a[idx] + b[idx])[:, None] + 0.5 * (b[idx] - a[idx])[:, None] * unit[None, :]
         g, _ = evaluate(x.ravel())
         g = np.asarray(g).reshape(idx.size, nodes)
         for j, i in enumerate(idx):
@@ -199,8 +196,10 @@ def refine_extrema(evaluate, brackets, settings: SolverSettings, nodes: int = 9)
             x_star[i] = cand[np.argmax(values)]
             g_star = sign[i] * values.max()
             width = b[i] - a[i]
-            if abs(g_star - g_prev[i]) <= 0.5 * settings.rtol * max(1.0, abs(g_star)) \
-                    or width <= settings.limit_point_xtol * x_star[i]:
+            if (
+                abs(g_star - g_prev[i]) <= 0.5 * settings.rtol * max(1.0, abs(g_star))
+                or width <= settings.limit_point_xtol * x_star[i]
+            ):
                 open_[i] = False
             g_prev[i] = g_star
             half = max(width / 16, settings.limit_point_xtol * x_star[i])
@@ -210,9 +209,15 @@ def refine_extrema(evaluate, brackets, settings: SolverSettings, nodes: int = 9)
 
 
 def _limit_point(kind: str, s: MembraneStates) -> LimitPoint:
-    return LimitPoint(kind=kind, pole_stretch=float(s.pole_stretch[0]), p_hat=float(s.p_hat[0]),
-                      v_hat=float(s.v_hat[0]), phi_hat=float(s.phi_hat[0]), q_hat=float(s.q_hat[0]),
-                      psi_hat=float(s.psi_hat[0]))
+    return LimitPoint(
+        kind=kind,
+        pole_stretch=float(s.pole_stretch[0]),
+        p_hat=float(s.p_hat[0]),
+        v_hat=float(s.v_hat[0]),
+        phi_hat=float(s.phi_hat[0]),
+        q_hat=float(s.q_hat[0]),
+        psi_hat=float(s.psi_hat[0]),
+    )
 
 
 def _find_limit_points(states, quantities, evaluate_states, settings):
@@ -238,12 +243,13 @@ def _find_limit_points(states, quantities, evaluate_states, settings):
             attrs.append(attr)
     if not brackets:
         return []
-    per_attr = {}
+    per_attr: dict[str, list[int]] = {}
     for j, attr in enumerate(attrs):
         per_attr.setdefault(attr, []).append(j)
 
-    found = [None] * len(brackets)
+    found: list = [None] * len(brackets)
     for attr, sel in per_attr.items():
+
         def g_of(x, attr=attr):
             st = evaluate_states(x)
             return np.where(st.ok, getattr(st, attr), np.nan), st
@@ -261,13 +267,13 @@ def _check_range(pole_stretch, model):
     if np.any(np.diff(l0) <= 0):
         raise SceneError("pole stretches must increase", "pole_stretch")
     if l0[0] <= model.prestretch:
-        raise SceneError(f"pole stretch must exceed the prestretch {model.prestretch:g}, got {l0[0]:g}",
-                         "pole_stretch")
+        raise SceneError(f"pole stretch must exceed the prestretch {model.prestretch:g}, got {l0[0]:g}", "pole_stretch")
     return l0
 
 
-def pressure_volume_curve(model: MembraneModel, phi_hat: float = 0.0, pole_stretch=None,
-                          settings: SolverSettings | None = None) -> Curve:
+def pressure_volume_curve(
+    model: MembraneModel, phi_hat: float = 0.0, pole_stretch=None, settings: SolverSettings | None = None
+) -> Curve:
     """The ``p̂–V̂`` curve of a clamped zone at fixed normalised voltage ``Φ̂``.
 
     Parameters
@@ -300,13 +306,17 @@ def pressure_volume_curve(model: MembraneModel, phi_hat: float = 0.0, pole_stret
     states = _take(states, run)
 
     limits = _find_limit_points(
-        states, {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
-        lambda x: solve_states(model, x, phi_hat, settings), settings)
+        states,
+        {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
+        lambda x: solve_states(model, x, phi_hat, settings),
+        settings,
+    )
     return Curve("pressure_volume", float(phi_hat), states, limits, starts, stopped, settings.rtol)
 
 
-def voltage_at_pressure(model: MembraneModel, pole_stretch, p_hat: float, settings: SolverSettings | None = None,
-                        iterations: int = 60) -> MembraneStates:
+def voltage_at_pressure(
+    model: MembraneModel, pole_stretch, p_hat: float, settings: SolverSettings | None = None, iterations: int = 60
+) -> MembraneStates:
     """States at given pole stretches that carry the pressure ``p̂``: solves ``p̂(λ0, Φ̂) = p̂`` for ``Φ̂``.
 
     The pressure falls as the voltage rises at fixed pole stretch; the root in ``s = Φ̂²`` is found by
@@ -400,8 +410,9 @@ def _merge(base: MembraneStates, new: MembraneStates, where) -> MembraneStates:
     return base
 
 
-def voltage_charge_curve(model: MembraneModel, p_hat: float, pole_stretch=None,
-                         settings: SolverSettings | None = None) -> Curve:
+def voltage_charge_curve(
+    model: MembraneModel, p_hat: float, pole_stretch=None, settings: SolverSettings | None = None
+) -> Curve:
     """The ``Φ̂–Q̂`` curve of a clamped zone at fixed normalised pressure ``p̂``.
 
     Traced by the pole stretch; at each ``λ0`` the voltage is the root of ``p̂(λ0, Φ̂) = p̂``
@@ -419,6 +430,9 @@ def voltage_charge_curve(model: MembraneModel, p_hat: float, pole_stretch=None,
     states = _take(states, run)
 
     limits = _find_limit_points(
-        states, {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("charge_max", "charge_min")},
-        lambda x: voltage_at_pressure(model, x, p_hat, settings), settings)
+        states,
+        {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("charge_max", "charge_min")},
+        lambda x: voltage_at_pressure(model, x, p_hat, settings),
+        settings,
+    )
     return Curve("voltage_charge", float(p_hat), states, limits, starts, stopped, settings.rtol)

@@ -1,18 +1,21 @@
 """Physical effects a membrane model is built from: one class each, "off" included.
 
-A model is assembled from one elasticity effect and one electrostatics effect; each contributes
-its own symbolic terms to the free energy at fixed voltage, so turning an effect off removes its
-terms from the equations instead of multiplying them by zero. Elasticity is written as a function
-of ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` and electrostatics of ``K = λ1²λ2²`` (both models of the
-project are of this form), which lets the model differentiate through the invariants. All energies
-are per unit reference volume and normalised by the shear modulus ``μ``; the voltage enters as
-``Φ̂ = (Φ/H)√(ε/μ)``.
+A model is assembled from one elasticity effect and one electrostatics effect, each behind its
+Protocol (:class:`Elasticity`, :class:`Electrostatics`); each contributes its own symbolic terms to
+the free energy at fixed voltage. "Off" is an effect too (:class:`NoElectrostatics`): its terms are
+the constant zero, which CasADi folds away, so the equations of a model without voltage contain no
+trace of the field (``tests/test_model.py`` checks it symbolically) and the assembler has no branch.
+Elasticity is written as a function of ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` and electrostatics of
+``K = λ1²λ2²`` (both models of the project are of this form), which lets the model differentiate
+through the invariants. All energies are per unit reference volume and normalised by the shear
+modulus ``μ``; the voltage enters as ``Φ̂ = (Φ/H)√(ε/μ)``.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import casadi as ca
 
@@ -57,6 +60,33 @@ def area_invariant(l1, l2):
     return l1**2 * l2**2
 
 
+class Elasticity(Protocol):
+    """What an elasticity effect gives the model: its energy ``Ws/μ`` as a function of ``I = I1 − 3``, and
+    how far the chains are from locking (a positive constant if they never lock)."""
+
+    name: str
+
+    def energy_of_invariant(self, i1: Any) -> Any: ...
+
+    def locking_margin(self, l1: Any, l2: Any) -> Any: ...
+
+    def describe(self) -> dict: ...
+
+
+class Electrostatics(Protocol):
+    """What an electrostatics effect gives the model: its energy at fixed voltage as a function of
+    ``K = λ1²λ2²``, the nominal charge density and the true field (all zero when it is off)."""
+
+    name: str
+    enabled: bool
+
+    def energy_of_invariant(self, k: Any, phi: Any) -> Any: ...
+
+    def charge_density(self, l1: Any, l2: Any, phi: Any) -> Any: ...
+
+    def field(self, l1: Any, l2: Any, phi: Any) -> Any: ...
+
+
 @dataclass(frozen=True)
 class NeoHookean:
     """Neo-Hookean elasticity, ``Ws/μ = (λ1² + λ2² + λ1⁻²λ2⁻² − 3)/2`` (seed eq. 2, PHYSICS.md)."""
@@ -67,12 +97,9 @@ class NeoHookean:
         """``Ws/μ`` as a function of ``I = I1 − 3``."""
         return 0.5 * i1
 
-    def strain_energy(self, l1, l2):
-        return self.energy_of_invariant(first_invariant(l1, l2))
-
     def locking_margin(self, l1, l2):
         """Always positive: a neo-Hookean membrane never locks."""
-        return None
+        return ca.SX(1.0)
 
     def describe(self) -> dict:
         return {"material": self.name}
@@ -100,9 +127,6 @@ class Gent:
         """``Ws/μ`` as a function of ``I = I1 − 3``."""
         return -0.5 * self.jlim * ca.log1p(-i1 / self.jlim)  # log1p: exact as Jlim → ∞
 
-    def strain_energy(self, l1, l2):
-        return self.energy_of_invariant(first_invariant(l1, l2))
-
     def locking_margin(self, l1, l2):
         """``1 − (I1 − 3)/Jlim``: the chains lock where it reaches zero."""
         return 1 - first_invariant(l1, l2) / self.jlim
@@ -123,9 +147,6 @@ class IdealDielectric:
     name = "ideal-dielectric"
     enabled = True
 
-    def energy(self, l1, l2, phi):
-        return self.energy_of_invariant(area_invariant(l1, l2), phi)
-
     def energy_of_invariant(self, k, phi):
         """``−Φ̂² K / 2`` with ``K = λ1² λ2²``."""
         return -0.5 * phi**2 * k
@@ -139,22 +160,19 @@ class IdealDielectric:
 
 @dataclass(frozen=True)
 class NoElectrostatics:
-    """Electrostatics switched off: no voltage, no charge, no field terms are built at all."""
+    """Electrostatics switched off: its energy, charge and field are the constant zero (folded away)."""
 
     name = "none"
     enabled = False
 
-    def energy(self, l1, l2, phi):
-        return None
-
     def energy_of_invariant(self, k, phi):
-        return None
+        return ca.SX(0.0)
 
     def charge_density(self, l1, l2, phi):
-        return None
+        return ca.SX(0.0)
 
     def field(self, l1, l2, phi):
-        return None
+        return ca.SX(0.0)
 
 
 def material_from_name(name: str, jlim: float | None = None):

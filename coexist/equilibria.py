@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .errors import SceneError, SolverError
-from .shooting import OK, reason_tag, reason_text, solve_states
+from .shooting import OK, StateDerivatives, reason_tag, reason_text, solve_states
 
 
 # --- what holds the pressure -----------------------------------------------------------------------
@@ -219,10 +219,19 @@ def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: boo
     status[~good] = -1
     du = 2 * u  # dλ/du
     return GroupStates(
-        u=u, phi=np.asarray(phi, dtype=float), p=shaped(st.p_hat), v=shaped(st.v_hat), q=sign * shaped(st.q_hat),
-        psi=shaped(st.psi_hat), dp_du=shaped(d.dp_dl0) * du, dv_du=shaped(d.dv_dl0) * du,
-        dp_dphi=sign * shaped(d.dp_dphi), dv_dphi=sign * shaped(d.dv_dphi), max_field=shaped(st.max_field),
-        min_tension=shaped(st.min_tension), status=status,
+        u=u,
+        phi=np.asarray(phi, dtype=float),
+        p=shaped(st.p_hat),
+        v=shaped(st.v_hat),
+        q=sign * shaped(st.q_hat),
+        psi=shaped(st.psi_hat),
+        dp_du=shaped(d.dp_dl0) * du,
+        dv_du=shaped(d.dv_dl0) * du,
+        dp_dphi=sign * shaped(d.dp_dphi),
+        dv_dphi=sign * shaped(d.dv_dphi),
+        max_field=shaped(st.max_field),
+        min_tension=shaped(st.min_tension),
+        status=status,
     )
 
 
@@ -392,7 +401,7 @@ def pressure_branch(model, u, phi, settings, samples: int = 64) -> int:
     u = float(u)
     grid = np.linspace(0.0, u, samples + 1)[1:]
     s = solve_states(model, model.prestretch + grid**2, phi, settings, derivatives=True)
-    dp = np.where(s.ok, s.derivatives.dp_dl0, np.nan)
+    dp = np.where(s.ok, StateDerivatives.of(s).dp_dl0, np.nan)
     ok = np.isfinite(dp)
     first = int(np.flatnonzero(~ok)[-1]) + 1 if (~ok).any() else 0
     dp = dp[first:]
@@ -417,14 +426,15 @@ def zone_index(model, u, phi, settings, samples: int = 64) -> int:
         return 0
     st = solve_states(model, model.prestretch + u * u, phi, settings)
     if not st.ok[0]:
-        raise SolverError(f"zone_index: the state at u = {u:.6g}, Φ̂ = {phi:.6g} is not valid "
-                          f"({reason_text(int(st.status[0]))})")
+        raise SolverError(
+            f"zone_index: the state at u = {u:.6g}, Φ̂ = {phi:.6g} is not valid ({reason_text(int(st.status[0]))})"
+        )
 
     def slopes(x):
         x = np.atleast_1d(np.asarray(x, dtype=float))
         s = solve_states(model, model.prestretch + x * x, phi, settings, derivatives=True)
         good = s.ok
-        d = s.derivatives
+        d = StateDerivatives.of(s)
         return np.where(good, d.dv_dl0 * 2 * x, np.nan), np.where(good, d.dp_dl0 * 2 * x, np.nan)
 
     return fold_index(slopes, u, samples)
@@ -537,10 +547,17 @@ class Equilibrium:
 
     def to_dict(self) -> dict:
         return {
-            "configuration": self.label, "group_sizes": list(self.configuration.counts),
-            "phi_hat": self.phi_hat, "p_hat": self.p_hat, "pole_stretch": list(self.pole_stretch),
-            "v_hat": list(self.v_hat), "free_energy_hat": self.free_energy, "stable": self.stable,
-            "min_eigenvalue": self.min_eigenvalue, "zone_index": list(self.zone_index), "residual": self.residual,
+            "configuration": self.label,
+            "group_sizes": list(self.configuration.counts),
+            "phi_hat": self.phi_hat,
+            "p_hat": self.p_hat,
+            "pole_stretch": list(self.pole_stretch),
+            "v_hat": list(self.v_hat),
+            "free_energy_hat": self.free_energy,
+            "stable": self.stable,
+            "min_eigenvalue": self.min_eigenvalue,
+            "zone_index": list(self.zone_index),
+            "residual": self.residual,
         }
 
 
@@ -578,10 +595,18 @@ def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> 
     eig = hessian_eigenvalues(counts, a, float(res.gas_stiffness[i]))
     idx = tuple(int(index[j]) for j in order) if index is not None else (0,) * len(counts)
     return Equilibrium(
-        configuration=conf, phi_hat=float(st.phi[i]), pole_stretch=tuple(float(x) for x in lam),
-        p_hat=float(res.gas_pressure[i]), v_hat=tuple(float(x) for x in v),
-        q_hat=tuple(float(x) for x in st.q[i, order]), psi_hat=tuple(float(x) for x in psi),
-        dp_dv=tuple(float(x) for x in a), max_field=tuple(float(x) for x in st.max_field[i, order]),
-        min_tension=tuple(float(x) for x in st.min_tension[i, order]), free_energy=G, eigenvalues=eig,
-        zone_index=idx, residual=float(np.max(np.abs(res.r[i]))) if res.r.size else 0.0,
+        configuration=conf,
+        phi_hat=float(st.phi[i]),
+        pole_stretch=tuple(float(x) for x in lam),
+        p_hat=float(res.gas_pressure[i]),
+        v_hat=tuple(float(x) for x in v),
+        q_hat=tuple(float(x) for x in st.q[i, order]),
+        psi_hat=tuple(float(x) for x in psi),
+        dp_dv=tuple(float(x) for x in a),
+        max_field=tuple(float(x) for x in st.max_field[i, order]),
+        min_tension=tuple(float(x) for x in st.min_tension[i, order]),
+        free_energy=G,
+        eigenvalues=eig,
+        zone_index=idx,
+        residual=float(np.max(np.abs(res.r[i]))) if res.r.size else 0.0,
     )

@@ -33,8 +33,9 @@ class Shared:
         return cls(model, snap_through(model, scene.settings, pole_stretch_max(scene)))
 
 
-def transition_voltage(scene: Scene, kind: str = "spinodal", shared: Shared | None = None,
-                       measure: bool = False) -> tuple[float, float]:
+def transition_voltage(
+    scene: Scene, kind: str = "spinodal", shared: Shared | None = None, measure: bool = False
+) -> tuple[float, float]:
     """The first transition on the way up from the closing state, in volts, and its error.
 
     ``kind = "spinodal"``: where the homogeneous state is lost (what a slow ramp shows);
@@ -50,8 +51,9 @@ def transition_voltage(scene: Scene, kind: str = "spinodal", shared: Shared | No
     return float(scene.voltage_of(t.phi_hat)), float(scene.voltage_of(t.phi_hat_error))
 
 
-def fit_zone_radius(scene: Scene, target_voltage: float, kind: str = "spinodal", shared: Shared | None = None,
-                    bracket_mm=None) -> float:
+def fit_zone_radius(
+    scene: Scene, target_voltage: float, kind: str = "spinodal", shared: Shared | None = None, bracket_mm=None
+) -> float:
     """The zone radius ``A`` (m) that puts the first transition of the ramp at ``target_voltage`` (V).
 
     The admissible radii are those whose closing pressure the zones can hold (``p̂close < p̂max``). The
@@ -107,11 +109,19 @@ def fit_zone_radius(scene: Scene, target_voltage: float, kind: str = "spinodal",
             for frac in (0.25, 0.5, 0.75):
                 value(a + frac * (b - a))
     valid = sorted((a, v) for a, v in tried.items() if v is not None)
-    reach = (f"transitions between {min(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} and "
-             f"{max(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} kV") if valid else "no transition at all"
-    raise ModelRangeError(f"no zone radius in {lo_mm:.4g}..{hi_mm:.4g} mm puts the {kind} transition at "
-                          f"{target_voltage / 1e3:.4g} kV: the radii give {reach}"
-                          + (f"; without one: {why[0]}" if why else ""), "no_fit")
+    reach = (
+        (
+            f"transitions between {min(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} and "
+            f"{max(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} kV"
+        )
+        if valid
+        else "no transition at all"
+    )
+    raise ModelRangeError(
+        f"no zone radius in {lo_mm:.4g}..{hi_mm:.4g} mm puts the {kind} transition at "
+        f"{target_voltage / 1e3:.4g} kV: the radii give {reach}" + (f"; without one: {why[0]}" if why else ""),
+        "no_fit",
+    )
 
 
 def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | None = None) -> list[dict]:
@@ -121,10 +131,10 @@ def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | No
     modulus changes the voltage scale and the gas, not the normalised model, so one model serves all.
     """
     shared = shared or Shared.of(scene)
-    rows = []
+    rows: list[dict] = []
 
     def both(sc):
-        out = {}
+        out: dict[str, float | str | None] = {}
         for kind in ("spinodal", "equal_free_energy"):
             try:
                 out[kind] = transition_voltage(sc, kind, shared)[0] / 1e3
@@ -135,11 +145,15 @@ def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | No
 
     rows.append({"parameter": "baseline", "value": None, **both(scene)})
     ch = scene.chamber
+    if ch is None:
+        raise SceneError("the sensitivity table needs a scene with a [chamber]", "[chamber]")
     perturb = {
         "zone_radius_mm": (scene.zone_radius * 1e3, lambda x: replace(scene, zone_radius=x / 1e3)),
         "shear_modulus_kPa": (scene.shear_modulus / 1e3, lambda x: replace(scene, shear_modulus=x * 1e3)),
-        "closing_pressure_mbar": (ch.closing_pressure / 100,
-                                  lambda x: replace(scene, chamber=replace(ch, closing_pressure=x * 100))),
+        "closing_pressure_mbar": (
+            ch.closing_pressure / 100,
+            lambda x: replace(scene, chamber=replace(ch, closing_pressure=x * 100)),
+        ),
         "chamber_volume_ml": (ch.volume * 1e6, lambda x: replace(scene, chamber=replace(ch, volume=x / 1e6))),
     }
     for name, (value, make) in perturb.items():

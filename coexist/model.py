@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 import casadi as ca
 
 from .effects import (
+    Elasticity,
+    Electrostatics,
     IdealDielectric,
     NeoHookean,
     NoElectrostatics,
@@ -37,10 +39,6 @@ from .numerics.codegen import numpy_function
 #: constant factors of the quadratures V̂, Q̂, Ψ̂, ẑ: the right-hand side integrates V̂/π, Q̂/2π,
 #: Ψ̂/2π and ẑ (one multiplication fewer per stage each), the shooting multiplies them back
 QUADRATURE_FACTORS = (math.pi, 2 * math.pi, 2 * math.pi, 1.0)
-
-#: rows of the integrated state (the last two are constant parameters carried per column)
-STATE_ROWS = ("stretch_meridional", "stretch_hoop", "angle", "volume", "charge", "potential", "height",
-              "pressure", "voltage")
 
 
 @dataclass(frozen=True)
@@ -58,13 +56,15 @@ class MembraneModel:
         ``λ2(1) = λpre``, lengths stay normalised by the unstretched radius ``A``.
     """
 
-    elasticity: object = field(default_factory=NeoHookean)
-    electrostatics: object = field(default_factory=IdealDielectric)
+    elasticity: Elasticity = field(default_factory=NeoHookean)
+    electrostatics: Electrostatics = field(default_factory=IdealDielectric)
     prestretch: float = 1.0
+    _built: dict = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self):
-        if not (isinstance(self.prestretch, (int, float)) and math.isfinite(self.prestretch)
-                and self.prestretch >= 1.0):
+        if not (
+            isinstance(self.prestretch, (int, float)) and math.isfinite(self.prestretch) and self.prestretch >= 1.0
+        ):
             raise SceneError(f"prestretch must be a number >= 1, got {self.prestretch!r}", "prestretch")
         object.__setattr__(self, "_built", _build(self))
 
@@ -159,23 +159,22 @@ def _build(model: MembraneModel) -> dict:
     T2_inv = w_I2 * g2
     T11_inv = w_II4 * g1 * g1 + w_I2 * h11
     T12_inv = w_II4 * g1 * g2 + w_I2 * h12
-    if e is not None:
-        e_K2 = 2 * ca.gradient(e, K_s)
-        e_KK4 = 2 * ca.gradient(e_K2, K_s)
-        k1, k2, k11, k12 = area_invariant_derivatives(l1, l2)
-        W_inv = W_inv + e
-        T1_inv = T1_inv + e_K2 * k1
-        T2_inv = T2_inv + e_K2 * k2
-        T11_inv = T11_inv + e_KK4 * k1 * k1 + e_K2 * k11
-        T12_inv = T12_inv + e_KK4 * k1 * k2 + e_K2 * k12
-    W, T1, T2, T11, T12 = (ca.substitute(x, ca.vertcat(I_s, K_s), ca.vertcat(I_expr, K_expr))
-                           for x in (W_inv, T1_inv, T2_inv, T11_inv, T12_inv))
-    margin = model.elasticity.locking_margin(l1, l2)
-    margin = ca.SX(1.0) if margin is None else margin
-    q = model.electrostatics.charge_density(l1, l2, phi)
-    q = ca.SX(0.0) if q is None else q
-    E = model.electrostatics.field(l1, l2, phi)
-    E = ca.SX(0.0) if E is None else E
+    # the electrostatic terms (constant zero when the effect is off: CasADi folds them away)
+    e_K2 = 2 * ca.gradient(e, K_s)
+    e_KK4 = 2 * ca.gradient(e_K2, K_s)
+    k1, k2, k11, k12 = area_invariant_derivatives(l1, l2)
+    W_inv = W_inv + e
+    T1_inv = T1_inv + e_K2 * k1
+    T2_inv = T2_inv + e_K2 * k2
+    T11_inv = T11_inv + e_KK4 * k1 * k1 + e_K2 * k11
+    T12_inv = T12_inv + e_KK4 * k1 * k2 + e_K2 * k12
+    W, T1, T2, T11, T12 = (
+        ca.substitute(x, ca.vertcat(I_s, K_s), ca.vertcat(I_expr, K_expr))
+        for x in (W_inv, T1_inv, T2_inv, T11_inv, T12_inv)
+    )
+    margin = ca.SX(model.elasticity.locking_margin(l1, l2))
+    q = ca.SX(model.electrostatics.charge_density(l1, l2, phi))
+    E = ca.SX(model.electrostatics.field(l1, l2, phi))
     c, s = ca.cos(th), ca.sin(th)
     R_dl2 = l1 * c - l2  # R λ2'
     dl2 = R_dl2 / R
@@ -202,9 +201,11 @@ def _build(model: MembraneModel) -> dict:
     ds_l0 = ca.jtimes(sens_rows, x, ca.vertcat(*s_l0))
     ds_phi = ca.jtimes(sens_rows, x, ca.vertcat(*s_phi)) + ca.jacobian(sens_rows, phi)
     # (densified: without electrostatics the voltage derivatives are structural zeros)
-    rhs_sens = ca.Function("membrane_rhs_sensitivities", [R, l1, l2, th, p, phi, *s_l0, *s_phi],
-                           [dl1, dl2, dth, dV, dQ, dPsi, dz, *ca.vertsplit(ca.densify(ds_l0)),
-                            *ca.vertsplit(ca.densify(ds_phi))])
+    rhs_sens = ca.Function(
+        "membrane_rhs_sensitivities",
+        [R, l1, l2, th, p, phi, *s_l0, *s_phi],
+        [dl1, dl2, dth, dV, dQ, dPsi, dz, *ca.vertsplit(ca.densify(ds_l0)), *ca.vertsplit(ca.densify(ds_phi))],
+    )
     # the series start at the pole (derived in docs/physics.md): θ = cR, λ1 = λ0 + aR², λ2 = λ0 + bR²,
     # with its derivatives to λ0 and Φ̂ (the sensitivities' initial values)
     pt, R0 = ca.SX.sym("p_trial"), ca.SX.sym("R0")
@@ -212,22 +213,47 @@ def _build(model: MembraneModel) -> dict:
     c_ = pt * l0**2 / (2 * T0)
     b_ = -(c_**2) * (T0 + (3 * al - be) * l0) / (16 * al)
     a_ = l0 * c_**2 / 2 + 3 * b_
-    y0 = ca.vertcat(l0 + a_ * R0**2, l0 + b_ * R0**2, c_ * R0, l0**3 * c_ * R0**4 / 4, q0 * R0**2 / 2,
-                    W0 * R0**2 / 2, l0 * c_ * R0**2 / 2)
+    y0 = ca.vertcat(
+        l0 + a_ * R0**2,
+        l0 + b_ * R0**2,
+        c_ * R0,
+        l0**3 * c_ * R0**4 / 4,
+        q0 * R0**2 / 2,
+        W0 * R0**2 / 2,
+        l0 * c_ * R0**2 / 2,
+    )
     y0_s = y0[:5]
-    series = ca.Function("membrane_series", [l0, pt, phi, R0],
-                         [*ca.vertsplit(ca.densify(y0)), *ca.vertsplit(ca.densify(ca.jacobian(y0_s, l0))),
-                          *ca.vertsplit(ca.densify(ca.jacobian(y0_s, phi)))])
+    series = ca.Function(
+        "membrane_series",
+        [l0, pt, phi, R0],
+        [
+            *ca.vertsplit(ca.densify(y0)),
+            *ca.vertsplit(ca.densify(ca.jacobian(y0_s, l0))),
+            *ca.vertsplit(ca.densify(ca.jacobian(y0_s, phi))),
+        ],
+    )
     T22 = ca.gradient(T2, l2)  # for the slope of the hoop tension along the meridian (dT2/dR)
     aux = ca.Function("membrane_aux", [l1, l2, phi], [T1, T2, T11, T12, margin, E, T22])
     energy = ca.Function("membrane_energy", [l1, l2, phi], [W])
     pole = ca.Function("membrane_pole", [l0, phi], [sub(T1), sub(T11), sub(T12), sub(W), sub(q)])
     return {
-        "symbols": {"l1": l1, "l2": l2, "theta": th, "R": R, "p": p, "phi": phi, "W": W, "T1": T1,
-                    "T2": T2, "T11": T11, "T12": T12, "q": q, "E": E,
-                    "rhs": ca.vertcat(dl1, dl2, dth, dV, dQ, dPsi, dz)},
-        "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole, "rhs_sens": rhs_sens,
-                   "series": series},
+        "symbols": {
+            "l1": l1,
+            "l2": l2,
+            "theta": th,
+            "R": R,
+            "p": p,
+            "phi": phi,
+            "W": W,
+            "T1": T1,
+            "T2": T2,
+            "T11": T11,
+            "T12": T12,
+            "q": q,
+            "E": E,
+            "rhs": ca.vertcat(dl1, dl2, dth, dV, dQ, dPsi, dz),
+        },
+        "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole, "rhs_sens": rhs_sens, "series": series},
         "rhs": numpy_function(rhs),
         "rhs_into": numpy_function(rhs, into=True),
         "rhs_sens_into": numpy_function(rhs_sens, into=True),
@@ -238,8 +264,9 @@ def _build(model: MembraneModel) -> dict:
     }
 
 
-def build_model(material: str = "neo-hookean", jlim: float | None = None, voltage: bool = True,
-                prestretch: float = 1.0) -> MembraneModel:
+def build_model(
+    material: str = "neo-hookean", jlim: float | None = None, voltage: bool = True, prestretch: float = 1.0
+) -> MembraneModel:
     """Convenience constructor from plain values (what the command line uses)."""
     from .effects import material_from_name
 

@@ -14,8 +14,16 @@ def _pyplot():
     return plt
 
 
-_MARKERS = {"pressure_max": "v", "pressure_min": "^", "volume_max": "s", "volume_min": "s",
-            "voltage_max": "v", "voltage_min": "^", "charge_max": "D", "charge_min": "D"}
+_MARKERS = {
+    "pressure_max": "v",
+    "pressure_min": "^",
+    "volume_max": "s",
+    "volume_min": "s",
+    "voltage_max": "v",
+    "voltage_min": "^",
+    "charge_max": "D",
+    "charge_min": "D",
+}
 
 
 def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
@@ -23,8 +31,15 @@ def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
     for c in curves:
         (line,) = ax.plot(getattr(c.states, x), getattr(c.states, y), lw=1.6, label=label.format(c.fixed))
         for lp in c.limit_points:
-            ax.plot(getattr(lp, x), getattr(lp, y), _MARKERS.get(lp.kind, "o"), color=line.get_color(), ms=6,
-                    mec="k", mew=0.6)
+            ax.plot(
+                getattr(lp, x),
+                getattr(lp, y),
+                _MARKERS.get(lp.kind, "o"),
+                color=line.get_color(),
+                ms=6,
+                mec="k",
+                mew=0.6,
+            )
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.set_title(title)
@@ -47,11 +62,27 @@ def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None
     plt = _pyplot()
     panels = 2 if vq_curves else 1
     fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.2), squeeze=False)
-    _family_panel(axes[0, 0], pv_curves, "v_hat", "p_hat", "Φ̂ = {:g}", "volume  V̂ = V/A³",
-                  "pressure  p̂ = pA/(μH)", "pressure–volume at fixed voltage")
+    _family_panel(
+        axes[0, 0],
+        pv_curves,
+        "v_hat",
+        "p_hat",
+        "Φ̂ = {:g}",
+        "volume  V̂ = V/A³",
+        "pressure  p̂ = pA/(μH)",
+        "pressure–volume at fixed voltage",
+    )
     if vq_curves:
-        _family_panel(axes[0, 1], vq_curves, "q_hat", "phi_hat", "p̂ = {:g}", "charge  Q̂ = Q/(A²√(εμ))",
-                      "voltage  Φ̂ = (Φ/H)√(ε/μ)", "voltage–charge at fixed pressure")
+        _family_panel(
+            axes[0, 1],
+            vq_curves,
+            "q_hat",
+            "phi_hat",
+            "p̂ = {:g}",
+            "charge  Q̂ = Q/(A²√(εμ))",
+            "voltage  Φ̂ = (Φ/H)√(ε/μ)",
+            "voltage–charge at fixed pressure",
+        )
     return _save(fig, path, title)
 
 
@@ -66,8 +97,11 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
     for br in branches:
         # the branch's points and, where stability changes between two of them, the exact event there
         nodes = [(p.s, p.eq, p.stable, p.stable) for p in br.points]
-        nodes += [(e.s, e.eq, e.stable_before, e.stable_after) for e in br.events
-                  if e.eq is not None and e.stable_before != e.stable_after]
+        nodes += [
+            (e.s, e.eq, e.stable_before, e.stable_after)
+            for e in br.events
+            if e.eq is not None and e.stable_before != e.stable_after
+        ]
         nodes.sort(key=lambda n: n[0])
         if len(nodes) < 2:
             continue
@@ -77,25 +111,41 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
                 run.append(node)
                 if node[2] != node[3] or node is nodes[-1]:  # a stability change (or the end) closes the run
                     stable = run[0][3] if len(run) > 1 else run[0][2]
-                    ax.plot([report.voltage_kV(n[1].phi_hat) for n in run],
-                            [report.volume_ml(n[1].v_hat[g]) for n in run], "-" if stable else "--",
-                            color="0.55" if stable else "0.72", lw=1.0 if stable else 0.9, zorder=1)
+                    ax.plot(
+                        [report.voltage_kV(n[1].phi_hat) for n in run],
+                        [report.volume_ml(n[1].v_hat[g]) for n in run],
+                        "-" if stable else "--",
+                        color="0.55" if stable else "0.72",
+                        lw=1.0 if stable else 0.9,
+                        zorder=1,
+                    )
                     run = [node]
     for direction, color, size in (("down", "tab:blue", 2.0), ("up", "tab:red", 3.5)):
-        pts = [(report.voltage_kV(s.phi_hat), [report.volume_ml(v) for v in s.state.zone_volumes])
-               for s in res.steps if s.direction == direction and s.state is not None]
+        pts = [
+            (report.voltage_kV(s.phi_hat), [report.volume_ml(v) for v in s.state.zone_volumes])
+            for s in res.steps
+            if s.direction == direction and s.state is not None
+        ]
         if not pts:
             continue
         x = np.array([p[0] for p in pts])
         width = max(len(p[1]) for p in pts)
         for j in range(width):
             y = np.array([p[1][j] if j < len(p[1]) else np.nan for p in pts])
-            ax.plot(x, y, ".", color=color, ms=size, zorder=3 if direction == "up" else 2,
-                    label=f"ramp {direction}" if j == 0 else None)
+            ax.plot(
+                x,
+                y,
+                ".",
+                color=color,
+                ms=size,
+                zorder=3 if direction == "up" else 2,
+                label=f"ramp {direction}" if j == 0 else None,
+            )
     for t in res.transitions:
         if t.kind in ("spinodal", "no_stable_state", "merge", "breakdown"):
-            ax.axvline(report.voltage_kV(t.phi_hat), color="tab:red" if t.direction == "up" else "tab:blue",
-                       ls=":", lw=1)
+            ax.axvline(
+                report.voltage_kV(t.phi_hat), color="tab:red" if t.direction == "up" else "tab:blue", ls=":", lw=1
+            )
     for t in res.equal_free_energy:
         ax.axvline(report.voltage_kV(t.phi_hat), color="k", ls="-.", lw=0.8)
     ax.plot([], [], "-", color="0.55", label="stable equilibria")
@@ -120,11 +170,25 @@ def plot_coexisting_states(curve, state, scale_title, path):
     u = np.linspace(curve.grid[0], curve.grid[-1], 800)
     ax.plot(curve.v(u), curve.p(u), color="tab:blue", lw=1.6, label=f"zone curve at Φ̂ = {curve.phi_hat:.4f}")
     ax.axhline(state.p_hat, color="0.5", ls="--", lw=0.8)
-    ax.plot([state.v_unbulged], [state.p_hat], "o", color="tab:green", ms=9, mec="k",
-            label=f"unbulged ({state.zones - state.k} zones)")
+    ax.plot(
+        [state.v_unbulged],
+        [state.p_hat],
+        "o",
+        color="tab:green",
+        ms=9,
+        mec="k",
+        label=f"unbulged ({state.zones - state.k} zones)",
+    )
     if state.k:
-        ax.plot([state.v_bulged], [state.p_hat], "s", color="tab:red", ms=9, mec="k",
-                label=f"bulged ({state.k} zone{'s' if state.k > 1 else ''})")
+        ax.plot(
+            [state.v_bulged],
+            [state.p_hat],
+            "s",
+            color="tab:red",
+            ms=9,
+            mec="k",
+            label=f"bulged ({state.k} zone{'s' if state.k > 1 else ''})",
+        )
     ax.set_xlabel("volume  V̂ = V/A³")
     ax.set_ylabel("pressure  p̂ = pA/(μH)")
     ax.set_title(scale_title, fontsize=10)
@@ -145,8 +209,9 @@ def plot_phase_diagram(diagram, path, title=None):
         # the three lines meet at the critical point: draw them from there
         phi_c, p_c, _ = diagram.critical_point
         order = np.argsort(np.append(phi, phi_c))
-        phi, smax, smin, bino = (np.append(a, b)[order] for a, b in ((phi, phi_c), (smax, p_c), (smin, p_c),
-                                                                        (bino, p_c)))
+        phi, smax, smin, bino = (
+            np.append(a, b)[order] for a, b in ((phi, phi_c), (smax, p_c), (smin, p_c), (bino, p_c))
+        )
     ax.plot(phi, smax, "--", color="tab:red", label="spinodal (pressure maximum)")
     ax.plot(phi, smin, "--", color="tab:blue", label="spinodal (pressure minimum)")
     ax.plot(phi, bino, "-", color="k", lw=1.8, label="binodal (equal free energy)")

@@ -93,6 +93,7 @@ class RampResult:
 #: is then solved exactly)
 JUMP_CURVE_POINTS = 160
 
+
 @dataclass
 class Landing:
     """Where a jump ends: a stable equilibrium (and its segment), or None with the reason."""
@@ -128,7 +129,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     dv_floor = 1e-6 * max(float(np.max(np.abs(curve.dv(curve.grid)))), 1e-12)
     # the flow only decides the basin (its end is then solved exactly): a few digits settle it
     tol = 1e-8 * p_scale
-    snaps = []
+    snaps: list[tuple[float, float]] = []
     for _ in range(max_snaps + 1):
         n = np.asarray(counts, dtype=float)
 
@@ -149,10 +150,11 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
             return float(min(np.min(x) - lo, hi - np.max(x)))
 
         for ev in (settled, vfold, out_of_range):
-            ev.terminal = True
-            ev.direction = -1
-        sol = solve_ivp(rhs, (0.0, t_max), u, method="LSODA", rtol=1e-8, atol=1e-11,
-                        events=(settled, vfold, out_of_range))
+            ev.terminal = True  # type: ignore[attr-defined]  # scipy reads these attributes off the functions
+            ev.direction = -1  # type: ignore[attr-defined]
+        sol = solve_ivp(
+            rhs, (0.0, t_max), u, method="LSODA", rtol=1e-8, atol=1e-11, events=(settled, vfold, out_of_range)
+        )
         u = sol.y[:, -1]
         if sol.t_events[2].size:
             return counts, u, "range_end", snaps
@@ -164,8 +166,8 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
             snaps.append((float(u[j]), float(target)))
             # one zone of the group snaps; the rest of the group stays
             if counts[j] > 1:
-                counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1:]
-                u = np.concatenate([u[:j + 1], [target], u[j + 1:]])
+                counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1 :]
+                u = np.concatenate([u[: j + 1], [target], u[j + 1 :]])
             else:
                 u[j] = target
             continue
@@ -208,7 +210,7 @@ class Ramp:
     def __init__(self, emap: EquilibriumMap, pole_stretch_max: float):
         self.emap = emap
         self.lam_max = float(pole_stretch_max)
-        self._curves = {}
+        self._curves: dict = {}
 
     # ---------------------------------------------------------------------------------------------
     def _curve(self, phi):
@@ -233,8 +235,8 @@ class Ramp:
             # antisymmetric mode that keeps the group's volume; it leads to one zone bulging)
             j = _group_of(eq)
             nj = counts[j]
-            counts[j:j + 1] = [nj - 1, 1]
-            u[j:j + 1] = [u[j], u[j]]
+            counts[j : j + 1] = [nj - 1, 1]
+            u[j : j + 1] = [u[j], u[j]]
             dv = np.zeros(len(counts))
             dv[j], dv[j + 1] = -1.0 / (nj - 1), 1.0
             mode = f"one zone of the group of {nj} inflates, the other {nj - 1} deflate"
@@ -242,8 +244,10 @@ class Ramp:
             finer = list(seg.configuration.counts)
             counts = finer
             base = u[0] if len(u) == 1 else None
-            u = [base if base is not None else x for x in np.interp(range(len(finer)), [0, len(finer) - 1],
-                                                                        [u[0], u[-1]])]
+            u = [
+                base if base is not None else x
+                for x in np.interp(range(len(finer)), [0, len(finer) - 1], [u[0], u[-1]])
+            ]
             dv = np.linspace(-1.0, 1.0, len(finer))
             mode = "the groups, met, separate as they came"
         else:  # fold: the whole groups move along the null mode of B
@@ -279,14 +283,26 @@ class Ramp:
             counts_end, u_end, status, snaps = gradient_flow(curve, self.emap.gas, counts, u + du)
             if snaps:
                 where = ", ".join(f"{1 + a * a:.4g} -> {1 + b * b:.4g}" for a, b in snaps)
-                mode += (f"; on the way {len(snaps)} zone{'s' if len(snaps) > 1 else ''} snapped at fixed volume "
-                         f"past a volume fold (pole stretch {where})")
+                mode += (
+                    f"; on the way {len(snaps)} zone{'s' if len(snaps) > 1 else ''} snapped at fixed volume "
+                    f"past a volume fold (pole stretch {where})"
+                )
             if status == "volume_fold":
-                return Landing(None, None, f"a zone of {seg.label} reaches its largest volume (a volume fold of "
-                                           "its curve): past it no axisymmetric state is stable", mode)
+                return Landing(
+                    None,
+                    None,
+                    f"a zone of {seg.label} reaches its largest volume (a volume fold of "
+                    "its curve): past it no axisymmetric state is stable",
+                    mode,
+                )
             if status == "range_end":
-                return Landing(None, None, f"a zone leaves the model's range on the way from {seg.label} "
-                                           f"({curve.stopped_because or 'end of the computed curve'})", mode)
+                return Landing(
+                    None,
+                    None,
+                    f"a zone leaves the model's range on the way from {seg.label} "
+                    f"({curve.stopped_because or 'end of the computed curve'})",
+                    mode,
+                )
             if status != "converged":
                 last_err = f"the gradient flow did not settle ({status})"
                 continue
@@ -325,7 +341,7 @@ class Ramp:
         phi_path = [float(p) for p in phi_path]
         if not phi_path:
             raise ModelRangeError("empty voltage path", "out_of_range")
-        seg = start
+        seg: StableSegment | None = start
         cur = 0.0
         exited = None  # (segment, event, direction) when the state left the model's range
         broken = None
@@ -343,15 +359,28 @@ class Ramp:
                 if broken is not None:
                     break
                 if seg is None:
+                    if exited is None:
+                        break
                     # re-entry where the state left, when the voltage comes back over that event
                     esg, eev, edir = exited
                     if direction != edir and (min(cur, target) <= eev.phi_hat <= max(cur, target)):
                         seg = esg
                         cur = eev.phi_hat
-                        transitions.append(Transition(cur, "re_entry", "none", esg.label, label_dir, "range_end",
-                                                      eev.error, "back inside the model's range where it left it",
-                                                      state_after=eev.eq, source=eev,
-                                                      source_counts=esg.tracer.system.configuration.counts))
+                        transitions.append(
+                            Transition(
+                                cur,
+                                "re_entry",
+                                "none",
+                                esg.label,
+                                label_dir,
+                                "range_end",
+                                eev.error,
+                                "back inside the model's range where it left it",
+                                state_after=eev.eq,
+                                source=eev,
+                                source_counts=esg.tracer.system.configuration.counts,
+                            )
+                        )
                         note = f"re-enters {esg.label}"
                         exited = None
                         continue
@@ -364,19 +393,43 @@ class Ramp:
                     break  # numerically at the end already (re-entry exactly at the event)
                 # the state is lost at the event
                 if end.kind == "breakdown":
-                    transitions.append(Transition(phi_end, "breakdown", seg.label, "broken down", label_dir,
-                                                  "breakdown", end.error, "the largest field reaches the breakdown "
-                                                  "field", state_before=end.eq, source=end,
-                                                  source_counts=seg.tracer.system.configuration.counts))
+                    transitions.append(
+                        Transition(
+                            phi_end,
+                            "breakdown",
+                            seg.label,
+                            "broken down",
+                            label_dir,
+                            "breakdown",
+                            end.error,
+                            "the largest field reaches the breakdown field",
+                            state_before=end.eq,
+                            source=end,
+                            source_counts=seg.tracer.system.configuration.counts,
+                        )
+                    )
                     broken = phi_end
                     seg = None
                     note = "electric breakdown"
                     break
                 land = self.jump(seg, end, direction)
                 if land.state is None:
-                    transitions.append(Transition(phi_end, "no_stable_state", seg.label, "none", label_dir, end.kind,
-                                                  end.error, land.reason, land.mode, state_before=end.eq, source=end,
-                                                  source_counts=seg.tracer.system.configuration.counts))
+                    transitions.append(
+                        Transition(
+                            phi_end,
+                            "no_stable_state",
+                            seg.label,
+                            "none",
+                            label_dir,
+                            end.kind,
+                            end.error,
+                            land.reason,
+                            land.mode,
+                            state_before=end.eq,
+                            source=end,
+                            source_counts=seg.tracer.system.configuration.counts,
+                        )
+                    )
                     notes.append(f"{seg.label} at {phi_end:.10g}: {land.reason}")
                     exited = (seg, end, direction)
                     seg = None
@@ -385,15 +438,29 @@ class Ramp:
                     continue
                 kind = "merge" if end.kind == "merge" else "spinodal"
                 after = land.state
+                assert land.segment is not None  # a landing with a state has its segment
                 if land.segment.contains(phi_end):  # the landing state at the transition voltage itself
                     try:
                         after = land.segment.states([phi_end])[0]
                     except SolverError:
                         pass
-                transitions.append(Transition(phi_end, kind, seg.label, land.segment.label, label_dir, end.kind,
-                                              end.error, _loss_reason(end), land.mode, state_before=end.eq,
-                                              state_after=after, source=end,
-                                              source_counts=seg.tracer.system.configuration.counts))
+                transitions.append(
+                    Transition(
+                        phi_end,
+                        kind,
+                        seg.label,
+                        land.segment.label,
+                        label_dir,
+                        end.kind,
+                        end.error,
+                        _loss_reason(end),
+                        land.mode,
+                        state_before=end.eq,
+                        state_after=after,
+                        source=end,
+                        source_counts=seg.tracer.system.configuration.counts,
+                    )
+                )
                 seg = land.segment
                 cur = phi_end
                 note = "transition"
@@ -403,14 +470,15 @@ class Ramp:
             if progress is not None and step_index >= 0:
                 progress(step_index)
         steps = self._states(visits, broken)
-        equal = equal_free_energy(list({id(s): s for s in ([start] + [v[1] for v in visits if v[1] is not None])}
-                                       .values()))
+        equal = equal_free_energy(
+            list({id(s): s for s in ([start] + [v[1] for v in visits if v[1] is not None])}.values())
+        )
         segs = list({id(s): s for s in [start] + [v[1] for v in visits if v[1] is not None]}.values())
         return RampResult(steps, transitions, equal, self.emap.zones, segs, notes)
 
     def _states(self, visits, broken) -> list:
         """Solve every printed state, batched per segment (a voltage visited twice on one segment is one state)."""
-        per = {}
+        per: dict = {}
         for _, seg, phi, _, _ in visits:
             if seg is not None:
                 per.setdefault(id(seg), (seg, set()))[1].add(round(phi, 14))
@@ -427,9 +495,11 @@ class Ramp:
 
 
 def _loss_reason(end: Event) -> str:
-    return {"fold": "a fold of the configuration's branch: its spinodal",
-            "split": "a group's zones reach a pressure extremum and can move against each other",
-            "merge": "the groups meet (a symmetric branch point)"}.get(end.kind, end.note)
+    return {
+        "fold": "a fold of the configuration's branch: its spinodal",
+        "split": "a group's zones reach a pressure extremum and can move against each other",
+        "merge": "the groups meet (a symmetric branch point)",
+    }.get(end.kind, end.note)
 
 
 def _group_of(eq: Equilibrium) -> int:
@@ -475,8 +545,12 @@ def _hermite_at(x, xs, ys, ds):
     k = int(np.clip(np.searchsorted(xs, x) - 1, 0, xs.size - 2))
     h = xs[k + 1] - xs[k]
     t = (x - xs[k]) / h
-    return ((2 * t**3 - 3 * t**2 + 1) * ys[k] + (t**3 - 2 * t**2 + t) * h * ds[k] + (-2 * t**3 + 3 * t**2) * ys[k + 1]
-            + (t**3 - t**2) * h * ds[k + 1])
+    return (
+        (2 * t**3 - 3 * t**2 + 1) * ys[k]
+        + (t**3 - 2 * t**2 + t) * h * ds[k]
+        + (-2 * t**3 + 3 * t**2) * ys[k + 1]
+        + (t**3 - t**2) * h * ds[k + 1]
+    )
 
 
 def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
@@ -488,7 +562,7 @@ def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
     """
     out = []
     for ia, A in enumerate(segments):
-        for B in segments[ia + 1:]:
+        for B in segments[ia + 1 :]:
             if A is B:
                 continue
             lo = max(A.phi_range[0], B.phi_range[0])
@@ -531,6 +605,16 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
     # label: from the configuration lower in G below the crossing to the one lower above it
     below = A if (dlo < 0) else B
     above = B if below is A else A
-    return Transition(phi, "equal_free_energy", below.label, above.label, "either", "equal_free_energy",
-                      abs(step), "equal total free energy", state_before=ea if below is A else eb,
-                      state_after=eb if below is A else ea, segments=(A, B))
+    return Transition(
+        phi,
+        "equal_free_energy",
+        below.label,
+        above.label,
+        "either",
+        "equal_free_energy",
+        abs(step),
+        "equal total free energy",
+        state_before=ea if below is A else eb,
+        state_after=eb if below is A else ea,
+        segments=(A, B),
+    )

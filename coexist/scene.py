@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import datetime
 import math
+import sys
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -35,9 +36,9 @@ from .errors import SceneError
 from .scene_format import DEFAULTS, did_you_mean, read_document
 from .settings import SolverSettings
 
-try:
+if sys.version_info >= (3, 11):
     import tomllib
-except ModuleNotFoundError:  # Python 3.10
+else:  # Python 3.10
     import tomli as tomllib
 
 #: Vacuum permittivity ε0 in F/m (CODATA 2018).
@@ -135,7 +136,7 @@ class Scene:
     material: str = "neo-hookean"
     jlim: float | None = None
     breakdown_field: float | None = None
-    zone_count: int = DEFAULTS["count"]
+    zone_count: int = int(DEFAULTS["count"])
     controlled_pressure: float | None = None
     chamber: Chamber | None = None
     voltage: VoltagePath | None = None
@@ -226,23 +227,9 @@ class Scene:
         """``P̂atm = Patm A/(μH)``, or ``None`` without a chamber."""
         return None if self.chamber is None else self.p_hat(self.chamber.atmospheric_pressure)
 
-    def gas_amount_hat(self, v_zones_hat_total: float) -> float:
-        """The amount of gas ``NkT/(μHA²) = (V̂c + ΣV̂i)(P̂atm + p̂close)`` (seed eq. 1, normalised).
-
-        Parameters
-        ----------
-        v_zones_hat_total : float
-            ``ΣV̂i``, the zones' total normalised volume when the valves close (at the closing
-            pressure and zero voltage); it needs the solver, so the caller supplies it.
-        """
-        if self.chamber is None:
-            raise SceneError("the scene has no chamber, so no fixed amount of gas", "[chamber]")
-        return (self.chamber_volume_hat + v_zones_hat_total) * (
-            self.atmospheric_pressure_hat + self.closing_pressure_hat)
-
     def dimensionless_groups(self) -> dict:
         """The scales (units in the key names) and the scene's normalised parameters."""
-        groups = {
+        groups: dict[str, float | None] = {
             "pressure_scale_Pa": self.pressure_scale,
             "volume_scale_m3": self.volume_scale,
             "voltage_scale_V": self.voltage_scale,
@@ -274,13 +261,15 @@ class Scene:
         """
         if self.chamber is None:
             return
-        p_hat = self.closing_pressure_hat
+        p_hat = float(self.p_hat(self.chamber.closing_pressure))
         if not p_hat < p_hat_max:
             mbar = self.chamber.closing_pressure / 100
             raise SceneError(
                 f"the zones cannot hold {mbar:.4g} mbar (p̂ = {p_hat:.4g}): it is at or above the "
                 f"snap-through pressure p̂max = {p_hat_max:.4g} ({self.pressure(p_hat_max) / 100:.4g} mbar); "
-                "close the valves at a lower pressure", self.chamber.closing_pressure_field)
+                "close the valves at a lower pressure",
+                self.chamber.closing_pressure_field,
+            )
 
     # --- effects and model -----------------------------------------------------------------------
     def effects(self) -> list[str]:
@@ -304,7 +293,7 @@ class Scene:
         from .model import MembraneModel
 
         return MembraneModel(
-            elasticity=Gent(self.jlim) if self.material == "gent" else NeoHookean(),
+            elasticity=Gent(float(self.jlim)) if self.material == "gent" and self.jlim is not None else NeoHookean(),
             electrostatics=IdealDielectric() if self.voltage is not None else NoElectrostatics(),
             prestretch=self.prestretch,
         )
@@ -323,18 +312,26 @@ class Scene:
         }
         if self.jlim is not None:
             membrane["jlim"] = self.jlim
-        chamber = None if self.chamber is None else {
-            "volume_m3": self.chamber.volume,
-            "closing_pressure_Pa": self.chamber.closing_pressure,
-            "atmospheric_pressure_Pa": self.chamber.atmospheric_pressure,
-        }
-        voltage = None if self.voltage is None else {
-            "kind": self.voltage.kind,
-            "start_V": self.voltage.start,
-            "stop_V": self.voltage.stop,
-            "step_V": self.voltage.step,
-            "values_V": [float(v) for v in self.voltage.values],
-        }
+        chamber = (
+            None
+            if self.chamber is None
+            else {
+                "volume_m3": self.chamber.volume,
+                "closing_pressure_Pa": self.chamber.closing_pressure,
+                "atmospheric_pressure_Pa": self.chamber.atmospheric_pressure,
+            }
+        )
+        voltage = (
+            None
+            if self.voltage is None
+            else {
+                "kind": self.voltage.kind,
+                "start_V": self.voltage.start,
+                "stop_V": self.voltage.stop,
+                "step_V": self.voltage.step,
+                "values_V": [float(v) for v in self.voltage.values],
+            }
+        )
         return {
             "name": self.name,
             "description": self.description,
@@ -384,8 +381,10 @@ def builtin_scene_text(name: str) -> str:
     """The TOML text of a built-in scene."""
     names = _builtin_names()
     if name not in names:
-        raise SceneError(f"unknown built-in scene {name!r}{did_you_mean(name, names)} (built-in scenes: "
-                         f"{', '.join(names)}; or give the path of a .toml file)")
+        raise SceneError(
+            f"unknown built-in scene {name!r}{did_you_mean(name, names)} (built-in scenes: "
+            f"{', '.join(names)}; or give the path of a .toml file)"
+        )
     return resources.files("coexist.scenes").joinpath(f"{name}.toml").read_text(encoding="utf-8")
 
 

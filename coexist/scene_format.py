@@ -56,8 +56,17 @@ UNITS = {
 }
 MATERIALS = ("neo-hookean", "gent")
 #: Defaults in SI units of the keys a scene may leave out.
-DEFAULTS = {"shear_modulus": 45e3, "relative_permittivity": 4.7, "thickness": 0.5e-3, "zone_radius": 10e-3,
-            "prestretch": 1.0, "jlim": 97.0, "count": 1, "atmospheric_pressure": 101_325.0, "start": 0.0}
+DEFAULTS = {
+    "shear_modulus": 45e3,
+    "relative_permittivity": 4.7,
+    "thickness": 0.5e-3,
+    "zone_radius": 10e-3,
+    "prestretch": 1.0,
+    "jlim": 97.0,
+    "count": 1,
+    "atmospheric_pressure": 101_325.0,
+    "start": 0.0,
+}
 
 
 @dataclass(frozen=True)
@@ -96,8 +105,11 @@ SCHEMA = {
     "solver": {"accuracy": _Key("accuracy"), "rtol": _Key("number", "positive")},
 }
 TOP_LEVEL = ("name", "description", "fitted", *SCHEMA)
-_RULES = {"positive": (lambda x: x > 0, "positive"), "nonnegative": (lambda x: x >= 0, "zero or positive"),
-          "at_least_one": (lambda x: x >= 1, "at least 1")}
+_RULES = {
+    "positive": (lambda x: x > 0, "positive"),
+    "nonnegative": (lambda x: x >= 0, "zero or positive"),
+    "at_least_one": (lambda x: x >= 1, "at least 1"),
+}
 
 
 def _key_names(section: str) -> list[str]:
@@ -139,7 +151,7 @@ def _resolve(section: str, key: str) -> tuple[str, str]:
         return key, ""
     for name, spec_key in spec.items():
         if spec_key.kind in UNITS and key.startswith(name + "_"):
-            unit = key[len(name) + 1:]
+            unit = key[len(name) + 1 :]
             if unit in UNITS[spec_key.kind]:
                 return name, unit
             units = ", ".join(f"_{u}" for u in UNITS[spec_key.kind])
@@ -193,7 +205,7 @@ class _Section:
         table = doc.get(section, {})
         if not isinstance(table, dict):
             raise SceneError(f"must be a table (a [{section}] header), got {_describe(table)}", f"[{section}]")
-        self.entries = {}
+        self.entries: dict = {}
         for key, value in table.items():
             name, unit = _resolve(section, key)
             if name in self.entries:
@@ -238,19 +250,24 @@ def read_document(doc: dict, source: str) -> dict:
     thickness = membrane.get("thickness", DEFAULTS["thickness"])
     radius = membrane.get("zone_radius", DEFAULTS["zone_radius"])
     if not thickness < radius:
-        raise SceneError(f"a membrane must be thinner than its zone radius ({radius * 1e3:g} mm), got "
-                         f"{thickness * 1e3:g} mm", membrane.where("thickness"))
+        raise SceneError(
+            f"a membrane must be thinner than its zone radius ({radius * 1e3:g} mm), got {thickness * 1e3:g} mm",
+            membrane.where("thickness"),
+        )
     prestretch = membrane.get("prestretch", DEFAULTS["prestretch"])
     if jlim is not None and 2 * prestretch**2 + prestretch**-4 - 3 >= jlim:
-        raise SceneError(f"a prestretch of {prestretch:g} locks a Gent membrane with jlim = {jlim:g}",
-                         membrane.where("prestretch"))
+        raise SceneError(
+            f"a prestretch of {prestretch:g} locks a Gent membrane with jlim = {jlim:g}", membrane.where("prestretch")
+        )
     count = zones.get("count", DEFAULTS["count"])
     if not 1 <= count <= MAX_ZONES:
         raise SceneError(f"must be a whole number from 1 to {MAX_ZONES}, got {count}", zones.where("count"))
     pressure = zones.get("pressure")
     if pressure is not None and chamber.present:
-        raise SceneError("the chamber's gas sets the pressure: give either [chamber] or a controlled pressure, "
-                         "not both", zones.where("pressure"))
+        raise SceneError(
+            "the chamber's gas sets the pressure: give either [chamber] or a controlled pressure, not both",
+            zones.where("pressure"),
+        )
     return dict(
         shear_modulus=membrane.get("shear_modulus", DEFAULTS["shear_modulus"]),
         relative_permittivity=membrane.get("relative_permittivity", DEFAULTS["relative_permittivity"]),
@@ -288,8 +305,9 @@ def _unknown_top_level(key: str, table: bool) -> str:
         except SceneError:
             continue
         return f"belongs in a section: write it under [{section}]"
-    hint = did_you_mean(key, ["name", "description"]) or "; top-level keys: name, description; sections: " \
-        + ", ".join(sections)
+    hint = did_you_mean(key, ["name", "description"]) or "; top-level keys: name, description; sections: " + ", ".join(
+        sections
+    )
     return f"unknown key{hint}"
 
 
@@ -305,11 +323,13 @@ def _material(membrane: _Section) -> tuple[str, float | None]:
     material = given.strip().lower().replace("_", "-").replace(" ", "-")
     material = {"neohookean": "neo-hookean", "nh": "neo-hookean"}.get(material, material)
     if material not in MATERIALS:
-        raise SceneError(f"unknown material {given!r}{did_you_mean(material, MATERIALS)}; use one of "
-                         f"{', '.join(MATERIALS)}", membrane.where("material"))
+        raise SceneError(
+            f"unknown material {given!r}{did_you_mean(material, MATERIALS)}; use one of {', '.join(MATERIALS)}",
+            membrane.where("material"),
+        )
     if material != "gent":
         if "jlim" in membrane:
-            raise SceneError("only the gent material takes jlim (add material = \"gent\")", membrane.where("jlim"))
+            raise SceneError('only the gent material takes jlim (add material = "gent")', membrane.where("jlim"))
         return material, None
     return material, membrane.get("jlim", DEFAULTS["jlim"])
 
@@ -331,8 +351,9 @@ def _voltage(voltage: _Section) -> dict | None:
     ramp = [n for n in ("start", "stop", "step") if n in voltage]
     if "values" in voltage:
         if ramp:
-            raise SceneError("give either a ramp (start, stop, step) or a list of values, not both",
-                             voltage.where(ramp[0]))
+            raise SceneError(
+                "give either a ramp (start, stop, step) or a list of values, not both", voltage.where(ramp[0])
+            )
         return dict(kind="list", values=np.array(voltage.get("values")))
     start = voltage.get("start", DEFAULTS["start"])
     stop = voltage.require("stop", "a ramp needs the highest voltage (or give a list of values)")
@@ -340,8 +361,10 @@ def _voltage(voltage: _Section) -> dict | None:
         raise SceneError(f"the ramp must go up: stop ({stop:g} V) is below start ({start:g} V)", voltage.where("stop"))
     step = voltage.get("step", (stop - start) / 100 or 1.0)
     if (stop - start) / step > MAX_VOLTAGE_POINTS:
-        raise SceneError(f"a step of {step:g} V makes {(stop - start) / step:.3g} steps; at most "
-                         f"{MAX_VOLTAGE_POINTS}", voltage.where("step"))
+        raise SceneError(
+            f"a step of {step:g} V makes {(stop - start) / step:.3g} steps; at most {MAX_VOLTAGE_POINTS}",
+            voltage.where("step"),
+        )
     return dict(kind="ramp", values=ramp_path(start, stop, step), start=start, stop=stop, step=step)
 
 

@@ -50,21 +50,31 @@ BELOW_RESOLUTION = 19
 #: a short tag and a sentence for every way a state can fail
 REASONS = {
     OK: ("ok", "converged"),
-    WRINKLED_AT_POLE: ("wrinkling", "the tension at the pole is not positive: the membrane wrinkles "
-                       "(membrane theory does not hold)"),
+    WRINKLED_AT_POLE: (
+        "wrinkling",
+        "the tension at the pole is not positive: the membrane wrinkles (membrane theory does not hold)",
+    ),
     WRINKLED: ("wrinkling", "a tension turns negative between pole and clamp: the membrane wrinkles"),
     LOCKED: ("gent_locking", "the Gent chains lock (I1 - 3 reaches Jlim, or comes within 1e-9 of it)"),
-    LOST_ELLIPTICITY: ("electromechanical_instability", "dT1/dλ1 vanishes: the membrane loses "
-                       "stability to thinning (electromechanical instability)"),
-    NO_CLAMP: ("no_equilibrium", "the membrane does not return to the clamp stretch within a radius "
-               "of max_radius_factor (default 1000) times its estimated size: no equilibrium at this pole "
-               "stretch within that search"),
+    LOST_ELLIPTICITY: (
+        "electromechanical_instability",
+        "dT1/dλ1 vanishes: the membrane loses stability to thinning (electromechanical instability)",
+    ),
+    NO_CLAMP: (
+        "no_equilibrium",
+        "the membrane does not return to the clamp stretch within a radius "
+        "of max_radius_factor (default 1000) times its estimated size: no equilibrium at this pole "
+        "stretch within that search",
+    ),
     STEP_LIMIT: ("solver_budget", "the integration used up its step budget (SolverSettings.max_steps)"),
     NOT_FINITE: ("no_equilibrium", "the integration produced non-finite values"),
     FOLDED_BACK: ("no_equilibrium", "the meridian turns back on itself (θ > π)"),
     NO_VOLTAGE: ("no_equilibrium", "no voltage Φ̂ ≥ 0 holds this pole stretch at the requested pressure"),
-    BELOW_RESOLUTION: ("out_of_range", "the pole stretch is within 5e-9 of the flat membrane: its deviation "
-                       "from the clamp stretch is below what double precision resolves"),
+    BELOW_RESOLUTION: (
+        "out_of_range",
+        "the pole stretch is within 5e-9 of the flat membrane: its deviation "
+        "from the clamp stretch is below what double precision resolves",
+    ),
 }
 
 
@@ -156,6 +166,13 @@ class StateDerivatives:
     dp_dphi: np.ndarray
     dv_dphi: np.ndarray
     dq_dphi: np.ndarray
+
+    @staticmethod
+    def of(states: MembraneStates) -> StateDerivatives:
+        """The derivatives of ``states``, which must have been shot with ``derivatives=True``."""
+        if states.derivatives is None:
+            raise ValueError("these states were shot without derivatives (solve_states(..., derivatives=True))")
+        return states.derivatives
 
     def take(self, index) -> StateDerivatives:
         return StateDerivatives(**{k: v[index] for k, v in self.__dict__.items()})
@@ -289,7 +306,7 @@ class _Integrators:
 
     def __init__(self, model: MembraneModel):
         self.model = model
-        self._casadi = {}
+        self._casadi: dict = {}
 
     # numpy right-hand sides (large batches)
     def radius(self, R, y):
@@ -351,8 +368,9 @@ class _Integrators:
         st = self._casadi.get(kind)
         if st is None:
             rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
-            st = self._casadi[kind] = _int.CasadiStepper(_int.casadi_step_function(self._casadi_rhs(kind), rows,
-                                                                                   f"dop853_{kind}"), fun, rows)
+            st = self._casadi[kind] = _int.CasadiStepper(
+                _int.casadi_step_function(self._casadi_rhs(kind), rows, f"dop853_{kind}"), fun, rows
+            )
         return st
 
     def _casadi_rhs(self, kind):
@@ -371,16 +389,40 @@ class _Integrators:
         z = ca.SX.sym("z", 9)
         d = f["rhs"](z[0], z[1], t, z[2], z[7], z[8])
         inv = 1 / d[1]
-        return ca.Function("rhs", [t, z], [ca.vertcat(inv, d[0] * inv, d[2] * inv, d[3] * inv, d[4] * inv,
-                                                      d[5] * inv, d[6] * inv, 0, 0)])
+        return ca.Function(
+            "rhs",
+            [t, z],
+            [ca.vertcat(inv, d[0] * inv, d[2] * inv, d[3] * inv, d[4] * inv, d[5] * inv, d[6] * inv, 0, 0)],
+        )
 
 
 #: attempts (trial steps) per call of the CasADi attempt function
 ATTEMPTS_PER_CALL = 8
 #: layout of the packed per-trajectory state of the attempt function (then y, f, atol, candidate y)
-_HEAD = ("t", "h", "t_end", "rtol", "status", "steps", "max_steps", "formal",
-         "Ra", "T1a", "T2a", "d1a", "d2a", "minT", "maxE", "failR",
-         "cand_est", "cand_Ra", "cand_h", "cand_da", "cand_db", "cand_k")
+_HEAD = (
+    "t",
+    "h",
+    "t_end",
+    "rtol",
+    "status",
+    "steps",
+    "max_steps",
+    "formal",
+    "Ra",
+    "T1a",
+    "T2a",
+    "d1a",
+    "d2a",
+    "minT",
+    "maxE",
+    "failR",
+    "cand_est",
+    "cand_Ra",
+    "cand_h",
+    "cand_da",
+    "cand_db",
+    "cand_k",
+)
 _H = {k: i for i, k in enumerate(_HEAD)}
 
 
@@ -408,7 +450,7 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     x = ca.SX.sym("x", n)
     g = {k: x[i] for k, i in _H.items()}
     o = len(_HEAD)
-    y, f, atol, cy = x[o:o + R], x[o + R:o + 2 * R], x[o + 2 * R:o + 3 * R], x[o + 3 * R:o + 4 * R]
+    y, f, atol, cy = x[o : o + R], x[o + R : o + 2 * R], x[o + 2 * R : o + 3 * R], x[o + 3 * R : o + 4 * R]
     t, h = g["t"], g["h"]
     # the first attempt of a trajectory computes the derivative at its start (the caller leaves it unset)
     f = ca.if_else(g["steps"] == 0, rhs(t, y), f)
@@ -417,7 +459,7 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     last = h >= span
     hs = ca.if_else(last, span, h)
     out = step(t, hs, y)
-    y_new, f_new, e5, e3 = out[:R], out[R:2 * R], out[2 * R:3 * R], out[3 * R:4 * R]
+    y_new, f_new, e5, e3 = out[:R], out[R : 2 * R], out[2 * R : 3 * R], out[3 * R : 4 * R]
     scale = atol + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * g["rtol"]
     s5 = ca.sumsqr(e5 / scale)
     s3 = ca.sumsqr(e3 / scale)
@@ -465,16 +507,28 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     da_best = ca.if_else(k_best == 1, ests[0][2], ests[1][2])
     db_best = ca.if_else(k_best == 1, ests[0][3], ests[1][3])
     new = {
-        "t": ca.if_else(move, t_new, t), "h": ca.if_else(active, hs * factor, h), "t_end": g["t_end"],
-        "rtol": g["rtol"], "status": status, "steps": steps, "max_steps": g["max_steps"], "formal": g["formal"],
-        "Ra": ca.if_else(move, t_new, g["Ra"]), "T1a": ca.if_else(move, T1, g["T1a"]),
-        "T2a": ca.if_else(move, T2, g["T2a"]), "d1a": ca.if_else(move, d1, g["d1a"]),
-        "d2a": ca.if_else(move, d2, g["d2a"]), "minT": ca.if_else(move, ca.fmin(g["minT"], step_min), g["minT"]),
+        "t": ca.if_else(move, t_new, t),
+        "h": ca.if_else(active, hs * factor, h),
+        "t_end": g["t_end"],
+        "rtol": g["rtol"],
+        "status": status,
+        "steps": steps,
+        "max_steps": g["max_steps"],
+        "formal": g["formal"],
+        "Ra": ca.if_else(move, t_new, g["Ra"]),
+        "T1a": ca.if_else(move, T1, g["T1a"]),
+        "T2a": ca.if_else(move, T2, g["T2a"]),
+        "d1a": ca.if_else(move, d1, g["d1a"]),
+        "d2a": ca.if_else(move, d2, g["d2a"]),
+        "minT": ca.if_else(move, ca.fmin(g["minT"], step_min), g["minT"]),
         "maxE": ca.if_else(move, ca.fmax(g["maxE"], ca.fabs(E)), g["maxE"]),
         "failR": ca.if_else(move * (code != 0), t_new, g["failR"]),
-        "cand_est": ca.if_else(better, e_min, g["cand_est"]), "cand_Ra": ca.if_else(better, t, g["cand_Ra"]),
-        "cand_h": ca.if_else(better, t_new - t, g["cand_h"]), "cand_da": ca.if_else(better, da_best, g["cand_da"]),
-        "cand_db": ca.if_else(better, db_best, g["cand_db"]), "cand_k": ca.if_else(better, k_best, g["cand_k"]),
+        "cand_est": ca.if_else(better, e_min, g["cand_est"]),
+        "cand_Ra": ca.if_else(better, t, g["cand_Ra"]),
+        "cand_h": ca.if_else(better, t_new - t, g["cand_h"]),
+        "cand_da": ca.if_else(better, da_best, g["cand_da"]),
+        "cand_db": ca.if_else(better, db_best, g["cand_db"]),
+        "cand_k": ca.if_else(better, k_best, g["cand_k"]),
     }
     head = ca.vertcat(*[new[k] for k in _HEAD])
     x_new = ca.vertcat(head, ca.if_else(move, y_new, y), ca.if_else(move, f_new, f), atol, ca.if_else(better, y, cy))
@@ -502,12 +556,27 @@ def _attempts_key(model: MembraneModel, kind: str) -> str:
     if "digest" not in _SOURCE_DIGEST:
         here = Path(__file__).parent
         h = hashlib.sha256()
-        for f in ("model.py", "effects.py", "shooting.py", "numerics/dop853.py", "numerics/codegen.py",
-                  "numerics/compiled.py"):
+        for f in (
+            "model.py",
+            "effects.py",
+            "shooting.py",
+            "numerics/dop853.py",
+            "numerics/codegen.py",
+            "numerics/compiled.py",
+        ):
             h.update((here / f).read_bytes())
         _SOURCE_DIGEST["digest"] = h.hexdigest()
-    text = repr((model.describe(), model.electrostatics.name, kind, ATTEMPTS_PER_CALL, REFINE_MINIMUM_BELOW,
-                 _SOURCE_DIGEST["digest"], ca.__version__))
+    text = repr(
+        (
+            model.describe(),
+            model.electrostatics.name,
+            kind,
+            ATTEMPTS_PER_CALL,
+            REFINE_MINIMUM_BELOW,
+            _SOURCE_DIGEST["digest"],
+            getattr(ca, "__version__", "?"),
+        )
+    )
     return hashlib.sha256(text.encode()).hexdigest()[:20]
 
 
@@ -518,8 +587,15 @@ def _integrators(model: MembraneModel) -> _Integrators:
     return built["integrators"]
 
 
-def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: SolverSettings | None = None,
-                 shape: bool = False, derivatives: bool = False, formal: bool = False) -> MembraneStates:
+def solve_states(
+    model: MembraneModel,
+    pole_stretch,
+    phi_hat=0.0,
+    settings: SolverSettings | None = None,
+    shape: bool = False,
+    derivatives: bool = False,
+    formal: bool = False,
+) -> MembraneStates:
     """Equilibrium states of a clamped zone at the given pole stretches and voltages.
 
     Parameters
@@ -548,8 +624,9 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
         Failed states are flagged by ``status``; nothing in a flagged entry is to be trusted.
     """
     settings = settings or SolverSettings()
-    l0, phi = np.broadcast_arrays(np.atleast_1d(np.asarray(pole_stretch, dtype=float)),
-                                  np.asarray(phi_hat, dtype=float))
+    l0, phi = np.broadcast_arrays(
+        np.atleast_1d(np.asarray(pole_stretch, dtype=float)), np.asarray(phi_hat, dtype=float)
+    )
     l0 = np.array(l0, dtype=float).ravel()
     phi = np.array(phi, dtype=float).ravel()
     _check_inputs(model, l0, phi)
@@ -570,16 +647,33 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
     fail_radius[status != OK] = 0.0
 
     live = np.flatnonzero(status == OK)
-    keys = ("p", "V", "Q", "Psi", "z", "R") + (("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi")
-                                               if derivatives else ())
+    keys = ("p", "V", "Q", "Psi", "z", "R") + (
+        ("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi") if derivatives else ()
+    )
     out = {k: np.full(n, np.nan) for k in keys}
     min_tension = np.where(status == OK, T0, np.nan)
     steps = np.zeros(n, dtype=int)
     shapes = [None] * n if shape else None
     if live.size:
         with np.errstate(all="ignore"):
-            _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius,
-                   out, min_tension, max_field, steps, shapes, derivatives, formal)
+            _shoot(
+                model,
+                settings,
+                l0,
+                phi,
+                T0,
+                live,
+                lam_clamp,
+                status,
+                fail_radius,
+                out,
+                min_tension,
+                max_field,
+                steps,
+                shapes,
+                derivatives,
+                formal,
+            )
     bad = status != OK
     for k in out:
         out[k][bad] = np.nan
@@ -596,16 +690,42 @@ def solve_states(model: MembraneModel, pole_stretch, phi_hat=0.0, settings: Solv
             parts[f"dq_d{a}"] = out[f"dQ_d{a}"] / R**2 - 2 * q_hat * dR / R
         deriv = StateDerivatives(**parts)
     return MembraneStates(
-        pole_stretch=l0, phi_hat=phi,
-        p_hat=p_hat, v_hat=v_hat, q_hat=q_hat, psi_hat=out["Psi"] / R**2,
-        apex_height=out["z"] / R, max_field=np.where(bad, np.nan, max_field),
-        min_tension=np.where(bad, np.nan, min_tension), clamp_radius=R, status=status,
-        fail_radius=fail_radius, steps=steps, shapes=shapes, derivatives=deriv,
+        pole_stretch=l0,
+        phi_hat=phi,
+        p_hat=p_hat,
+        v_hat=v_hat,
+        q_hat=q_hat,
+        psi_hat=out["Psi"] / R**2,
+        apex_height=out["z"] / R,
+        max_field=np.where(bad, np.nan, max_field),
+        min_tension=np.where(bad, np.nan, min_tension),
+        clamp_radius=R,
+        status=status,
+        fail_radius=fail_radius,
+        steps=steps,
+        shapes=shapes,
+        derivatives=deriv,
     )
 
 
-def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, out, min_tension, max_field,
-           steps, shapes, derivatives, formal=False):
+def _shoot(
+    model,
+    settings,
+    l0,
+    phi,
+    T0,
+    live,
+    lam_clamp,
+    status,
+    fail_radius,
+    out,
+    min_tension,
+    max_field,
+    steps,
+    shapes,
+    derivatives,
+    formal=False,
+):
     """Integrate the live trajectories; fills ``out`` and the diagnostics in place."""
     l0, phi, T0 = (a[live] for a in (l0, phi, T0))
     m = live.size
@@ -640,7 +760,7 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
     local_max_E = max_field[live].copy()
     local_fail_R = np.full(m, np.nan)
     local_code = np.zeros(m, dtype=int)
-    trace = [] if shapes is not None else None
+    trace: list | None = [] if shapes is not None else None
     # the last accepted node of each trajectory (radius, T1, T2, their slopes dT/dR, the state and its
     # derivative): a tension's minimum between two nodes is first estimated by the cubic Hermite
     # interpolant of its values and exact slopes (error O(h⁴)); where that estimate comes near zero (where
@@ -695,15 +815,17 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
                 est.append(ends)
                 continue
             e = ends.copy()
-            e[interior] = hermite_minimum(a[0][interior], a[k][interior], a[2 + k][interior], R[interior],
-                                          T[interior], d[interior])
+            e[interior] = hermite_minimum(
+                a[0][interior], a[k][interior], a[2 + k][interior], R[interior], T[interior], d[interior]
+            )
             interior &= e < ends
             near = interior & (e < REFINE_MINIMUM_BELOW) & np.isfinite(e)
             if y_new is not None and near.any():
                 sub = np.flatnonzero(near)
                 e = e.copy()
-                e[sub] = exact_min(cols[sub], k, a[0][sub], node_y[:, cols[sub]], R[sub] - a[0][sub],
-                                   a[2 + k][sub], d[sub])
+                e[sub] = exact_min(
+                    cols[sub], k, a[0][sub], node_y[:, cols[sub]], R[sub] - a[0][sub], a[2 + k][sub], d[sub]
+                )
             est.append(e)
         return np.minimum(est[0], est[1])
 
@@ -742,11 +864,26 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
     R_end = np.full(m, settings.max_radius_factor)
     small = shapes is None and m <= fns.small_batch_limit(kind, m)
     if small:
-        res, cand = _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, settings.max_steps, formal, T0,
-                                        local_max_E, local_min_T, local_fail_R, local_code)
+        res, cand = _integrate_attempts(
+            fns,
+            kind,
+            y0,
+            R0,
+            R_end,
+            rtol,
+            atol,
+            settings.max_steps,
+            formal,
+            T0,
+            local_max_E,
+            local_min_T,
+            local_fail_R,
+            local_code,
+        )
     else:
-        res = _int.integrate(fns.stepper(kind, m), np.full(m, R0), y0, R_end, rtol, atol,
-                             settings.max_steps, event=check)
+        res = _int.integrate(
+            fns.stepper(kind, m), np.full(m, R0), y0, R_end, rtol, atol, settings.max_steps, event=check
+        )
     steps[live] += res.steps
     code = np.where(res.status == _int.CROSSED, OK, local_code)
     if small and cand is not None:
@@ -771,8 +908,8 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
     if go.size:
         yh = res.y[:, go]
         Rh = res.t[go]
-        z0 = np.vstack([Rh, yh[0], yh[2:7], yh[P:P + 2]])  # R, λ1, θ, V, Q, Ψ, z, p, φ
-        atol_h = np.vstack([np.full(go.size, settings.atol), atol[0, go], atol[2:7, go], atol[P:P + 2, go]])
+        z0 = np.vstack([Rh, yh[0], yh[2:7], yh[P : P + 2]])  # R, λ1, θ, V, Q, Ψ, z, p, φ
+        atol_h = np.vstack([np.full(go.size, settings.atol), atol[0, go], atol[2:7, go], atol[P : P + 2, go]])
         # usually one step of the size of the remaining stretch lands on the clamp within tolerance;
         # the few that do not are integrated adaptively
         hoop = fns.stepper("hoop", go.size)
@@ -781,9 +918,16 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
         steps[live[go]] += 1
         redo = np.flatnonzero(~landed)
         if redo.size:
-            hop = _int.integrate(fns.stepper("hoop", redo.size), yh[1][redo], z0[:, redo],
-                                 np.full(redo.size, lam_clamp), rtol[go][redo], atol_h[:, redo], settings.max_steps,
-                                 h0=0.5 * np.abs(yh[1][redo] - lam_clamp))
+            hop = _int.integrate(
+                fns.stepper("hoop", redo.size),
+                yh[1][redo],
+                z0[:, redo],
+                np.full(redo.size, lam_clamp),
+                rtol[go][redo],
+                atol_h[:, redo],
+                settings.max_steps,
+                h0=0.5 * np.abs(yh[1][redo] - lam_clamp),
+            )
             steps[live[go][redo]] += hop.steps
             zf[:, redo] = hop.y
             landed[redo] = hop.status == _int.REACHED_END
@@ -809,11 +953,13 @@ def _shoot(model, settings, l0, phi, T0, live, lam_clamp, status, fail_radius, o
         code[good[wr]] = WRINKLED
         local_fail_R[good[wr]] = zg[0][wr]
         if derivatives and good.size:
-            _end_derivatives(fns, res.y[:, good], Rh[~bad_turn], zg, rtol[good], atol[:, good], settings, out,
-                             idx, steps, live[good])
+            _end_derivatives(
+                fns, res.y[:, good], Rh[~bad_turn], zg, rtol[good], atol[:, good], settings, out, idx, steps, live[good]
+            )
     status[live] = code
-    fail_radius[live] = np.where(code == OK, np.nan, local_fail_R / np.where(np.isfinite(out["R"][live]),
-                                                                              out["R"][live], 1.0))
+    fail_radius[live] = np.where(
+        code == OK, np.nan, local_fail_R / np.where(np.isfinite(out["R"][live]), out["R"][live], 1.0)
+    )
     min_tension[live] = local_min_T
     max_field[live] = local_max_E
     if shapes is not None:
@@ -839,7 +985,7 @@ def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal,
     X[H["max_steps"]], X[H["formal"]] = max_steps, 1.0 if formal else 0.0
     X[H["Ra"]], X[H["T1a"]], X[H["T2a"]] = t0, T0, T0
     X[H["minT"]], X[H["maxE"]], X[H["failR"]], X[H["cand_est"]] = min_T, max_E, np.nan, np.inf
-    X[o:o + R], X[o + R:o + 2 * R], X[o + 2 * R:o + 3 * R] = y0, f0, np.where(np.isfinite(atol), atol, 1e300)
+    X[o : o + R], X[o + R : o + 2 * R], X[o + 2 * R : o + 3 * R] = y0, f0, np.where(np.isfinite(atol), atol, 1e300)
     active = np.arange(m)
     while active.size:
         n = active.size
@@ -854,14 +1000,26 @@ def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal,
     failed = status >= _int.FAILED
     code[failed] = status[failed]
     fail_R[failed] = X[H["failR"]][failed]
-    res = _int.IntegrationResult(t=X[H["t"]].copy(), y=X[o:o + R].copy(),
-                                 status=np.where(failed, _int.FAILED, status), steps=X[H["steps"]].astype(int),
-                                 t_previous=X[H["t"]].copy(), y_previous=X[o:o + R].copy())
+    res = _int.IntegrationResult(
+        t=X[H["t"]].copy(),
+        y=X[o : o + R].copy(),
+        status=np.where(failed, _int.FAILED, status),
+        steps=X[H["steps"]].astype(int),
+        t_previous=X[H["t"]].copy(),
+        y_previous=X[o : o + R].copy(),
+    )
     has = np.flatnonzero(np.isfinite(X[H["cand_est"]]))
     if has.size == 0:
         return res, None
-    cand = (has, X[H["cand_k"], has].astype(int), X[H["cand_Ra"], has], X[o + 3 * R:o + 4 * R][:, has],
-            X[H["cand_h"], has], X[H["cand_da"], has], X[H["cand_db"], has])
+    cand = (
+        has,
+        X[H["cand_k"], has].astype(int),
+        X[H["cand_Ra"], has],
+        X[o + 3 * R : o + 4 * R][:, has],
+        X[H["cand_h"], has],
+        X[H["cand_da"], has],
+        X[H["cand_db"], has],
+    )
     return res, cand
 
 
@@ -877,8 +1035,16 @@ def _end_derivatives(fns, y_h, R_h, z_end, rtol, atol, settings, out, idx, steps
     redo = np.flatnonzero(~(err <= 1.0))
     steps[step_idx] += 1
     if redo.size:
-        hop = _int.integrate(fns.stepper("radius_sens", redo.size), R_h[redo], y_h[:, redo], z_end[0][redo],
-                             rtol[redo], atol[:, redo], settings.max_steps, h0=0.5 * (z_end[0][redo] - R_h[redo]))
+        hop = _int.integrate(
+            fns.stepper("radius_sens", redo.size),
+            R_h[redo],
+            y_h[:, redo],
+            z_end[0][redo],
+            rtol[redo],
+            atol[:, redo],
+            settings.max_steps,
+            h0=0.5 * (z_end[0][redo] - R_h[redo]),
+        )
         y_end[:, redo] = hop.y
         steps[step_idx[redo]] += hop.steps
     R = z_end[0]

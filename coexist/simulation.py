@@ -19,10 +19,11 @@ import numpy as np
 from .continuation import EquilibriumMap, Event, StableSegment, error_floor, relocate
 from .equilibria import Configuration, Equilibrium, GasChamber, PressureReservoir, zone_index_on_curve
 from .errors import ModelRangeError, SceneError, SolverError
+from .model import MembraneModel
 from .ramp import Ramp, RampResult, Transition, equal_free_energy
 from .scene import Scene
 from .settings import SolverSettings
-from .shooting import solve_states
+from .shooting import StateDerivatives, solve_states
 
 #: the pole-stretch range of the zone curves ends at this fraction of the Gent locking stretch
 LOCKING_MARGIN = 0.95
@@ -36,7 +37,7 @@ DISCOVERY_VOLTAGES = 13
 
 def pole_stretch_max(scene: Scene) -> float:
     """Upper end of the zone curves: short of Gent locking (equibiaxial ``2λ² + λ⁻⁴ − 3 = Jlim``)."""
-    if scene.material == "gent":
+    if scene.material == "gent" and scene.jlim is not None:
         return LOCKING_MARGIN * math.sqrt((scene.jlim + 3) / 2)
     return NEO_HOOKEAN_STRETCH_MAX * scene.prestretch
 
@@ -72,8 +73,7 @@ def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: flo
     lo, hi = float(lam_lo), float(lam_hi)
     s_lo = solve_states(model, [lo], 0.0, settings)
     if not (s_lo.ok[0] and s_lo.p_hat[0] <= p_hat):
-        raise SceneError(f"p̂ = {p_hat:.6g} is below the smallest computed state (p̂ = {s_lo.p_hat[0]:.3g})",
-                         "pressure")
+        raise SceneError(f"p̂ = {p_hat:.6g} is below the smallest computed state (p̂ = {s_lo.p_hat[0]:.3g})", "pressure")
     lam = lo + (hi - lo) * 0.5
     for _ in range(60):
         st = solve_states(model, [lam], 0.0, settings, derivatives=True)
@@ -84,7 +84,7 @@ def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: flo
             hi = lam
         else:
             lo = lam
-        d = st.derivatives.dp_dl0[0]
+        d = StateDerivatives.of(st).dp_dl0[0]
         new = lam - f / d if d > 0 else 0.5 * (lo + hi)
         if not lo < new < hi:
             new = 0.5 * (lo + hi)
@@ -103,8 +103,8 @@ class Simulation:
     """
 
     scene: Scene
-    model: object
-    gas: object
+    model: MembraneModel
+    gas: GasChamber | PressureReservoir
     closing_stretch: float
     p_hat_max: float
     lam_max: float
@@ -126,29 +126,40 @@ class Simulation:
             phi_window = (0.0, float(np.max(path)) if path is not None else 0.0)
         if scene.chamber is not None:
             scene.check_closing_pressure(p_max)
-            p_close = scene.closing_pressure_hat
+            p_close = float(scene.p_hat(scene.chamber.closing_pressure))
             field_name = scene.chamber.closing_pressure_field
         elif scene.controlled_pressure is not None:
-            p_close = scene.p_hat(scene.controlled_pressure)
+            p_close = float(scene.p_hat(scene.controlled_pressure))
             field_name = "[zones].pressure"
             if not p_close < p_max:
-                raise SceneError(f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar "
-                                 f"(p̂ = {p_close:.4g}): it is at or above their snap-through pressure "
-                                 f"p̂max = {p_max:.4g}", field_name)
+                raise SceneError(
+                    f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar "
+                    f"(p̂ = {p_close:.4g}): it is at or above their snap-through pressure "
+                    f"p̂max = {p_max:.4g}",
+                    field_name,
+                )
         else:
-            raise SceneError("this computation needs a [chamber] (a gas the zones share) or a controlled "
-                             "pressure [zones].pressure_mbar", "[chamber]")
+            raise SceneError(
+                "this computation needs a [chamber] (a gas the zones share) or a controlled "
+                "pressure [zones].pressure_mbar",
+                "[chamber]",
+            )
         lam_lo = model.prestretch * (1 + 2e-3)
         try:
             lam_c = state_at_pressure(model, p_close, scene.settings, lam_lo, lam_at_max)
         except SceneError as exc:
             raise SceneError(f"{exc.message}; raise it", field_name) from None
+        gas: GasChamber | PressureReservoir
         if scene.chamber is not None:
             v_c = float(solve_states(model, [lam_c], 0.0, scene.settings).v_hat[0])
-            gas = GasChamber.closed_at(scene.chamber_volume_hat, scene.atmospheric_pressure_hat, p_close,
-                                       scene.zone_count * v_c)
+            gas = GasChamber.closed_at(
+                float(scene.v_hat(scene.chamber.volume)),
+                float(scene.p_hat(scene.chamber.atmospheric_pressure)),
+                p_close,
+                scene.zone_count * v_c,
+            )
         else:
-            gas = PressureReservoir(float(p_close))
+            gas = PressureReservoir(p_close)
         breakdown = None if scene.breakdown_field is None else scene.breakdown_field / scene.field_scale
         emap = EquilibriumMap(model, gas, scene.zone_count, scene.settings, phi_window, breakdown)
         return cls(scene, model, gas, lam_c, p_max, lam_max, tuple(phi_window), emap)
@@ -213,8 +224,9 @@ class Simulation:
 
     def _tight_map(self) -> EquilibriumMap:
         tight_settings = self.scene.settings.with_rtol(max(self.scene.settings.rtol / 100, 1e-13))
-        return EquilibriumMap(self.model, self.gas, self.scene.zone_count, tight_settings, self.phi_window,
-                              self.emap.breakdown)
+        return EquilibriumMap(
+            self.model, self.gas, self.scene.zone_count, tight_settings, self.phi_window, self.emap.breakdown
+        )
 
     def _measure_event(self, ev: Event, counts, tight_map) -> None:
         if ev.measured or ev.kind == "window":
@@ -267,8 +279,9 @@ class Simulation:
 
     def equilibria_at(self, phi: float = 0.0, bulged=None) -> list[Equilibrium]:
         """Every equilibrium (stable or not) at one voltage on the scene's gas (:func:`equilibria_on_gas`)."""
-        return equilibria_on_gas(self.model, self.gas, self.scene.zone_count, phi, self.scene.settings,
-                                 self.lam_max, bulged, self.emap)
+        return equilibria_on_gas(
+            self.model, self.gas, self.scene.zone_count, phi, self.scene.settings, self.lam_max, bulged, self.emap
+        )
 
     def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
         """For each ``k`` in ``bulged`` (default ``1..N−1``): the stable segments of ``k`` bulged zones
@@ -286,18 +299,26 @@ class Simulation:
         homog = [s for s in self.emap.segments if s.label == "homogeneous"]
         out = []
         for k in ks:
-            segs = sorted((s for s in self.emap.segments if s.configuration.counts == (N - k, k)),
-                          key=lambda s: s.phi_range[0])
+            segs = sorted(
+                (s for s in self.emap.segments if s.configuration.counts == (N - k, k)), key=lambda s: s.phi_range[0]
+            )
             crossings = equal_free_energy(homog + segs)
             labels = {s.label for s in segs}
-            crossings = [c for c in crossings if "homogeneous" in (c.from_label, c.to_label)
-                         and {c.from_label, c.to_label} & labels]
+            crossings = [
+                c
+                for c in crossings
+                if "homogeneous" in (c.from_label, c.to_label) and {c.from_label, c.to_label} & labels
+            ]
             if self.scene.settings.error_estimates:
                 self.measure_errors(crossings)
                 self.measure_segment_ends(segs)
-            note = None if segs else f"no stable state with {k} of {N} zones bulged between " \
-                                     f"{self.scene.voltage_of(self.phi_window[0]) / 1e3:.4g} and " \
-                                     f"{self.scene.voltage_of(self.phi_window[1]) / 1e3:.4g} kV"
+            note = (
+                None
+                if segs
+                else f"no stable state with {k} of {N} zones bulged between "
+                f"{self.scene.voltage_of(self.phi_window[0]) / 1e3:.4g} and "
+                f"{self.scene.voltage_of(self.phi_window[1]) / 1e3:.4g} kV"
+            )
             out.append(CoexistenceEntry(k, segs, crossings, note))
         return out
 
@@ -310,11 +331,21 @@ class Simulation:
         if kind == "spinodal":
             if not isinstance(end, Event) or end.kind in ("window", "range_end", "breakdown"):
                 why = "the window ends" if not isinstance(end, Event) or end.kind == "window" else end.note
-                raise ModelRangeError(f"the zones stay homogeneous up to "
-                                      f"{self.scene.voltage_of(start.end_phi(+1)) / 1e3:.6g} kV ({why})",
-                                      "no_transition")
-            t = Transition(end.phi_hat, "spinodal", "homogeneous", "", "up", end.kind, end.error, source=end,
-                           source_counts=start.tracer.system.configuration.counts)
+                raise ModelRangeError(
+                    f"the zones stay homogeneous up to {self.scene.voltage_of(start.end_phi(+1)) / 1e3:.6g} kV ({why})",
+                    "no_transition",
+                )
+            t = Transition(
+                end.phi_hat,
+                "spinodal",
+                "homogeneous",
+                "",
+                "up",
+                end.kind,
+                end.error,
+                source=end,
+                source_counts=start.tracer.system.configuration.counts,
+            )
             if self.scene.settings.error_estimates:
                 self.measure_errors([t])
             return t
@@ -331,24 +362,36 @@ class Simulation:
 
             def crossings():
                 segs = [s for s in self.emap.segments if s.configuration.counts == one]
-                return [c for c in equal_free_energy([start] + segs)
-                        if {c.from_label, c.to_label} == {"homogeneous", label}]
+                return [
+                    c for c in equal_free_energy([start] + segs) if {c.from_label, c.to_label} == {"homogeneous", label}
+                ]
 
             found = crossings()
             if not found:
                 self.discover([1])
                 found = crossings()
             if not found:
-                raise ModelRangeError(f"no voltage up to {self.scene.voltage_of(self.phi_window[1]) / 1e3:.6g} kV at "
-                                      f"which {label} has the free energy of the homogeneous state", "no_transition")
+                raise ModelRangeError(
+                    f"no voltage up to {self.scene.voltage_of(self.phi_window[1]) / 1e3:.6g} kV at "
+                    f"which {label} has the free energy of the homogeneous state",
+                    "no_transition",
+                )
             if self.scene.settings.error_estimates:
                 self.measure_errors(found[:1])
             return found[0]
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
 
 
-def equilibria_on_gas(model, gas, zones: int, phi: float, settings: SolverSettings, lam_max: float, bulged=None,
-                      emap: EquilibriumMap | None = None) -> list[Equilibrium]:
+def equilibria_on_gas(
+    model,
+    gas,
+    zones: int,
+    phi: float,
+    settings: SolverSettings,
+    lam_max: float,
+    bulged=None,
+    emap: EquilibriumMap | None = None,
+) -> list[Equilibrium]:
     """Every equilibrium (stable or not) of the homogeneous and the ``(N − k, k)`` configurations of ``zones``
     zones on ``gas`` at one voltage ``Φ̂``.
 
@@ -364,13 +407,14 @@ def equilibria_on_gas(model, gas, zones: int, phi: float, settings: SolverSettin
     pre = model.prestretch
     u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(lam_max - pre), 240)
     curve = ZoneCurve.compute(model, phi, pre + u**2, settings)
-    out = []
+    out: list[Equilibrium] = []
     for cand in candidate_equilibria(curve, gas, zones, bulged):
         eq = converge_candidate(emap, cand, curve)
         if eq is None:
             continue
-        if any(e.configuration == eq.configuration and np.allclose(e.pole_stretch, eq.pole_stretch, rtol=1e-7)
-               for e in out):
+        if any(
+            e.configuration == eq.configuration and np.allclose(e.pole_stretch, eq.pole_stretch, rtol=1e-7) for e in out
+        ):
             continue
         out.append(eq)
     return sorted(out, key=lambda e: (e.configuration.bulged, e.free_energy))
@@ -415,8 +459,10 @@ def _tight_crossing(t: Transition, A: StableSegment, B: StableSegment, tight_map
         slope = -(ea.total_charge - eb.total_charge)
         step = -(ea.free_energy - eb.free_energy) / slope
         if not (np.isfinite(step) and lo <= phi + step <= hi):
-            raise SolverError(f"equal free energy of {A.label} and {B.label}: the tighter solve left their "
-                              f"common range near Φ̂ = {t.phi_hat:.10g}")
+            raise SolverError(
+                f"equal free energy of {A.label} and {B.label}: the tighter solve left their "
+                f"common range near Φ̂ = {t.phi_hat:.10g}"
+            )
         if abs(step) <= tol or abs(step) >= 0.5 * prev:
             break
         prev = abs(step)
@@ -461,14 +507,25 @@ class RampReport:
             "voltage_kV": float(self.voltage_kV(t.phi_hat)),
             "voltage_error_kV": float(self.voltage_kV(t.phi_hat_error)),
             "error_measured": bool(getattr(t, "measured", False)),
-            "from": t.from_label, "to": t.to_label, "kind": t.kind, "event": t.event, "direction": t.direction,
-            "reason": t.reason, **({"mode": t.mode} if t.mode else {}),
+            "from": t.from_label,
+            "to": t.to_label,
+            "kind": t.kind,
+            "event": t.event,
+            "direction": t.direction,
+            "reason": t.reason,
+            **({"mode": t.mode} if t.mode else {}),
         }
 
     def state_dict(self, st: Equilibrium | None) -> dict:
         if st is None:
-            return {"pressure_mbar": None, "zone_volumes_ml": None, "pole_stretches": None, "configuration": "none",
-                    "bulged_zones": None, "stable": False}
+            return {
+                "pressure_mbar": None,
+                "zone_volumes_ml": None,
+                "pole_stretches": None,
+                "configuration": "none",
+                "bulged_zones": None,
+                "stable": False,
+            }
         return {
             "pressure_mbar": float(self.pressure_mbar(st.p_hat)),
             "zone_volumes_ml": [float(self.volume_ml(v)) for v in st.zone_volumes],
@@ -483,8 +540,11 @@ class RampReport:
         steps = []
         check_field = self.scene.breakdown_field is not None
         for s in self.result.steps:
-            d = {"voltage_kV": round(float(self.voltage_kV(s.phi_hat)), 10), "direction": s.direction,
-                 **self.state_dict(s.state)}
+            d = {
+                "voltage_kV": round(float(self.voltage_kV(s.phi_hat)), 10),
+                "direction": s.direction,
+                **self.state_dict(s.state),
+            }
             if s.segment is not None:
                 d["configuration"] = s.segment.label
             if check_field and s.state is not None:

@@ -107,8 +107,7 @@ class ZoneCurve:
         l0 = np.asarray(pole_stretch, dtype=float)
         x = self.to_u(l0)
         if x.size < 5:
-            raise ModelRangeError(f"fewer than 5 valid states at Φ̂ = {phi_hat:.6g}: no usable curve",
-                                  "no_equilibrium")
+            raise ModelRangeError(f"fewer than 5 valid states at Φ̂ = {phi_hat:.6g}: no usable curve", "no_equilibrium")
         self.phi_hat = float(phi_hat)
         self.grid = x
         self.pole_stretch = l0
@@ -116,8 +115,9 @@ class ZoneCurve:
         # curve on that grid (the voltage family shares its grid), then one product per quantity
         basis = _spline_basis(x)
         coef = np.tensordot(basis, np.column_stack([p_hat, v_hat, psi_hat]), axes=1)  # (4, n-1, 3)
-        self.p, self.v, self.psi = (FastCubic(PPoly.construct_fast(np.ascontiguousarray(coef[:, :, j]), x))
-                                    for j in range(3))
+        self.p, self.v, self.psi = (
+            FastCubic(PPoly.construct_fast(np.ascontiguousarray(coef[:, :, j]), x)) for j in range(3)
+        )
         self._q_values = np.asarray(q_hat, dtype=float)
         self._q = None
         self.dp = self.p.derivative()
@@ -153,8 +153,16 @@ class ZoneCurve:
         if last + 1 < ok.size:
             code = states.status[last + 1]
             stopped = f"{reason_tag(code)} beyond pole stretch {states.pole_stretch[last]:.6g}"
-        return cls(states.pole_stretch[sl], states.p_hat[sl], states.v_hat[sl], states.psi_hat[sl],
-                   states.q_hat[sl], phi_hat, stopped, prestretch)
+        return cls(
+            states.pole_stretch[sl],
+            states.p_hat[sl],
+            states.v_hat[sl],
+            states.psi_hat[sl],
+            states.q_hat[sl],
+            phi_hat,
+            stopped,
+            prestretch,
+        )
 
     @classmethod
     def compute(cls, model: MembraneModel, phi_hat: float, pole_stretch, settings: SolverSettings | None = None):
@@ -194,8 +202,9 @@ class ZoneCurve:
             rising_p = self.dp(mid) > 0
             vol_ok = self.dv(mid) > 0
             pa, pb = float(self.p(a)), float(self.p(b))
-            out.append(Branch(i, float(a), float(b), bool(rising_p == vol_ok), bool(vol_ok),
-                              (min(pa, pb), max(pa, pb))))
+            out.append(
+                Branch(i, float(a), float(b), bool(rising_p == vol_ok), bool(vol_ok), (min(pa, pb), max(pa, pb)))
+            )
         return out
 
     def pressure_extrema(self):
@@ -221,8 +230,11 @@ class ZoneCurve:
         s = solve_states(model, self.to_stretch(mids), self.phi_hat, settings)
         ok = s.ok
         err = {}
-        for name, spline, exact in (("p_hat", self.p, s.p_hat), ("v_hat", self.v, s.v_hat),
-                                    ("psi_hat", self.psi, s.psi_hat)):
+        for name, spline, exact in (
+            ("p_hat", self.p, s.p_hat),
+            ("v_hat", self.v, s.v_hat),
+            ("psi_hat", self.psi, s.psi_hat),
+        ):
             e = np.abs(spline(mids[ok]) - exact[ok]) / max(float(np.max(np.abs(exact[ok]), initial=0.0)), 1e-300)
             err[name] = float(e.max()) if e.size else float("nan")
         return err

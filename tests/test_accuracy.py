@@ -118,21 +118,34 @@ def test_default_off_front_is_reported():
     def m(label, t, err, default=False):
         return Measurement("rtol", label, 1e-10, {}, 1.0, err, err, t, 1, default)
 
-    st = Study(1, "x", "x", "x", "", {"value": 1.0}, [], 1e-15,
-               [m("fast", 1.0, 1e-9), m("dflt", 2.0, 1e-8, True), m("slow", 3.0, 1e-12)], {})
+    st = Study(
+        1,
+        "x",
+        "x",
+        "x",
+        "",
+        {"value": 1.0},
+        [],
+        1e-15,
+        [m("fast", 1.0, 1e-9), m("dflt", 2.0, 1e-8, True), m("slow", 3.0, 1e-12)],
+        {},
+    )
     dv = st.default_vs_front()
     assert dv["on_front"] is False and dv["dominated_by"] == ["fast"]
     assert dv["time_excess"] == pytest.approx(2.0) and dv["error_excess"] == pytest.approx(10.0)
     assert dv["near_front"] is False
 
 
-@pytest.mark.parametrize("args, option", [
-    (["--study", "4"], "--study"),
-    (["--study", "x"], "--study"),
-    (["--study", "1.5"], "--study"),
-    (["-o", "/nonexistent-folder/a.png"], "--plot"),
-    (["-o", "a.txt"], "--plot"),
-])
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (["--study", "4"], "--study"),
+        (["--study", "x"], "--study"),
+        (["--study", "1.5"], "--study"),
+        (["-o", "/nonexistent-folder/a.png"], "--plot"),
+        (["-o", "a.txt"], "--plot"),
+    ],
+)
 def test_bad_input_exit_2(args, option):
     r = CliRunner().invoke(cli, ["accuracy", *args])
     assert r.exit_code == 2, r.output

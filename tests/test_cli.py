@@ -6,9 +6,9 @@ import sys
 
 import pytest
 from click.testing import CliRunner
-from coexist.cli.main import cli
 
 from coexist import __version__
+from coexist.cli.main import cli
 
 
 def run(*args):
@@ -27,15 +27,28 @@ def test_help_and_version():
 
 def test_python_dash_m(tmp_path):
     # run outside the source tree, so the installed package is the one found
-    r = subprocess.run([sys.executable, "-m", "coexist", "--version"], capture_output=True, text=True, timeout=60,
-                       cwd=tmp_path)
+    r = subprocess.run(
+        [sys.executable, "-m", "coexist", "--version"], capture_output=True, text=True, timeout=60, cwd=tmp_path
+    )
     assert r.returncode == 0 and __version__ in r.stdout
 
 
 def test_curves_json(tmp_path):
     png = tmp_path / "c.png"
-    r = run("curves", "--phi-hat", "0,0.1", "--p-hat", "1.5", "--points", "40", "--accuracy", "draft", "--json",
-            "-o", str(png))
+    r = run(
+        "curves",
+        "--phi-hat",
+        "0,0.1",
+        "--p-hat",
+        "1.5",
+        "--points",
+        "40",
+        "--accuracy",
+        "draft",
+        "--json",
+        "-o",
+        str(png),
+    )
     assert r.exit_code == 0, r.output
     data = json.loads(r.stdout)
     assert data["settings"]["relative_tolerance"] == 1e-6
@@ -69,24 +82,27 @@ def test_curves_refuses_to_overwrite(tmp_path):
     assert out.read_text() == "keep me"
 
 
-@pytest.mark.parametrize("args, option", [
-    (["--pole-stretch", "0,4"], "--pole-stretch"),
-    (["--pole-stretch", "-1,4"], "--pole-stretch"),
-    (["--pole-stretch", "3,2"], "--pole-stretch"),
-    (["--pole-stretch", "1,4"], "--pole-stretch"),
-    (["--pole-stretch", "abc"], "--pole-stretch"),
-    (["--material", "gent", "--jlim", "0"], "--jlim"),
-    (["--material", "gent", "--jlim", "-5"], "--jlim"),
-    (["--material", "gent"], "--jlim"),
-    (["--material", "rubber"], "--material"),
-    (["--phi-hat", "-0.1"], "--phi-hat"),
-    (["--phi-hat", "nan"], "--phi-hat"),
-    (["--p-hat", "0"], "--p-hat"),
-    (["--prestretch", "0.5"], "--prestretch"),
-    (["--accuracy", "extreme"], "--accuracy"),
-    (["--rtol", "1"], "--rtol"),
-    (["--points", "1"], "--points"),
-])
+@pytest.mark.parametrize(
+    "args, option",
+    [
+        (["--pole-stretch", "0,4"], "--pole-stretch"),
+        (["--pole-stretch", "-1,4"], "--pole-stretch"),
+        (["--pole-stretch", "3,2"], "--pole-stretch"),
+        (["--pole-stretch", "1,4"], "--pole-stretch"),
+        (["--pole-stretch", "abc"], "--pole-stretch"),
+        (["--material", "gent", "--jlim", "0"], "--jlim"),
+        (["--material", "gent", "--jlim", "-5"], "--jlim"),
+        (["--material", "gent"], "--jlim"),
+        (["--material", "rubber"], "--material"),
+        (["--phi-hat", "-0.1"], "--phi-hat"),
+        (["--phi-hat", "nan"], "--phi-hat"),
+        (["--p-hat", "0"], "--p-hat"),
+        (["--prestretch", "0.5"], "--prestretch"),
+        (["--accuracy", "extreme"], "--accuracy"),
+        (["--rtol", "1"], "--rtol"),
+        (["--points", "1"], "--points"),
+    ],
+)
 def test_bad_input_is_exit_2_naming_the_option(args, option):
     r = run("curves", "--p-hat", "none", *args) if "--p-hat" not in args else run("curves", *args)
     assert r.exit_code == 2, r.output

@@ -96,10 +96,19 @@ def test_two_interconnected_balloons():
     # the same chamber filled until each zone sits 5 % past its pressure maximum (in pole stretch)
     lp = [x for x in pressure_volume_curve(sim.model, 0.0).limit_points if x.kind == "pressure_max"][0]
     past = solve_states(sim.model, [lp.pole_stretch * 1.05], 0.0).require_ok()
-    gas = GasChamber.closed_at(base.chamber_volume_hat, base.atmospheric_pressure_hat, float(past.p_hat[0]),
-                               2 * float(past.v_hat[0]))
-    filled = Simulation(base, sim.model, gas, lp.pole_stretch * 1.05, sim.p_hat_max, sim.lam_max, sim.phi_window,
-                        type(sim.emap)(sim.model, gas, 2, base.settings, sim.phi_window))
+    gas = GasChamber.closed_at(
+        base.chamber_volume_hat, base.atmospheric_pressure_hat, float(past.p_hat[0]), 2 * float(past.v_hat[0])
+    )
+    filled = Simulation(
+        base,
+        sim.model,
+        gas,
+        lp.pole_stretch * 1.05,
+        sim.p_hat_max,
+        sim.lam_max,
+        sim.phi_window,
+        type(sim.emap)(sim.model, gas, 2, base.settings, sim.phi_window),
+    )
     eqs = filled.equilibria_at(0.0)
     sym = [e for e in eqs if e.k == 0 and abs(e.pole_stretch[0] - lp.pole_stretch * 1.05) < 1e-6]
     assert len(sym) == 1 and not sym[0].stable
@@ -167,8 +176,10 @@ def test_pressure_control_equal_free_energy_is_the_maxwell_voltage():
     from coexist.equilibria import PressureReservoir
     from coexist.scene import parse_scene
 
-    text = ('[membrane]\nmaterial = "gent"\njlim = 97\nzone_radius_mm = 21.4165\n[zones]\ncount = 3\n'
-            'pressure_mbar = 17\n[voltage]\nstop_kV = 5\nstep_kV = 0.05\n')
+    text = (
+        '[membrane]\nmaterial = "gent"\njlim = 97\nzone_radius_mm = 21.4165\n[zones]\ncount = 3\n'
+        "pressure_mbar = 17\n[voltage]\nstop_kV = 5\nstep_kV = 0.05\n"
+    )
     scene = parse_scene(text)
     assert "pressure-control" in scene.effects() and "gas:isothermal-ideal-gas" not in scene.effects()
     sim = Simulation.from_scene(scene)

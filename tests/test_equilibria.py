@@ -26,10 +26,13 @@ def dense_hessian(counts, a, c):
 
 
 @settings(max_examples=60, deadline=None, derandomize=True)
-@given(counts=st.lists(st.integers(1, 7), min_size=1, max_size=4),
-       a=st.lists(st.floats(-3, 3), min_size=4, max_size=4), c=st.floats(0.0, 5.0))
+@given(
+    counts=st.lists(st.integers(1, 7), min_size=1, max_size=4),
+    a=st.lists(st.floats(-3, 3), min_size=4, max_size=4),
+    c=st.floats(0.0, 5.0),
+)
 def test_closed_form_eigenvalues_are_the_dense_ones(counts, a, c):
-    a = a[:len(counts)]
+    a = a[: len(counts)]
     closed = sorted(v for v, mult, _ in hessian_eigenvalues(counts, a, c) for _ in range(mult))
     dense = np.linalg.eigvalsh(dense_hessian(counts, a, c))
     assert len(closed) == sum(counts)
@@ -63,8 +66,9 @@ def test_gas_law_and_reservoir():
         GasChamber(-1.0, 50.0, 2.0)
 
 
-@pytest.mark.parametrize("counts, u, phi", [((3,), [0.9], 0.2), ((2, 1), [0.6, 2.1], 0.22),
-                                           ((1, 1, 2), [0.5, 1.2, 2.0], 0.1)])
+@pytest.mark.parametrize(
+    "counts, u, phi", [((3,), [0.9], 0.2), ((2, 1), [0.6, 2.1], 0.22), ((1, 1, 2), [0.5, 1.2, 2.0], 0.1)]
+)
 def test_residual_jacobian_is_the_derivative_of_the_residual(counts, u, phi):
     """Every column of the exact Jacobian (variational equations, chain rule through the gas and the
     divided differences) against five-point differences of the residual itself (rtol 1e-12 states)."""

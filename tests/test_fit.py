@@ -15,10 +15,15 @@ def scene_and_shared():
     return scene, Shared.of(scene)
 
 
-@pytest.mark.parametrize("kind, target_kV, radius_mm", [
-    ("spinodal", 3.8, 21.4755), ("spinodal", 4.0, 21.3548),
-    ("equal_free_energy", 3.8, 21.1881), ("equal_free_energy", 4.0, 20.7643),
-])
+@pytest.mark.parametrize(
+    "kind, target_kV, radius_mm",
+    [
+        ("spinodal", 3.8, 21.4755),
+        ("spinodal", 4.0, 21.3548),
+        ("equal_free_energy", 3.8, 21.1881),
+        ("equal_free_energy", 4.0, 20.7643),
+    ],
+)
 def test_fit_puts_the_transition_at_the_target(scene_and_shared, kind, target_kV, radius_mm):
     """The paper's two voltages (3.8 kV all equal, 4.0 kV one bulged) as targets, for both criteria: the
     fitted radius puts the transition there to its measured error (re-evaluated independently of the

@@ -116,8 +116,15 @@ def reference_shot(model, l0, phi, p_hat, R0=1e-6, samples=4001):
     T0 = float(np.ravel(model.tensions(l0, l0, phi)[0])[0])
     W0 = float(np.ravel(model.free_energy(l0, l0, phi))[0])
     c = p_hat * l0**2 / (2 * T0)
-    y0 = [l0, l0, c * R0, 0.25 * math.pi * l0**3 * c * R0**4, math.pi * phi * l0**4 * R0**2,
-          math.pi * W0 * R0**2, 0.5 * l0 * c * R0**2]
+    y0 = [
+        l0,
+        l0,
+        c * R0,
+        0.25 * math.pi * l0**3 * c * R0**4,
+        math.pi * phi * l0**4 * R0**2,
+        math.pi * W0 * R0**2,
+        0.5 * l0 * c * R0**2,
+    ]
 
     def rhs(R, y):
         out = np.array([float(np.ravel(v)[0]) for v in model.rhs(R, y[0], y[1], y[2], p_hat, phi)])
@@ -130,9 +137,17 @@ def reference_shot(model, l0, phi, p_hat, R0=1e-6, samples=4001):
     Y = sol.sol(R)
     T1, T2 = (np.asarray(t, dtype=float) for t in model.tensions(Y[0], Y[1], phi)[:2])
     end = sol.y[:, -1]
-    return {"l1": end[0], "l2": end[1], "theta": end[2], "v_hat": end[3], "q_hat": end[4], "psi_hat": end[5],
-            "apex_height": end[6], "min_tension": float(np.min(np.minimum(T1, T2))),
-            "clamp_T2": float(T2[-1])}
+    return {
+        "l1": end[0],
+        "l2": end[1],
+        "theta": end[2],
+        "v_hat": end[3],
+        "q_hat": end[4],
+        "psi_hat": end[5],
+        "apex_height": end[6],
+        "min_tension": float(np.min(np.minimum(T1, T2))),
+        "clamp_T2": float(T2[-1]),
+    }
 
 
 def cheb_nodes(a, b, n):
@@ -554,8 +569,9 @@ def test_voltage_charge_curve_holds_its_pressure(nh):
     assert c.to_dict()["p_hat_residual_max"] <= 1e-8
 
 
-@pytest.mark.parametrize("call", ["solve_states", "pressure_volume_curve", "voltage_charge_curve",
-                                  "voltage_at_pressure"])
+@pytest.mark.parametrize(
+    "call", ["solve_states", "pressure_volume_curve", "voltage_charge_curve", "voltage_at_pressure"]
+)
 def test_step_budget_bounds_every_solve(nh, call):
     """``max_steps = 10``: states fail with STEP_LIMIT after at most 10 steps (NaN, ``require_ok`` names the
     step budget); the curves raise ModelRangeError saying so; nothing hangs."""
@@ -707,8 +723,9 @@ def fresh_dp_dv(model, l0, phi=0.0):
 def independent_min_eigenvalue(model, eq, gas):
     """Smallest eigenvalue of the full N×N ``diag(dp̂/dV̂_i) + n̂/(V̂c + ΣV̂)² 11ᵀ``, every ``dp̂/dV̂`` from
     fresh shooting by central differences (no variational equations, no closed form)."""
-    kappa = np.concatenate([np.full(n, fresh_dp_dv(model, lam)) for n, lam in
-                            zip(eq.configuration.counts, eq.pole_stretch)])
+    kappa = np.concatenate(
+        [np.full(n, fresh_dp_dv(model, lam)) for n, lam in zip(eq.configuration.counts, eq.pole_stretch)]
+    )
     total = float(np.sum(eq.zone_volumes))
     stiff = gas.gas_amount / (gas.chamber_volume + total) ** 2 if isinstance(gas, GasChamber) else 0.0
     return float(np.linalg.eigvalsh(np.diag(kappa) + stiff * np.ones((eq.zones, eq.zones)))[0])
@@ -800,8 +817,9 @@ def test_closing_pressures_that_the_zones_hold(mbar):
     assert home.p_hat == pytest.approx(trial.closing_pressure_hat, rel=1e-9)
 
 
-@pytest.mark.parametrize("mbar, words", [(0.01, "raise it"), (42.3, "snap-through"), (50.0, "snap-through"),
-                                         (1e4, "snap-through")])
+@pytest.mark.parametrize(
+    "mbar, words", [(0.01, "raise it"), (42.3, "snap-through"), (50.0, "snap-through"), (1e4, "snap-through")]
+)
 def test_closing_pressures_refused(mbar, words):
     """Below the smallest computed state, or at/above the snap-through pressure: SceneError naming the
     closing-pressure field of the scene file."""

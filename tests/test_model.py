@@ -15,10 +15,11 @@ def test_generated_numpy_matches_casadi(elasticity):
     model = MembraneModel(elasticity)
     rng = np.random.default_rng(1)
     l1, l2 = rng.uniform(1.0, 2.2, 50), rng.uniform(1.0, 2.2, 50)
-    R, th, p, phi = rng.uniform(0.05, 1, 50), rng.uniform(0, 2, 50), rng.uniform(0, 2, 50), rng.uniform(0, .3, 50)
+    R, th, p, phi = rng.uniform(0.05, 1, 50), rng.uniform(0, 2, 50), rng.uniform(0, 2, 50), rng.uniform(0, 0.3, 50)
     ours = np.array(model.rhs(R, l1, l2, th, p, phi))
-    theirs = np.array([np.array(model._built["casadi"]["rhs"](R[i], l1[i], l2[i], th[i], p[i], phi[i])).ravel()
-                       for i in range(50)]).T
+    theirs = np.array(
+        [np.array(model._built["casadi"]["rhs"](R[i], l1[i], l2[i], th[i], p[i], phi[i])).ravel() for i in range(50)]
+    ).T
     np.testing.assert_allclose(ours, theirs, rtol=1e-13, atol=1e-13)
 
 
@@ -31,10 +32,12 @@ def test_tensions_are_derivatives_of_the_energy():
     assert T1 == pytest.approx((W(l1 + h, l2, phi) - W(l1 - h, l2, phi)) / (2 * h), rel=1e-8)
     assert T2 == pytest.approx((W(l1, l2 + h, phi) - W(l1, l2 - h, phi)) / (2 * h), rel=1e-8)
     d = 1e-4
-    assert T11 == pytest.approx((model.tensions(l1 + d, l2, phi)[0] - model.tensions(l1 - d, l2, phi)[0]) / (2 * d),
-                                rel=1e-6)
-    assert T12 == pytest.approx((model.tensions(l1, l2 + d, phi)[0] - model.tensions(l1, l2 - d, phi)[0]) / (2 * d),
-                                rel=1e-6)
+    assert T11 == pytest.approx(
+        (model.tensions(l1 + d, l2, phi)[0] - model.tensions(l1 - d, l2, phi)[0]) / (2 * d), rel=1e-6
+    )
+    assert T12 == pytest.approx(
+        (model.tensions(l1, l2 + d, phi)[0] - model.tensions(l1, l2 - d, phi)[0]) / (2 * d), rel=1e-6
+    )
 
 
 def test_neo_hookean_tension_closed_form():

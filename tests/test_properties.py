@@ -37,8 +37,9 @@ TIGHT = SolverSettings(rtol=1e-12)
 QUANTITIES = ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension")
 #: relative tolerance of the identities (measured residuals are 1e-9 or smaller)
 IDENTITY_RTOL = 1e-6
-PROPERTY_SETTINGS = settings(max_examples=50, deadline=None, derandomize=True,
-                             suppress_health_check=[HealthCheck.too_slow])
+PROPERTY_SETTINGS = settings(
+    max_examples=50, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
 
 materials = st.one_of(st.none(), st.floats(10.0, 1000.0))
 voltages = st.one_of(st.just(0.0), st.floats(0.0, 0.5))
@@ -122,26 +123,32 @@ def check_identities(model, l0, phi, state, jlim):
     p, q = state.p_hat[0], state.q_hat[0]
     checked = 0
     h0 = 1e-2 * min(l0 - 1.0, 1.0, locking_distance(jlim, l0))
-    trials = [(_central(model, [l0 + h, l0 - h, l0 + h / 2, l0 - h / 2], phi, p, q, h, "stretch"), h)
-              for h in (h0, h0 / 10, h0 / 100)]
+    trials = [
+        (_central(model, [l0 + h, l0 - h, l0 + h / 2, l0 - h / 2], phi, p, q, h, "stretch"), h)
+        for h in (h0, h0 / 10, h0 / 100)
+    ]
     done = [t for t in trials if t[0] is not None]
     if done:
         assert any(abs(r) <= IDENTITY_RTOL * sc for (r, sc), _ in done), (
             f"∂Ψ̂/∂λ0 ≠ p̂ ∂V̂/∂λ0 at λ0 = {l0!r}, Φ̂ = {phi!r}: (residual, scale, h) = "
-            f"{[(r, sc, h) for (r, sc), h in done]}")
+            f"{[(r, sc, h) for (r, sc), h in done]}"
+        )
         checked += 1
     if phi == 0.0:
         assert q == 0.0
         return checked + 1
     if phi < 0.01:
         return checked
-    trials = [(_central(model, [l0] * 4, [phi + d, phi - d, phi + d / 2, phi - d / 2], p, q, d, "voltage"), d)
-              for d in (1e-3 * phi, 1e-4 * phi, 1e-5 * phi)]
+    trials = [
+        (_central(model, [l0] * 4, [phi + d, phi - d, phi + d / 2, phi - d / 2], p, q, d, "voltage"), d)
+        for d in (1e-3 * phi, 1e-4 * phi, 1e-5 * phi)
+    ]
     done = [t for t in trials if t[0] is not None]
     if done:
         assert any(abs(r) <= IDENTITY_RTOL * sc for (r, sc), _ in done), (
             f"Q̂ ≠ −∂Ψ̂/∂Φ̂ + p̂ ∂V̂/∂Φ̂ at λ0 = {l0!r}, Φ̂ = {phi!r}: (residual, scale, d) = "
-            f"{[(r, sc, d) for (r, sc), d in done]}")
+            f"{[(r, sc, d) for (r, sc), d in done]}"
+        )
         checked += 1
     return checked
 

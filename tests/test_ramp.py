@@ -107,8 +107,11 @@ def test_error_estimate_is_honest(tricircle):
 
 
 # --- the path's sampling does not matter ------------------------------------------------------------
-@pytest.mark.parametrize("changes", [dict(step_kV=0.1), dict(step_kV=0.25), dict(step_kV=0.5), dict(step_kV=1),
-                                     dict(stop_kV=20)], ids=lambda c: ",".join(f"{k}={v}" for k, v in c.items()))
+@pytest.mark.parametrize(
+    "changes",
+    [dict(step_kV=0.1), dict(step_kV=0.25), dict(step_kV=0.5), dict(step_kV=1), dict(stop_kV=20)],
+    ids=lambda c: ",".join(f"{k}={v}" for k, v in c.items()),
+)
 def test_transitions_do_not_depend_on_the_step_or_the_stop(tricircle, changes):
     _, _, base = tricircle
     report = Simulation.from_scene(variant(**changes)).ramp()
@@ -257,8 +260,11 @@ def test_coexistence_and_ramp_agree(changes):
         if t.kind not in ("spinodal", "no_stable_state", "merge") or t.from_label == "homogeneous":
             continue
         cands = ends.get(t.from_label, [])
-        assert any(abs(phi - t.phi_hat) <= err + t.phi_hat_error + 1e-12 for phi, err in cands), \
-            (t.kind, t.from_label, report.voltage_kV(t.phi_hat))
+        assert any(abs(phi - t.phi_hat) <= err + t.phi_hat_error + 1e-12 for phi, err in cands), (
+            t.kind,
+            t.from_label,
+            report.voltage_kV(t.phi_hat),
+        )
     ramp_equal = {(t.from_label, t.to_label): t for t in report.result.equal_free_energy}
     for entry in table:
         for c in entry.crossings:

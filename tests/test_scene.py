@@ -11,10 +11,10 @@ import casadi as ca
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from coexist.cli.main import cli
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from coexist.cli.main import cli
 from coexist.errors import SceneError
 from coexist.scene import VACUUM_PERMITTIVITY, Scene, builtin_scene_text, builtin_scenes, load_scene, parse_scene
 from coexist.scene_format import SCHEMA, UNITS
@@ -95,30 +95,45 @@ def test_normalisation_follows_the_seed():
     # pressure × volume and voltage × charge both carry the energy scale μHA², so dΨ̂ = p̂dV̂ − Q̂dΦ̂
     assert scene.pressure_scale * scene.volume_scale == pytest.approx(scene.energy_scale)
     assert scene.voltage_scale * scene.charge_scale == pytest.approx(scene.energy_scale)
-    for there, back, x in [(scene.p_hat, scene.pressure, 123.0), (scene.v_hat, scene.volume, 1e-6),
-                           (scene.phi_hat, scene.voltage_of, 3800.0)]:
+    for there, back, x in [
+        (scene.p_hat, scene.pressure, 123.0),
+        (scene.v_hat, scene.volume, 1e-6),
+        (scene.phi_hat, scene.voltage_of, 3800.0),
+    ]:
         assert back(there(x)) == pytest.approx(x)
     np.testing.assert_allclose(scene.voltage_hat_path, scene.voltage.values / scene.voltage_scale)
     groups = scene.dimensionless_groups()
     assert groups["closing_pressure_hat"] == pytest.approx(2000.0 / scene.pressure_scale)
     assert groups["chamber_volume_hat"] == pytest.approx(300e-6 / A**3)
     assert groups["atmospheric_pressure_hat"] == pytest.approx(101_325.0 / scene.pressure_scale)
-    gas = scene.gas_amount_hat(2.5)
-    assert gas * scene.energy_scale == pytest.approx((300e-6 + 2.5 * A**3) * (101_325.0 + 2000.0))
+    # the gas closed with 2.5 A³ in the zones: NkT = (Vc + ΣV)(Patm + p), in units of μHA²
+    from coexist.equilibria import GasChamber
+
+    gas = GasChamber.closed_at(
+        groups["chamber_volume_hat"], groups["atmospheric_pressure_hat"], groups["closing_pressure_hat"], 2.5
+    )
+    assert gas.gas_amount * scene.energy_scale == pytest.approx((300e-6 + 2.5 * A**3) * (101_325.0 + 2000.0))
 
 
 def test_gas_amount_needs_a_chamber():
-    with pytest.raises(SceneError, match="chamber"):
-        parse_scene(THREE_LINES).gas_amount_hat(1.0)
+    """Without a chamber, and without a controlled pressure, nothing holds the zones' pressure."""
+    from coexist.simulation import Simulation
+
+    with pytest.raises(SceneError, match="chamber") as info:
+        Simulation.from_scene(parse_scene(THREE_LINES))
+    assert info.value.field == "[chamber]"
 
 
-@pytest.mark.parametrize("text, expected_kV", [
-    ("stop_kV = 2\nstep_kV = 1", [0, 1, 2, 1, 0]),
-    ("start_kV = 1\nstop_kV = 3.5\nstep_kV = 1", [1, 2, 3, 3.5, 3, 2, 1]),
-    ("start_kV = 2\nstop_kV = 2\nstep_kV = 1", [2]),
-    ("stop_V = 300\nstep_V = 100", [0, 0.1, 0.2, 0.3, 0.2, 0.1, 0]),
-    ("values_kV = [0, 3, 1]", [0, 3, 1]),
-])
+@pytest.mark.parametrize(
+    "text, expected_kV",
+    [
+        ("stop_kV = 2\nstep_kV = 1", [0, 1, 2, 1, 0]),
+        ("start_kV = 1\nstop_kV = 3.5\nstep_kV = 1", [1, 2, 3, 3.5, 3, 2, 1]),
+        ("start_kV = 2\nstop_kV = 2\nstep_kV = 1", [2]),
+        ("stop_V = 300\nstep_V = 100", [0, 0.1, 0.2, 0.3, 0.2, 0.1, 0]),
+        ("values_kV = [0, 3, 1]", [0, 3, 1]),
+    ],
+)
 def test_voltage_paths(text, expected_kV):
     path = parse_scene(f"[voltage]\n{text}\n").voltage
     np.testing.assert_allclose(path.values, np.array(expected_kV) * 1e3)
@@ -144,8 +159,7 @@ def test_units_convert_to_si():
 
 
 def test_fitted_notes_and_solver_settings_carry_through():
-    scene = parse_scene('[fitted]\nzone_radius = "fitted to 4.0 kV"\nwhen = 2024-05-01\n'
-                        '[solver]\naccuracy = "draft"\n')
+    scene = parse_scene('[fitted]\nzone_radius = "fitted to 4.0 kV"\nwhen = 2024-05-01\n[solver]\naccuracy = "draft"\n')
     assert scene.fitted == {"zone_radius": "fitted to 4.0 kV", "when": datetime.date(2024, 5, 1)}
     assert scene.to_dict()["fitted"]["when"] == "2024-05-01"
     assert scene.settings.rtol == 1e-6
@@ -199,8 +213,11 @@ BAD = [
     ("[chamber]\nvolume = 300\nclosing_pressure_mbar = 20", "[chamber].volume", "volume_ml"),
     ("[chamber]\nvolume_ml = -300\nclosing_pressure_mbar = 20", "[chamber].volume_ml", "positive"),
     ("[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 0", "[chamber].closing_pressure_mbar", "positive"),
-    ("[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\natmospheric_pressure_kPa = 0",
-     "[chamber].atmospheric_pressure_kPa", "positive"),
+    (
+        "[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\natmospheric_pressure_kPa = 0",
+        "[chamber].atmospheric_pressure_kPa",
+        "positive",
+    ),
     ("[voltage]\nstop_kV = 5\nstep_kV = 0", "[voltage].step_kV", "positive"),
     ("[voltage]\nstop_kV = 5\nstep_kV = -0.1", "[voltage].step_kV", "positive"),
     ("[voltage]\nstart_kV = 5\nstop_kV = 1", "[voltage].stop_kV", "must go up"),
@@ -252,18 +269,24 @@ def test_scene_without_voltage_builds_no_electrostatics():
     assert not model.has_voltage
     assert not ca.depends_on(model.symbols["W"], model.symbols["phi"])
     assert "electrostatics:ideal-dielectric" not in scene.effects()
-    assert scene.effects()[:len(model.effects)] == model.effects
+    assert scene.effects()[: len(model.effects)] == model.effects
 
 
 def test_scene_with_voltage_and_gent_builds_them():
-    scene = parse_scene('[membrane]\nmaterial = "gent"\nprestretch = 1.2\nbreakdown_field_MV_per_m = 100\n'
-                        "[voltage]\nstop_kV = 4\n")
+    scene = parse_scene(
+        '[membrane]\nmaterial = "gent"\nprestretch = 1.2\nbreakdown_field_MV_per_m = 100\n[voltage]\nstop_kV = 4\n'
+    )
     model = scene.model()
     assert model.has_voltage and ca.depends_on(model.symbols["W"], model.symbols["phi"])
     assert scene.jlim == 97.0 and model.elasticity.jlim == 97.0 and model.prestretch == 1.2
-    assert scene.effects() == ["elasticity:gent", "electrostatics:ideal-dielectric", "prestretch",
-                               "pressure-control", "breakdown-check"]
-    assert scene.effects()[:len(model.effects)] == model.effects
+    assert scene.effects() == [
+        "elasticity:gent",
+        "electrostatics:ideal-dielectric",
+        "prestretch",
+        "pressure-control",
+        "breakdown-check",
+    ]
+    assert scene.effects()[: len(model.effects)] == model.effects
 
 
 def test_scene_without_chamber_is_pressure_controlled():
@@ -306,12 +329,15 @@ def test_cli_check_builtin_and_stdin():
     assert result.exit_code == 0 and "zones: 2" in result.stdout
 
 
-@pytest.mark.parametrize("text, field", [
-    ("[membrane]\nthickness = 0.5\n", "[membrane].thickness"),
-    ("[chamber]\nvolume_ml = 300\n", "[chamber].closing_pressure_mbar"),
-    ("[zones]\ncount = 0\n", "[zones].count"),
-    ("[membrane\n", "line 1"),
-])
+@pytest.mark.parametrize(
+    "text, field",
+    [
+        ("[membrane]\nthickness = 0.5\n", "[membrane].thickness"),
+        ("[chamber]\nvolume_ml = 300\n", "[chamber].closing_pressure_mbar"),
+        ("[zones]\ncount = 0\n", "[zones].count"),
+        ("[membrane\n", "line 1"),
+    ],
+)
 def test_cli_check_bad_file(tmp_path, text, field):
     path = tmp_path / "bad.toml"
     path.write_text(text)
@@ -329,26 +355,63 @@ def test_cli_check_missing_file():
 
 
 # --- fuzzing: SceneError or a Scene, exit 0 or 2, never anything else -------------------------------
-_numbers = st.one_of(st.floats(allow_nan=True, allow_infinity=True), st.integers(-10**6, 10**6),
-                     st.sampled_from([0, 1, -1, 0.5, 3, 5, 20, 300, 1e-3, 1e31, 1e-31]))
-_values = st.one_of(_numbers, st.booleans(), st.text(max_size=8), st.lists(_numbers, max_size=4),
-                    st.sampled_from(["neo-hookean", "gent", "draft", "high", "1e-8", "0.5"]))
+_numbers = st.one_of(
+    st.floats(allow_nan=True, allow_infinity=True),
+    st.integers(-(10**6), 10**6),
+    st.sampled_from([0, 1, -1, 0.5, 3, 5, 20, 300, 1e-3, 1e31, 1e-31]),
+)
+_values = st.one_of(
+    _numbers,
+    st.booleans(),
+    st.text(max_size=8),
+    st.lists(_numbers, max_size=4),
+    st.sampled_from(["neo-hookean", "gent", "draft", "high", "1e-8", "0.5"]),
+)
 #: a plausible value of every key, in the key's example unit
-_GOOD = {"material": "gent", "jlim": 97, "shear_modulus": 45, "relative_permittivity": 4.7, "thickness": 0.5,
-         "zone_radius": 10, "prestretch": 1.2, "breakdown_field": 100, "count": 3, "volume": 300,
-         "closing_pressure": 20, "atmospheric_pressure": 101.325, "start": 0, "stop": 5, "step": 0.5,
-         "values": [0, 1, 2], "accuracy": "draft", "rtol": 1e-8, "pressure": 15}
+_GOOD = {
+    "material": "gent",
+    "jlim": 97,
+    "shear_modulus": 45,
+    "relative_permittivity": 4.7,
+    "thickness": 0.5,
+    "zone_radius": 10,
+    "prestretch": 1.2,
+    "breakdown_field": 100,
+    "count": 3,
+    "volume": 300,
+    "closing_pressure": 20,
+    "atmospheric_pressure": 101.325,
+    "start": 0,
+    "stop": 5,
+    "step": 0.5,
+    "values": [0, 1, 2],
+    "accuracy": "draft",
+    "rtol": 1e-8,
+    "pressure": 15,
+}
 #: keys that make a consistent section, where not any subset does
 _NAMES = {
-    "membrane": st.lists(st.sampled_from([n for n in SCHEMA["membrane"] if n != "jlim"]), max_size=4, unique=True)
-    .map(lambda names: names + ["jlim"] if "material" in names else names),
-    "chamber": st.sampled_from([["volume", "closing_pressure"],
-                                ["volume", "closing_pressure", "atmospheric_pressure"]]),
+    "membrane": st.lists(st.sampled_from([n for n in SCHEMA["membrane"] if n != "jlim"]), max_size=4, unique=True).map(
+        lambda names: names + ["jlim"] if "material" in names else names
+    ),
+    "chamber": st.sampled_from(
+        [["volume", "closing_pressure"], ["volume", "closing_pressure", "atmospheric_pressure"]]
+    ),
     "voltage": st.sampled_from([["values"], ["stop"], ["start", "stop"], ["stop", "step"], ["start", "stop", "step"]]),
     "solver": st.sampled_from([[], ["accuracy"], ["rtol"]]),
 }
-_MUTATIONS = ["value", "value", "no_unit", "bad_unit", "typo", "unknown_key", "unknown_section", "top_level",
-              "not_table", "syntax"]
+_MUTATIONS = [
+    "value",
+    "value",
+    "no_unit",
+    "bad_unit",
+    "typo",
+    "unknown_key",
+    "unknown_section",
+    "top_level",
+    "not_table",
+    "syntax",
+]
 
 
 def _toml_value(value):
@@ -371,8 +434,9 @@ def _scene_texts(draw):
         top["name"] = "fuzz"
     for section in draw(st.lists(st.sampled_from(list(SCHEMA)), max_size=5, unique=True)):
         doc[section] = {}
-        for name in draw(_NAMES.get(section, st.lists(st.sampled_from(list(SCHEMA[section])), max_size=4,
-                                                      unique=True))):
+        for name in draw(
+            _NAMES.get(section, st.lists(st.sampled_from(list(SCHEMA[section])), max_size=4, unique=True))
+        ):
             kind, unit = SCHEMA[section][name].kind, SCHEMA[section][name].unit
             if kind in UNITS:
                 unit = draw(st.sampled_from([unit, *UNITS[kind]]))

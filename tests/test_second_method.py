@@ -154,15 +154,17 @@ def pole_series(l0, p, phi, jlim, radius):
     b = -(c**2) * (t0 + (3.0 * alpha - beta) * l0) / (16.0 * alpha)
     a = 3.0 * b + l0 * c**2 / 2.0
     r2 = radius**2
-    return np.array([
-        l0 + a * r2,
-        l0 + b * r2,
-        c * radius,
-        math.pi * l0**3 * c * r2**2 / 4.0,
-        math.pi * phi * l0**4 * r2,
-        math.pi * free_energy(l0, l0, phi, jlim) * r2,
-        l0 * c * r2 / 2.0,
-    ])
+    return np.array(
+        [
+            l0 + a * r2,
+            l0 + b * r2,
+            c * radius,
+            math.pi * l0**3 * c * r2**2 / 4.0,
+            math.pi * phi * l0**4 * r2,
+            math.pi * free_energy(l0, l0, phi, jlim) * r2,
+            l0 * c * r2 / 2.0,
+        ]
+    )
 
 
 def membrane_rhs(radius, y, p, phi, jlim):
@@ -264,8 +266,14 @@ def solve_clamped_bvp(l0, phi, jlim=None, pole_radius=POLE_RADIUS, tol=BVP_TOL, 
         solution = solve_bvp(fun, bc, radius, y_guess, p=[p_guess], tol=tol, bc_tol=1e-12, max_nodes=100_000)
     assert solution.status == 0, solution.message
     end = solution.y[:, -1]
-    return {"p_hat": solution.p[0], "v_hat": end[3], "q_hat": end[4], "psi_hat": end[5], "apex_height": end[6],
-            "solution": solution}
+    return {
+        "p_hat": solution.p[0],
+        "v_hat": end[3],
+        "q_hat": end[4],
+        "psi_hat": end[5],
+        "apex_height": end[6],
+        "solution": solution,
+    }
 
 
 # --- tests -----------------------------------------------------------------------------------------
@@ -284,14 +292,18 @@ def test_hand_tensions_are_derivatives_of_the_energy(jlim, phi):
     l1, l2 = np.meshgrid(np.linspace(1.05, 3.0, 7), np.linspace(1.0, 2.5, 6))
     h = 1e-5
     t1, t2, t11, t12 = tensions(l1, l2, phi, jlim)
-    np.testing.assert_allclose(t1, (free_energy(l1 + h, l2, phi, jlim) - free_energy(l1 - h, l2, phi, jlim)) / (2 * h),
-                               rtol=1e-7, atol=1e-8)
-    np.testing.assert_allclose(t2, (free_energy(l1, l2 + h, phi, jlim) - free_energy(l1, l2 - h, phi, jlim)) / (2 * h),
-                               rtol=1e-7, atol=1e-8)
-    np.testing.assert_allclose(t11, (tensions(l1 + h, l2, phi, jlim)[0] - tensions(l1 - h, l2, phi, jlim)[0]) / (2 * h),
-                               rtol=1e-7, atol=1e-8)
-    np.testing.assert_allclose(t12, (tensions(l1, l2 + h, phi, jlim)[0] - tensions(l1, l2 - h, phi, jlim)[0]) / (2 * h),
-                               rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(
+        t1, (free_energy(l1 + h, l2, phi, jlim) - free_energy(l1 - h, l2, phi, jlim)) / (2 * h), rtol=1e-7, atol=1e-8
+    )
+    np.testing.assert_allclose(
+        t2, (free_energy(l1, l2 + h, phi, jlim) - free_energy(l1, l2 - h, phi, jlim)) / (2 * h), rtol=1e-7, atol=1e-8
+    )
+    np.testing.assert_allclose(
+        t11, (tensions(l1 + h, l2, phi, jlim)[0] - tensions(l1 - h, l2, phi, jlim)[0]) / (2 * h), rtol=1e-7, atol=1e-8
+    )
+    np.testing.assert_allclose(
+        t12, (tensions(l1, l2 + h, phi, jlim)[0] - tensions(l1, l2 - h, phi, jlim)[0]) / (2 * h), rtol=1e-7, atol=1e-8
+    )
 
 
 @pytest.mark.parametrize("jlim", [None, GENT_JLIM])
@@ -303,8 +315,9 @@ def test_model_tensions_match_hand_derivation(models, jlim):
         theirs = models[jlim].tensions(l1, l2, phi)[:4]
         for mine, project in zip(ours, theirs):
             np.testing.assert_allclose(project, mine, rtol=1e-13, atol=1e-13)
-        np.testing.assert_allclose(models[jlim].free_energy(l1, l2, phi), free_energy(l1, l2, phi, jlim),
-                                   rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(
+            models[jlim].free_energy(l1, l2, phi), free_energy(l1, l2, phi, jlim), rtol=1e-13, atol=1e-13
+        )
 
 
 @pytest.mark.parametrize("jlim", [None, GENT_JLIM], ids=["neo-hookean", "gent97"])

@@ -21,6 +21,7 @@ def five_point(shoot, attr):
     f = {k: getattr(shoot(k * H), attr) for k in (-2, -1, 1, 2)}
     return (f[-2] - 8 * f[-1] + 8 * f[1] - f[2]) / (12 * H)
 
+
 CASES = [  # (material, jlim, pole stretches, voltages)
     ("neo-hookean", None, [1.05, 1.5, 2.5, 3.5], [0.0, 0.1, 0.2, 0.15]),
     ("gent", 97.0, [1.3, 2.0, 3.0, 4.5, 5.5], [0.05, 0.1, 0.2, 0.15, 0.25]),
@@ -87,8 +88,9 @@ def test_derivatives_on_the_states_steps_carry_the_states_accuracy(rtol, bound):
     model = build_model("gent", 97.0)
     l0 = np.array([1.05, 1.3, 2.0, 3.0, 4.5, 5.5, 6.0])
     phi = np.array([0.05, 0.0, 0.1, 0.2, 0.15, 0.25, 0.2])
-    ref = solve_states(model, l0, phi, SolverSettings(rtol=1e-13, sensitivity_error_control=True),
-                       derivatives=True).require_ok()
+    ref = solve_states(
+        model, l0, phi, SolverSettings(rtol=1e-13, sensitivity_error_control=True), derivatives=True
+    ).require_ok()
     st = solve_states(model, l0, phi, SolverSettings(rtol=rtol), derivatives=True).require_ok()
     for name in ("dp_dl0", "dv_dl0", "dp_dphi", "dv_dphi"):
         exact = getattr(ref.derivatives, name)
@@ -103,7 +105,7 @@ def test_numpy_and_casadi_steppers_agree():
     l0 = np.linspace(1.2, 5.5, CASADI_BATCH_LIMIT + 12)
     big = solve_states(model, l0, 0.15, derivatives=True)
     for i in range(0, l0.size, 9):
-        one = solve_states(model, l0[i:i + 1], 0.15, derivatives=True)
+        one = solve_states(model, l0[i : i + 1], 0.15, derivatives=True)
         assert one.status[0] == big.status[i]
         if one.ok[0]:
             assert one.p_hat[0] == pytest.approx(big.p_hat[i], rel=1e-9)

@@ -94,9 +94,11 @@ def _element(material: str, jlim: float) -> ca.Function:
     w = ws - phi**2 * l1**2 * l2**2 / 2
     psi = w * 2 * ca.pi * (Ri + Rj) / 2 * dR
     vol = ca.pi / 3 * (q[0] ** 2 + q[0] * q[2] + q[2] ** 2) * (q[1] - q[3])
-    return ca.Function("element", [q, Ri, Rj, phi],
-                       [psi, ca.gradient(psi, q), ca.hessian(psi, q)[0],
-                        vol, ca.gradient(vol, q), ca.hessian(vol, q)[0]])
+    return ca.Function(
+        "element",
+        [q, Ri, Rj, phi],
+        [psi, ca.gradient(psi, q), ca.hessian(psi, q)[0], vol, ca.gradient(vol, q), ca.hessian(vol, q)[0]],
+    )
 
 
 def _mesh(n: int) -> np.ndarray:
@@ -210,8 +212,7 @@ class _FE:
         N = self.ndof
         for _ in range(maxit):
             _, G, H, V, GV, HV = self.assemble(x)
-            J = sp.bmat([[H - p * HV, sp.csc_matrix(-GV[:, None])], [sp.csc_matrix(GV[None, :]), None]],
-                        format="csc")
+            J = sp.bmat([[H - p * HV, sp.csc_matrix(-GV[:, None])], [sp.csc_matrix(GV[None, :]), None]], format="csc")
             d = spla.spsolve(J, -np.concatenate([G - p * GV, [V - v0]]))
             x = x + d[:N]
             p += d[N]
@@ -282,11 +283,21 @@ def _fe_state(material: str, phi: float, l0: float, n: int, voltage: bool = True
         psi, G, _, V, GV, _ = fe.assemble(x)
         r, z = fe.nodes(x)
         eig = fe.constrained_eigenvalues(x, p)
-        shape_dev = max(np.max(np.abs(np.interp(shape[:, 0], fe.R, r) - shape[:, 1])),
-                        np.max(np.abs(np.interp(shape[:, 0], fe.R, z) - shape[:, 2])))
+        shape_dev = max(
+            np.max(np.abs(np.interp(shape[:, 0], fe.R, r) - shape[:, 1])),
+            np.max(np.abs(np.interp(shape[:, 0], fe.R, z) - shape[:, 2])),
+        )
         assert eig[-1] > 0, f"more than {eig.size - 1} negative eigenvalues: compute more"
-        return dict(p=p, v=V, psi=psi, gradient=float(np.max(np.abs(G - p * GV))), pole=r[1] / fe.R[1],
-                    shape_dev=shape_dev, eig=eig, count=int(np.sum(eig < 0)))
+        return dict(
+            p=p,
+            v=V,
+            psi=psi,
+            gradient=float(np.max(np.abs(G - p * GV))),
+            pole=r[1] / fe.R[1],
+            shape_dev=shape_dev,
+            eig=eig,
+            count=int(np.sum(eig < 0)),
+        )
 
     x, p = fe.solve_pinned(fe.start(shape), ps, l0)
     out = dict(p_shoot=ps, v_shoot=vs, psi_shoot=psis, pinned=describe(x, p), fixed=None)
@@ -317,7 +328,8 @@ def _fe_index(material, phi, l0, meshes=MESHES, voltage=True, fixed_volume=True)
     err_c, err_f = coarse["p"] - states[0]["p_shoot"], fine["p"] - states[-1]["p_shoot"]
     assert abs(err_c) < P_TOL, f"{tag}: |p_FE − p̂| = {abs(err_c):.2e} on n={meshes[0]}"
     assert abs(err_f) < abs(err_c) / P_CONVERGENCE, (
-        f"{tag}: p error does not converge: {err_c:+.2e} (n={meshes[0]}) → {err_f:+.2e} (n={meshes[-1]})")
+        f"{tag}: p error does not converge: {err_c:+.2e} (n={meshes[0]}) → {err_f:+.2e} (n={meshes[-1]})"
+    )
     counts = [s["count"] for s in primary]
     assert len(set(counts)) == 1, f"{tag}: FE counts differ between meshes {meshes}: {counts}"
     # the eigenvalue nearest zero has the same sign on both meshes and moves by less than half of itself

@@ -21,12 +21,16 @@ def _parse_studies(text: str) -> list[int]:
 
 
 @click.command()
-@click.option("--study", "study", default="1,2,3", show_default=True,
-              help="Which studies, comma-separated: 1 p̂max of a p̂–V̂ curve, 2 Maxwell pressure of a Gent "
-                   "zone, 3 transition voltage of the tricircle scene.")
+@click.option(
+    "--study",
+    "study",
+    default="1,2,3",
+    show_default=True,
+    help="Which studies, comma-separated: 1 p̂max of a p̂–V̂ curve, 2 Maxwell pressure of a Gent "
+    "zone, 3 transition voltage of the tricircle scene.",
+)
 @click.option("--quick", is_flag=True, help="Fewer settings and cheaper references (for tests; about 15 s).")
-@click.option("-o", "--plot", "plot", default=None,
-              help="Write the work-precision figure here (.png, .svg or .pdf).")
+@click.option("-o", "--plot", "plot", default=None, help="Write the work-precision figure here (.png, .svg or .pdf).")
 @click.option("--json", "as_json", is_flag=True, help="Print the measurements as JSON on stdout.")
 @click.option("--overwrite", is_flag=True, help="Replace an existing figure.")
 @library_errors

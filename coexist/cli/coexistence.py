@@ -13,8 +13,12 @@ MAX_DEFAULT_CONFIGURATIONS = 12
 
 @click.command()
 @click.argument("scene", required=False, metavar="[SCENE]")
-@click.option("--bulged", default=None, metavar="K[,K...]",
-              help="Numbers of bulged zones to list (default: all, 1..N-1, for up to 13 zones).")
+@click.option(
+    "--bulged",
+    default=None,
+    metavar="K[,K...]",
+    help="Numbers of bulged zones to list (default: all, 1..N-1, for up to 13 zones).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the table as JSON on stdout.")
 @accuracy_option
 @library_errors
@@ -39,8 +43,10 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
         if any(k >= N or k != int(k) for k in ks):
             raise InputError(f"--bulged: each value must be an integer in 1..{N - 1}, got {bulged!r}")
     elif N - 1 > MAX_DEFAULT_CONFIGURATIONS:
-        raise InputError(f"--bulged: this scene has {N} zones; name the numbers of bulged zones to list "
-                         f"(e.g. --bulged 1,2): each is a continuation of its own")
+        raise InputError(
+            f"--bulged: this scene has {N} zones; name the numbers of bulged zones to list "
+            f"(e.g. --bulged 1,2): each is a continuation of its own"
+        )
     info("tracing the stable states of each configuration ...")
     sim = Simulation.from_scene(sc)
     if sc.voltage is None:
@@ -53,25 +59,40 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
         ranges = []
         for seg in r.segments:
             lo, hi = seg.low, seg.high
-            ranges.append({
-                "configuration": seg.label,
-                "from_kV": kv(seg.end_phi(-1)), "from_error_kV": kv(getattr(lo, "error", 0.0) or 0.0),
-                "from_event": getattr(lo, "kind", "window") if lo is not None else "window",
-                "to_kV": kv(seg.end_phi(+1)), "to_error_kV": kv(getattr(hi, "error", 0.0) or 0.0),
-                "to_event": getattr(hi, "kind", "window") if hi is not None else "window",
-            })
+            ranges.append(
+                {
+                    "configuration": seg.label,
+                    "from_kV": kv(seg.end_phi(-1)),
+                    "from_error_kV": kv(getattr(lo, "error", 0.0) or 0.0),
+                    "from_event": getattr(lo, "kind", "window") if lo is not None else "window",
+                    "to_kV": kv(seg.end_phi(+1)),
+                    "to_error_kV": kv(getattr(hi, "error", 0.0) or 0.0),
+                    "to_event": getattr(hi, "kind", "window") if hi is not None else "window",
+                }
+            )
         equal = []
         for c in r.crossings:
             st = c.state_after if c.to_label != "homogeneous" else c.state_before
-            equal.append({
-                "voltage_kV": kv(c.phi_hat), "voltage_error_kV": kv(c.phi_hat_error),
-                "pressure_mbar": float(sc.pressure(st.p_hat) / 100),
-                "unbulged_volume_ml": float(sc.volume(st.v_unbulged) * 1e6),
-                "bulged_volume_ml": float(sc.volume(st.v_bulged) * 1e6),
-                "unbulged_pole_stretch": st.pole_stretch_unbulged, "bulged_pole_stretch": st.pole_stretch_bulged,
-            })
-        out.append({"bulged_zones": r.k, "zones": N, "stable_ranges": ranges, "equal_free_energy": equal,
-                    **({"note": r.note} if r.note else {})})
+            equal.append(
+                {
+                    "voltage_kV": kv(c.phi_hat),
+                    "voltage_error_kV": kv(c.phi_hat_error),
+                    "pressure_mbar": float(sc.pressure(st.p_hat) / 100),
+                    "unbulged_volume_ml": float(sc.volume(st.v_unbulged) * 1e6),
+                    "bulged_volume_ml": float(sc.volume(st.v_bulged) * 1e6),
+                    "unbulged_pole_stretch": st.pole_stretch_unbulged,
+                    "bulged_pole_stretch": st.pole_stretch_bulged,
+                }
+            )
+        out.append(
+            {
+                "bulged_zones": r.k,
+                "zones": N,
+                "stable_ranges": ranges,
+                "equal_free_energy": equal,
+                **({"note": r.note} if r.note else {}),
+            }
+        )
     if as_json:
         write_json({"scene": sc.to_dict(), "relative_tolerance": sc.settings.rtol, "configurations": out})
         return
@@ -82,33 +103,49 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
         for g in o["stable_ranges"]:
             plain = f"{o['bulged_zones']} of {o['zones']} bulged"
             which = "" if g["configuration"] == plain else f" [{g['configuration']}]"
-            click.echo(f"  stable from {format_voltage(g['from_kV'], g['from_error_kV'])} ({g['from_event']}) "
-                       f"to {format_voltage(g['to_kV'], g['to_error_kV'])} ({g['to_event']}){which}")
+            click.echo(
+                f"  stable from {format_voltage(g['from_kV'], g['from_error_kV'])} ({g['from_event']}) "
+                f"to {format_voltage(g['to_kV'], g['to_error_kV'])} ({g['to_event']}){which}"
+            )
         for e in o["equal_free_energy"]:
             at = format_voltage(e["voltage_kV"], e["voltage_error_kV"])
-            click.echo(f"  equal free energy with the homogeneous state at {at}:"
-                       f" {e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "
-                       f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {e['bulged_volume_ml']:.4f} ml "
-                       f"(λ0 {e['bulged_pole_stretch']:.4f})")
-    click.echo(f"(exact equilibria, solver rtol {sc.settings.rtol:.0e}; errors measured by locating each "
-               "voltage again at rtol/100)")
+            click.echo(
+                f"  equal free energy with the homogeneous state at {at}:"
+                f" {e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "
+                f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {e['bulged_volume_ml']:.4f} ml "
+                f"(λ0 {e['bulged_pole_stretch']:.4f})"
+            )
+    click.echo(
+        f"(exact equilibria, solver rtol {sc.settings.rtol:.0e}; errors measured by locating each "
+        "voltage again at rtol/100)"
+    )
 
 
 def _without_voltage(sc, sim, as_json, ks):
     """A scene without voltage (e.g. two-balloons): every equilibrium of its zones at 0 V, with stability."""
     eqs = sim.equilibria_at(0.0, ks)
-    out = [{"configuration": e.label, "bulged_zones": e.k, "stable": e.stable,
+    out = [
+        {
+            "configuration": e.label,
+            "bulged_zones": e.k,
+            "stable": e.stable,
             "pressure_mbar": float(sc.pressure(e.p_hat) / 100),
             "zone_volumes_ml": [float(sc.volume(v) * 1e6) for v in e.zone_volumes],
             "pole_stretches": [float(x) for x in e.zone_pole_stretches],
-            "free_energy_hat": e.free_energy, "hessian_min_eigenvalue": e.min_eigenvalue,
-            "zone_index": list(e.zone_index)} for e in eqs]
+            "free_energy_hat": e.free_energy,
+            "hessian_min_eigenvalue": e.min_eigenvalue,
+            "zone_index": list(e.zone_index),
+        }
+        for e in eqs
+    ]
     if as_json:
         write_json({"scene": sc.to_dict(), "relative_tolerance": sc.settings.rtol, "equilibria_at_0V": out})
         return
     click.echo(f"{sc.name}: no voltage; the equilibria of {sc.zone_count} zones on the closed gas:")
     for o in out:
         vols = " ".join(f"{v:.4f}" for v in o["zone_volumes_ml"])
-        click.echo(f"  {o['configuration']:<16} {'stable' if o['stable'] else 'unstable':<9} "
-                   f"{o['pressure_mbar']:.4f} mbar  volumes {vols} ml")
+        click.echo(
+            f"  {o['configuration']:<16} {'stable' if o['stable'] else 'unstable':<9} "
+            f"{o['pressure_mbar']:.4f} mbar  volumes {vols} ml"
+        )
     click.echo(f"(states converged on the exact equations, rtol {sc.settings.rtol:.0e})")

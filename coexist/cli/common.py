@@ -36,10 +36,15 @@ def parse_floats(text: str, option: str, positive=False, nonnegative=False, coun
 
 def accuracy_option(f):
     """``--accuracy`` (draft/default/high or a tolerance) and ``--rtol``, shared by all commands."""
-    f = click.option("--rtol", type=float, default=None,
-                     help="Relative tolerance of the solver (overrides --accuracy), e.g. 1e-8.")(f)
-    f = click.option("--accuracy", default="default", show_default=True,
-                     help="draft (1e-6), default (1e-10), high (1e-12), or a relative tolerance.")(f)
+    f = click.option(
+        "--rtol", type=float, default=None, help="Relative tolerance of the solver (overrides --accuracy), e.g. 1e-8."
+    )(f)
+    f = click.option(
+        "--accuracy",
+        default="default",
+        show_default=True,
+        help="draft (1e-6), default (1e-10), high (1e-12), or a relative tolerance.",
+    )(f)
     return f
 
 

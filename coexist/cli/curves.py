@@ -22,22 +22,50 @@ from .common import (
 @click.option("--material", default=None, help="neo-hookean (default) or gent.")
 @click.option("--jlim", type=float, default=None, help="Gent limiting stretch invariant Jlim (gent only), e.g. 97.")
 @click.option("--prestretch", type=float, default=None, help="Equibiaxial prestretch λpre ≥ 1 (default 1).")
-@click.option("--phi-hat", "phi_hat", default="0,0.05,0.1,0.15,0.2", show_default=True,
-              help="Voltages Φ̂ of the pressure–volume curves, comma-separated.")
-@click.option("--p-hat", "p_hat", default="1.2,1.5,1.7", show_default=True,
-              help="Pressures p̂ of the voltage–charge curves, comma-separated ('none' to skip).")
-@click.option("--pole-stretch", "pole_stretch", default="1.01,4", show_default=True,
-              help="Pole-stretch range 'start,stop' of every curve.")
-@click.option("--points", type=click.IntRange(3, 5000), default=200, show_default=True,
-              help="States per curve.")
+@click.option(
+    "--phi-hat",
+    "phi_hat",
+    default="0,0.05,0.1,0.15,0.2",
+    show_default=True,
+    help="Voltages Φ̂ of the pressure–volume curves, comma-separated.",
+)
+@click.option(
+    "--p-hat",
+    "p_hat",
+    default="1.2,1.5,1.7",
+    show_default=True,
+    help="Pressures p̂ of the voltage–charge curves, comma-separated ('none' to skip).",
+)
+@click.option(
+    "--pole-stretch",
+    "pole_stretch",
+    default="1.01,4",
+    show_default=True,
+    help="Pole-stretch range 'start,stop' of every curve.",
+)
+@click.option("--points", type=click.IntRange(3, 5000), default=200, show_default=True, help="States per curve.")
 @click.option("-o", "--plot", "plot", default=None, help="Write the figure here (.png, .svg or .pdf).")
 @click.option("--json", "as_json", is_flag=True, help="Print the curves as JSON on stdout.")
 @click.option("--csv", "csv_path", default=None, help="Write the curves as CSV to this file ('-' for stdout).")
 @click.option("--overwrite", is_flag=True, help="Replace existing output files.")
 @accuracy_option
 @library_errors
-def curves(scene, material, jlim, prestretch, phi_hat, p_hat, pole_stretch, points, plot, as_json, csv_path, overwrite,
-           accuracy, rtol):
+def curves(
+    scene,
+    material,
+    jlim,
+    prestretch,
+    phi_hat,
+    p_hat,
+    pole_stretch,
+    points,
+    plot,
+    as_json,
+    csv_path,
+    overwrite,
+    accuracy,
+    rtol,
+):
     """Pressure–volume curves at fixed voltage and voltage–charge curves at fixed pressure.
 
     All quantities are normalised (PHYSICS.md): p̂ = pA/(μH), V̂ = V/A³, Φ̂ = (Φ/H)√(ε/μ),
@@ -120,9 +148,12 @@ def _summary(pv, vq, settings):
     click.echo(f"limit points (relative tolerance {settings.rtol:.0e}):")
     for c in pv:
         for lp in c.limit_points:
-            click.echo(f"  Φ̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  p̂ = {lp.p_hat:.10f}"
-                       f"  V̂ = {lp.v_hat:.8f}")
+            click.echo(
+                f"  Φ̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  p̂ = {lp.p_hat:.10f}  V̂ = {lp.v_hat:.8f}"
+            )
     for c in vq:
         for lp in c.limit_points:
-            click.echo(f"  p̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  Φ̂ = {lp.phi_hat:.10f}"
-                       f"  Q̂ = {lp.q_hat:.8f}")
+            click.echo(
+                f"  p̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  Φ̂ = {lp.phi_hat:.10f}"
+                f"  Q̂ = {lp.q_hat:.8f}"
+            )

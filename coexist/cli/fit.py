@@ -12,10 +12,21 @@ from .ramp import format_voltage
 
 @click.command()
 @click.argument("scene", required=False, metavar="[SCENE]")
-@click.option("--transition-kV", "target_kv", type=float, default=3.9, show_default=True,
-              help="Observed transition voltage (the paper: equal at 3.8 kV, one zone bulged at 4.0 kV).")
-@click.option("--kind", type=click.Choice(["spinodal", "equal_free_energy"]), default="spinodal", show_default=True,
-              help="Which transition is observed: a slow ramp's jump (spinodal) or the equal-free-energy voltage.")
+@click.option(
+    "--transition-kV",
+    "target_kv",
+    type=float,
+    default=3.9,
+    show_default=True,
+    help="Observed transition voltage (the paper: equal at 3.8 kV, one zone bulged at 4.0 kV).",
+)
+@click.option(
+    "--kind",
+    type=click.Choice(["spinodal", "equal_free_energy"]),
+    default="spinodal",
+    show_default=True,
+    help="Which transition is observed: a slow ramp's jump (spinodal) or the equal-free-energy voltage.",
+)
 @click.option("--no-sensitivity", is_flag=True, help="Only fit; skip the ±1 % sensitivity table.")
 @click.option("--json", "as_json", is_flag=True, help="Print the fit and the sensitivity table as JSON.")
 @accuracy_option
@@ -43,14 +54,23 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     if not no_sensitivity:
         info("sensitivity (each input moved by ±1 %) ...")
         rows = sensitivity(fitted, shared=shared)
-    data = {"fitted_parameter": "zone_radius_mm", "zone_radius_mm": radius * 1e3, "kind": kind,
-            "target_kV": target_kv, "transition_kV_at_fit": check / 1e3, "transition_error_kV": err / 1e3,
-            "sensitivity": rows, "relative_tolerance": sc.settings.rtol}
+    data = {
+        "fitted_parameter": "zone_radius_mm",
+        "zone_radius_mm": radius * 1e3,
+        "kind": kind,
+        "target_kV": target_kv,
+        "transition_kV_at_fit": check / 1e3,
+        "transition_error_kV": err / 1e3,
+        "sensitivity": rows,
+        "relative_tolerance": sc.settings.rtol,
+    }
     if as_json:
         write_json(data)
         return
-    click.echo(f"fitted zone radius: {radius * 1e3:.6f} mm  ({kind} transition at "
-               f"{format_voltage(check / 1e3, err / 1e3)}, target {target_kv:g} kV)")
+    click.echo(
+        f"fitted zone radius: {radius * 1e3:.6f} mm  ({kind} transition at "
+        f"{format_voltage(check / 1e3, err / 1e3)}, target {target_kv:g} kV)"
+    )
     if not rows:
         return
     click.echo("")

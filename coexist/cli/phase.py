@@ -67,13 +67,19 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
         return
     click.echo(f"{'phi_hat':>8} {'p_spinodal_max':>15} {'p_binodal':>12} {'p_spinodal_min':>15}")
     for i, phi in enumerate(d.phi_hat):
+
         def f(x):
             return "-" if not np.isfinite(x) else f"{x:.6f}"
+
         click.echo(f"{phi:>8.4f} {f(d.spinodal_max[i]):>15} {f(d.binodal[i]):>12} {f(d.spinodal_min[i]):>15}")
     if d.critical_point:
-        click.echo(f"critical point: Φ̂ = {d.critical_point[0]:.8f}, p̂ = {d.critical_point[1]:.6f}, "
-                   f"λ0 = {d.critical_point[2]:.4f}")
+        click.echo(
+            f"critical point: Φ̂ = {d.critical_point[0]:.8f}, p̂ = {d.critical_point[1]:.6f}, "
+            f"λ0 = {d.critical_point[2]:.4f}"
+        )
     for n in d.notes:
         click.echo(f"note: {n}")
-    click.echo(f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {128} shot states per voltage, "
-               "critical voltage bisected to 1e-8)")
+    click.echo(
+        f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {128} shot states per voltage, "
+        "critical voltage bisected to 1e-8)"
+    )

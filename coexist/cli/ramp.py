@@ -19,11 +19,20 @@ from .common import (
 @click.command()
 @click.argument("scene", required=False, metavar="[SCENE]")
 @click.option("-o", "--plot", "plot", default=None, help="Figure of zone volumes against voltage (.png/.svg/.pdf).")
-@click.option("--states-plot", "states_plot", default=None,
-              help="Figure of the p̂–V̂ curve at the first voltage with bulged zones, states marked (Fig. 7c).")
+@click.option(
+    "--states-plot",
+    "states_plot",
+    default=None,
+    help="Figure of the p̂–V̂ curve at the first voltage with bulged zones, states marked (Fig. 7c).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the ramp as JSON on stdout instead of the table.")
-@click.option("--every", type=click.IntRange(1, 10_000), default=1, show_default=True,
-              help="Print every n-th voltage of the table (transitions are always listed).")
+@click.option(
+    "--every",
+    type=click.IntRange(1, 10_000),
+    default=1,
+    show_default=True,
+    help="Print every n-th voltage of the table (transitions are always listed).",
+)
 @click.option("--overwrite", is_flag=True, help="Replace existing output files.")
 @accuracy_option
 @library_errors
@@ -64,8 +73,10 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
 
 def _title(sc):
     mat = sc.material + (f" Jlim={sc.jlim:g}" if sc.jlim else "")
-    return (f"{sc.name}: {sc.zone_count} zones, A = {sc.zone_radius * 1e3:.4g} mm, {mat}, "
-            f"H = {sc.thickness * 1e3:g} mm, μ = {sc.shear_modulus / 1e3:g} kPa")
+    return (
+        f"{sc.name}: {sc.zone_count} zones, A = {sc.zone_radius * 1e3:.4g} mm, {mat}, "
+        f"H = {sc.thickness * 1e3:g} mm, μ = {sc.shear_modulus / 1e3:g} kPa"
+    )
 
 
 def _states_figure(report, sim, path):
@@ -80,8 +91,13 @@ def _states_figure(report, sim, path):
             u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(sim.lam_max - pre), 240)
             curve = ZoneCurve.compute(sim.model, s.phi_hat, pre + u**2, sim.scene.settings)
             kv = report.voltage_kV(s.phi_hat)
-            plot_coexisting_states(curve, s.state, f"{report.scene.name}: coexisting states at {kv:.3g} kV, "
-                                   f"{report.pressure_mbar(s.state.p_hat):.4g} mbar", path)
+            plot_coexisting_states(
+                curve,
+                s.state,
+                f"{report.scene.name}: coexisting states at {kv:.3g} kV, "
+                f"{report.pressure_mbar(s.state.p_hat):.4g} mbar",
+                path,
+            )
             info(f"wrote {path}")
             return
     info(f"note: no bulged state on the path; {path} not written")
@@ -96,8 +112,9 @@ def format_voltage(kv: float, err_kv: float) -> str:
 
 
 def _table(data, every):
-    click.echo(f"{'voltage_kV':>10} {'dir':>4} {'pressure_mbar':>13}  {'zone_volumes_ml':<28} "
-               f"{'configuration':<18} stable")
+    click.echo(
+        f"{'voltage_kV':>10} {'dir':>4} {'pressure_mbar':>13}  {'zone_volumes_ml':<28} {'configuration':<18} stable"
+    )
     prev = None
     for i, s in enumerate(data["steps"]):
         changed = prev is not None and s["configuration"] != prev
@@ -107,13 +124,17 @@ def _table(data, every):
         vols = "-" if s["zone_volumes_ml"] is None else " ".join(f"{v:.3f}" for v in s["zone_volumes_ml"])
         p = "-" if s["pressure_mbar"] is None else f"{s['pressure_mbar']:.4f}"
         mark = "  <- " + s.get("note", "transition") if changed else ""
-        click.echo(f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {vols:<28} {s['configuration']:<18} "
-                   f"{'yes' if s['stable'] else 'no'}{mark}")
+        click.echo(
+            f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {vols:<28} {s['configuration']:<18} "
+            f"{'yes' if s['stable'] else 'no'}{mark}"
+        )
     click.echo("")
     click.echo("transitions (voltage ± its error, measured by locating it again at rtol/100):")
     for t in data["transitions"]:
-        click.echo(f"  {t['kind']:<18} {t['direction']:<6} {format_voltage(t['voltage_kV'], t['voltage_error_kV']):<26}"
-                   f" {t['from']} -> {t['to']}  [{t['event']}]")
+        click.echo(
+            f"  {t['kind']:<18} {t['direction']:<6} {format_voltage(t['voltage_kV'], t['voltage_error_kV']):<26}"
+            f" {t['from']} -> {t['to']}  [{t['event']}]"
+        )
     click.echo(f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e})")
     for note in data["notes"]:
         info(f"note: {note}")

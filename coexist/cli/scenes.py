@@ -72,9 +72,11 @@ def check(scene, as_json, no_solve):
         except SceneError as exc:
             raise InputError(f"{scene}: {exc}") from None
         if loaded.controlled_pressure is not None and not loaded.p_hat(loaded.controlled_pressure) < p_max:
-            raise InputError(f"{scene}: [zones].pressure: the zones cannot hold "
-                             f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their snap-through "
-                             f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)")
+            raise InputError(
+                f"{scene}: [zones].pressure: the zones cannot hold "
+                f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their snap-through "
+                f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)"
+            )
     if as_json:
         data = loaded.to_dict()
         if p_max is not None:
@@ -83,29 +85,39 @@ def check(scene, as_json, no_solve):
         return
     _print_scene(loaded)
     if p_max is not None:
-        held_hat = (loaded.closing_pressure_hat if loaded.chamber is not None
-                    else loaded.p_hat(loaded.controlled_pressure))
+        held_hat = (
+            loaded.closing_pressure_hat if loaded.chamber is not None else loaded.p_hat(loaded.controlled_pressure)
+        )
         what = "closing pressure" if loaded.chamber is not None else "controlled pressure"
-        click.echo(f"{what}: p̂ = {held_hat:.6g}, below the zones' snap-through "
-                   f"p̂max = {p_max:.6g} ({loaded.pressure(p_max) / 100:.4g} mbar): a stable start")
+        click.echo(
+            f"{what}: p̂ = {held_hat:.6g}, below the zones' snap-through "
+            f"p̂max = {p_max:.6g} ({loaded.pressure(p_max) / 100:.4g} mbar): a stable start"
+        )
 
 
 def _print_scene(scene):
     click.echo(f"scene {scene.name}: {scene.description}" if scene.description else f"scene {scene.name}")
     click.echo(f"source: {scene.source}")
     jlim = f", Jlim = {scene.jlim:g}" if scene.jlim is not None else ""
-    click.echo(f"membrane: {scene.material}{jlim}, μ = {scene.shear_modulus / 1e3:g} kPa, "
-               f"εr = {scene.relative_permittivity:g}, H = {scene.thickness * 1e3:g} mm, "
-               f"A = {scene.zone_radius * 1e3:g} mm, prestretch {scene.prestretch:g}")
+    click.echo(
+        f"membrane: {scene.material}{jlim}, μ = {scene.shear_modulus / 1e3:g} kPa, "
+        f"εr = {scene.relative_permittivity:g}, H = {scene.thickness * 1e3:g} mm, "
+        f"A = {scene.zone_radius * 1e3:g} mm, prestretch {scene.prestretch:g}"
+    )
     click.echo(f"zones: {scene.zone_count}")
     if scene.chamber is not None:
         c = scene.chamber
-        click.echo(f"chamber: {c.volume * 1e6:g} ml, closed at {c.closing_pressure / 100:g} mbar (gauge), "
-                   f"atmosphere {c.atmospheric_pressure / 1e3:g} kPa")
+        click.echo(
+            f"chamber: {c.volume * 1e6:g} ml, closed at {c.closing_pressure / 100:g} mbar (gauge), "
+            f"atmosphere {c.atmospheric_pressure / 1e3:g} kPa"
+        )
     if scene.voltage is not None:
         v = scene.voltage
-        path = (f"ramp {v.start / 1e3:g} -> {v.stop / 1e3:g} -> {v.start / 1e3:g} kV in {v.step / 1e3:g} kV steps"
-                if v.kind == "ramp" else f"{len(v.values)} values up to {v.peak / 1e3:g} kV")
+        path = (
+            f"ramp {v.start / 1e3:g} -> {v.stop / 1e3:g} -> {v.start / 1e3:g} kV in {v.step / 1e3:g} kV steps"
+            if v.kind == "ramp"
+            else f"{len(v.values)} values up to {v.peak / 1e3:g} kV"
+        )
         click.echo(f"voltage: {path} ({len(v.values)} points)")
     click.echo(f"solver: relative tolerance {scene.settings.rtol:g}")
     click.echo(f"effects: {', '.join(scene.effects())}")

@@ -67,7 +67,7 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
             raise ValueError(f"output {fun.name_out(i)} of {fun.name()} is not scalar")
     args = [f"i{i}" for i in range(fun.n_in())]
     body = []
-    slot = {}  # CasADi work slot -> ("const", value) or ("var", name)
+    slot: dict = {}  # CasADi work slot -> ("const", value) or ("var", name)
     outputs = ["0.0"] * fun.n_out()
 
     def ref(k):
@@ -131,9 +131,8 @@ def _fold(op, values):
 def _eliminate_common_subexpressions(fun: ca.Function) -> ca.Function:
     """The same function with CasADi's common-subexpression elimination applied to its outputs."""
     ins = fun.sx_in()
-    outs = fun.call(ins)
-    outs = ca.cse(ca.vertcat(*outs))
-    return ca.Function(fun.name(), ins, ca.vertsplit(outs), fun.name_in(), fun.name_out())
+    joined = ca.cse(ca.vertcat(*fun.call(ins)))
+    return ca.Function(fun.name(), ins, ca.vertsplit(joined), fun.name_in(), fun.name_out())
 
 
 def numpy_function(fun: ca.Function, into: bool = False):

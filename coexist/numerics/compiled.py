@@ -76,8 +76,11 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
     import casadi as ca
 
     if not enabled():
-        STATUS["last"] = "compilation turned off (COEXIST_COMPILE=0)" if os.environ.get("COEXIST_COMPILE") else \
-            "the compiler failed before in this process"
+        STATUS["last"] = (
+            "compilation turned off (COEXIST_COMPILE=0)"
+            if os.environ.get("COEXIST_COMPILE")
+            else "the compiler failed before in this process"
+        )
         return None
     cc = _compiler()
     if cc is None:
@@ -90,7 +93,8 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
         src_path = Path(cg.generate(str(work) + os.sep))
         source = src_path.read_bytes()
         if key is None:
-            key = hashlib.sha256(source + " ".join((cc, *FLAGS, ca.__version__)).encode()).hexdigest()[:20]
+            stamp = " ".join((cc, *FLAGS, getattr(ca, "__version__", "?"))).encode()
+            key = hashlib.sha256(source + stamp).hexdigest()[:20]
         root = cache_dir()
         root.mkdir(parents=True, exist_ok=True)
         lib = library_path(name, key)
@@ -104,8 +108,9 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
             fd, tmp = tempfile.mkstemp(prefix=f".{name}-", suffix=".so", dir=root)
             os.close(fd)
             try:
-                subprocess.run([cc, *FLAGS, str(src_path), "-o", tmp, "-lm"], check=True, capture_output=True,
-                               timeout=300)
+                subprocess.run(
+                    [cc, *FLAGS, str(src_path), "-o", tmp, "-lm"], check=True, capture_output=True, timeout=300
+                )
                 os.replace(tmp, lib)  # atomic: another process sees the whole library or none
             finally:
                 if os.path.exists(tmp):

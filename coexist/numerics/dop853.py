@@ -139,7 +139,7 @@ class CasadiStepper:
         self._step = step_function
         self._rhs = rhs
         self._rows = rows
-        self._maps = {}
+        self._maps: dict = {}
 
     def rhs(self, t, y):
         return self._rhs(t, y)

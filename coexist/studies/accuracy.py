@@ -186,15 +186,15 @@ class Study:
         d = self.default
         if d is None or d.error is None:
             return {"on_front": None, "near_front": None, "note": "the default setting failed"}
-        pts = [m for m in self.unique() if m.error is not None and m.time is not None]
-        e_d = self._floor(d.error)
-        as_good = [m for m in pts if self._floor(m.error) <= e_d]
-        as_fast = [m for m in pts if m.time <= d.time]
-        fastest = min(as_good, key=lambda m: m.time)
-        best = min(as_fast, key=lambda m: self._floor(m.error))
-        dominated_by = [m.label for m in pts if m is not d and m.time <= d.time and self._floor(m.error) <= e_d
-                        and (m.time < d.time or self._floor(m.error) < e_d)]
-        time_excess = d.time / fastest.time
+        # (time, error, label) of every measured setting, the default's first
+        pts = [(m.time, self._floor(m.error), m) for m in self.unique() if m.error is not None and m.time is not None]
+        t_d, e_d = float(d.time or 0.0), self._floor(d.error)
+        as_good = [p for p in pts if p[1] <= e_d]
+        as_fast = [p for p in pts if p[0] <= t_d]
+        fastest = min(as_good, key=lambda p: p[0])[2]
+        best = min(as_fast, key=lambda p: p[1])[2]
+        dominated_by = [m.label for t, e, m in pts if m is not d and t <= t_d and e <= e_d and (t < t_d or e < e_d)]
+        time_excess = t_d / float(fastest.time or t_d)
         return {
             "on_front": not dominated_by,
             "near_front": (not dominated_by) or time_excess <= TIME_NOISE_FACTOR,
@@ -207,24 +207,26 @@ class Study:
 
     def to_dict(self) -> dict:
         d = self.default
-        return _clean({
-            "study": self.number,
-            "key": self.key,
-            "title": self.title,
-            "quantity": self.quantity,
-            "unit": self.unit,
-            "setup": self.setup,
-            "families": self.families,
-            "reference": self.reference,
-            "reference_checks": self.reference_checks,
-            "resolution": self.resolution,
-            "measurements": [m.to_dict() for m in self.measurements],
-            "default": None if d is None else d.to_dict(),
-            "pareto_front": [m.label for m in self.front()],
-            "default_vs_front": self.default_vs_front(),
-            "tolerance": self.tolerance,
-            "notes": self.notes,
-        })
+        return _clean(
+            {
+                "study": self.number,
+                "key": self.key,
+                "title": self.title,
+                "quantity": self.quantity,
+                "unit": self.unit,
+                "setup": self.setup,
+                "families": self.families,
+                "reference": self.reference,
+                "reference_checks": self.reference_checks,
+                "resolution": self.resolution,
+                "measurements": [m.to_dict() for m in self.measurements],
+                "default": None if d is None else d.to_dict(),
+                "pareto_front": [m.label for m in self.front()],
+                "default_vs_front": self.default_vs_front(),
+                "tolerance": self.tolerance,
+                "notes": self.notes,
+            }
+        )
 
 
 def _clean(obj):
@@ -304,14 +306,22 @@ class _Sweep:
                 (value, payload), t = _timed(lambda: self.compute(rtol, **sampling), self.repeats)
                 err = abs(value - self.ref) / abs(self.ref)
                 extra = self.extra(rtol, sampling, payload) if self.extra else {}
-                self.cache[key] = dict(value=value, error=err, abs_error=abs(value - self.ref), time=t, failed=None,
-                                       extra=extra)
+                self.cache[key] = dict(
+                    value=value, error=err, abs_error=abs(value - self.ref), time=t, failed=None, extra=extra
+                )
                 self.progress(f"  {label:<22} value {value:.12g}  error {err:.2e}  time {t:.3f} s")
             except CoexistError as exc:
                 self.cache[key] = dict(value=None, error=None, abs_error=None, time=None, failed=str(exc), extra={})
                 self.progress(f"  {label:<22} failed: {exc}")
-        m = Measurement(family=family, label=_label(family, rtol, sampling), rtol=rtol, sampling=dict(sampling),
-                        repeats=self.repeats, default=is_default, **self.cache[key])
+        m = Measurement(
+            family=family,
+            label=_label(family, rtol, sampling),
+            rtol=rtol,
+            sampling=dict(sampling),
+            repeats=self.repeats,
+            default=is_default,
+            **self.cache[key],
+        )
         self.measurements.append(m)
         return m
 
@@ -321,8 +331,9 @@ def _noop(_msg):
 
 
 # --- study 1: p̂max of a p̂–V̂ curve -----------------------------------------------------------------
-def pressure_max_study(quick: bool = False, progress: Callable[[str], None] | None = None,
-                       repeats: int | None = None) -> Study:
+def pressure_max_study(
+    quick: bool = False, progress: Callable[[str], None] | None = None, repeats: int | None = None
+) -> Study:
     """Study 1: the pressure maximum ``p̂max`` of the neo-Hookean ``p̂–V̂`` curve at ``Φ̂ = 0.1``.
 
     Families: ``rtol`` (at the default 200 points) and ``points`` (at the default ``rtol``).
@@ -356,8 +367,10 @@ def pressure_max_study(quick: bool = False, progress: Callable[[str], None] | No
     check, _ = compute(REFERENCE_RTOL, check_points)
     check_diff = abs(check - ref) / abs(ref)
     resolution = max(check_diff, ROUNDOFF)
-    progress(f"  reference p̂max = {ref:.15g} (rtol 1e-13, {ref_points} points, {t_ref:.2f} s); "
-             f"{check_points} points differ by {check_diff:.1e}")
+    progress(
+        f"  reference p̂max = {ref:.15g} (rtol 1e-13, {ref_points} points, {t_ref:.2f} s); "
+        f"{check_points} points differ by {check_diff:.1e}"
+    )
     ref_states = solve_states(model, grid(n_default), STUDY1_PHI_HAT, SolverSettings(rtol=REFERENCE_RTOL))
 
     def states_error(rtol, sampling, curve):
@@ -366,8 +379,10 @@ def pressure_max_study(quick: bool = False, progress: Callable[[str], None] | No
         s = curve.states
         r_p = np.interp(s.pole_stretch, ref_states.pole_stretch, ref_states.p_hat)
         r_v = np.interp(s.pole_stretch, ref_states.pole_stretch, ref_states.v_hat)
-        return {"states_max_error_p_hat": float(np.max(np.abs(s.p_hat - r_p) / np.abs(r_p))),
-                "states_max_error_v_hat": float(np.max(np.abs(s.v_hat - r_v) / np.abs(r_v)))}
+        return {
+            "states_max_error_p_hat": float(np.max(np.abs(s.p_hat - r_p) / np.abs(r_p))),
+            "states_max_error_v_hat": float(np.max(np.abs(s.v_hat - r_v) / np.abs(r_v))),
+        }
 
     compute(1e-6, 25)  # warm-up
     sweep = _Sweep(compute, ref, repeats, progress, (DEFAULT_RTOL, (("points", n_default),)), states_error)
@@ -377,35 +392,55 @@ def pressure_max_study(quick: bool = False, progress: Callable[[str], None] | No
         sweep.add("rtol", r, {"points": n_default})
     for n in points:
         sweep.add("points", DEFAULT_RTOL, {"points": n})
-    tolerance = [{"requested_rtol": m.rtol, "achieved_error": m.error,
-                  "states_max_error_p_hat": m.extra.get("states_max_error_p_hat"),
-                  "states_max_error_v_hat": m.extra.get("states_max_error_v_hat")}
-                 for m in sweep.measurements if m.family == "rtol" and m.error is not None]
+    tolerance = [
+        {
+            "requested_rtol": m.rtol,
+            "achieved_error": m.error,
+            "states_max_error_p_hat": m.extra.get("states_max_error_p_hat"),
+            "states_max_error_v_hat": m.extra.get("states_max_error_v_hat"),
+        }
+        for m in sweep.measurements
+        if m.family == "rtol" and m.error is not None
+    ]
     notes = []
     errs = [max(m.error, resolution) for m in sweep.measurements if m.family == "points" and m.error is not None]
     if errs and max(errs) <= 2 * min(errs):
-        notes.append(f"the number of curve points ({min(points)}..{max(points)}) does not change the error of "
-                     "p̂max: the limit point is refined by Chebyshev interpolation on shrinking brackets, "
-                     "whatever grid found it")
+        notes.append(
+            f"the number of curve points ({min(points)}..{max(points)}) does not change the error of "
+            "p̂max: the limit point is refined by Chebyshev interpolation on shrinking brackets, "
+            "whatever grid found it"
+        )
     return Study(
-        number=1, key="pressure_max", title="p̂max, neo-Hookean p̂–V̂ curve at Φ̂ = 0.1", quantity="p̂max",
-        unit="", resolution=resolution,
+        number=1,
+        key="pressure_max",
+        title="p̂max, neo-Hookean p̂–V̂ curve at Φ̂ = 0.1",
+        quantity="p̂max",
+        unit="",
+        resolution=resolution,
         reference={"rtol": REFERENCE_RTOL, "points": ref_points, "value": ref, "time": t_ref},
-        reference_checks=[{"rtol": REFERENCE_RTOL, "points": check_points, "value": check,
-                           "relative_difference": check_diff}],
+        reference_checks=[
+            {"rtol": REFERENCE_RTOL, "points": check_points, "value": check, "relative_difference": check_diff}
+        ],
         measurements=sweep.measurements,
-        families={"rtol": f"integrator tolerance, {n_default} curve points",
-                  "points": f"pole-stretch points of the curve, rtol {DEFAULT_RTOL:.0e}"},
-        tolerance=tolerance, notes=notes,
-        setup={"material": "neo-hookean", "phi_hat": STUDY1_PHI_HAT,
-               "pole_stretch": f"linspace({STUDY1_POLE_STRETCH[0]}, {STUDY1_POLE_STRETCH[1]}, points)",
-               "timed": "pressure_volume_curve (states + refined limit points)"},
+        families={
+            "rtol": f"integrator tolerance, {n_default} curve points",
+            "points": f"pole-stretch points of the curve, rtol {DEFAULT_RTOL:.0e}",
+        },
+        tolerance=tolerance,
+        notes=notes,
+        setup={
+            "material": "neo-hookean",
+            "phi_hat": STUDY1_PHI_HAT,
+            "pole_stretch": f"linspace({STUDY1_POLE_STRETCH[0]}, {STUDY1_POLE_STRETCH[1]}, points)",
+            "timed": "pressure_volume_curve (states + refined limit points)",
+        },
     )
 
 
 # --- study 2: Maxwell pressure of a Gent zone ------------------------------------------------------
-def maxwell_pressure_study(quick: bool = False, progress: Callable[[str], None] | None = None,
-                           repeats: int | None = None) -> Study:
+def maxwell_pressure_study(
+    quick: bool = False, progress: Callable[[str], None] | None = None, repeats: int | None = None
+) -> Study:
     """Study 2: the Maxwell coexistence pressure of a Gent (``Jlim = 100``) zone at ``Φ̂ = 0``.
 
     ``u = linspace(√0.002, √(0.95 √((Jlim + 3)/2) − 1), n)``, pole stretch ``1 + u²``. Families:
@@ -432,13 +467,15 @@ def maxwell_pressure_study(quick: bool = False, progress: Callable[[str], None] 
     ref_n = 1024
     (ref, _), t_ref = _timed(lambda: compute(REFERENCE_RTOL, ref_n), 1)
     checks = []
-    for n in ([512] if quick else [512, 2048]):
+    for n in [512] if quick else [512, 2048]:
         v, _ = compute(REFERENCE_RTOL, n)
         checks.append({"rtol": REFERENCE_RTOL, "n": n, "value": v, "relative_difference": abs(v - ref) / abs(ref)})
     finer = [c for c in checks if c["n"] > ref_n]
     resolution = max((finer or checks)[0]["relative_difference"], ROUNDOFF)
-    progress(f"  reference p̂ = {ref:.15g} (rtol 1e-13, n = {ref_n}, {t_ref:.2f} s); "
-             + "; ".join(f"n = {c['n']} differs by {c['relative_difference']:.1e}" for c in checks))
+    progress(
+        f"  reference p̂ = {ref:.15g} (rtol 1e-13, n = {ref_n}, {t_ref:.2f} s); "
+        + "; ".join(f"n = {c['n']} differs by {c['relative_difference']:.1e}" for c in checks)
+    )
     sweep = _Sweep(compute, ref, repeats, progress, (DEFAULT_RTOL, (("n", n_default),)))
     rtols = [1e-4, 1e-6, 1e-8, 1e-10, 1e-12] if quick else [10.0**-k for k in range(4, 13)]
     ns = [32, 64, 128, 256] if quick else [32, 64, 128, 256, 512]
@@ -446,19 +483,32 @@ def maxwell_pressure_study(quick: bool = False, progress: Callable[[str], None] 
         sweep.add("rtol", r, {"n": n_default})
     for n in ns:
         sweep.add("n", DEFAULT_RTOL, {"n": n})
-    notes = [f"reference check: n = 512 and n = 1024 differ by {checks[0]['relative_difference']:.1e}"
-             + (f", n = 1024 and n = 2048 by {checks[1]['relative_difference']:.1e}" if len(checks) > 1 else "")]
+    notes = [
+        f"reference check: n = 512 and n = 1024 differ by {checks[0]['relative_difference']:.1e}"
+        + (f", n = 1024 and n = 2048 by {checks[1]['relative_difference']:.1e}" if len(checks) > 1 else "")
+    ]
     return Study(
-        number=2, key="maxwell_pressure", title=f"Maxwell pressure, Gent Jlim = {STUDY2_JLIM:g}, Φ̂ = 0",
-        quantity="p̂ (coexistence)", unit="", resolution=resolution,
+        number=2,
+        key="maxwell_pressure",
+        title=f"Maxwell pressure, Gent Jlim = {STUDY2_JLIM:g}, Φ̂ = 0",
+        quantity="p̂ (coexistence)",
+        unit="",
+        resolution=resolution,
         reference={"rtol": REFERENCE_RTOL, "n": ref_n, "value": ref, "time": t_ref},
-        reference_checks=checks, measurements=sweep.measurements,
-        families={"rtol": f"integrator tolerance, n = {n_default} spline points",
-                  "n": f"spline points in u = √(λ0 − 1), rtol {DEFAULT_RTOL:.0e}"},
+        reference_checks=checks,
+        measurements=sweep.measurements,
+        families={
+            "rtol": f"integrator tolerance, n = {n_default} spline points",
+            "n": f"spline points in u = √(λ0 − 1), rtol {DEFAULT_RTOL:.0e}",
+        },
         notes=notes,
-        setup={"material": "gent", "jlim": STUDY2_JLIM, "phi_hat": STUDY2_PHI_HAT,
-               "u": f"linspace(√0.002, {u_max:.6g}, n)",
-               "timed": "ZoneCurve.compute + maxwell_coexistence"},
+        setup={
+            "material": "gent",
+            "jlim": STUDY2_JLIM,
+            "phi_hat": STUDY2_PHI_HAT,
+            "u": f"linspace(√0.002, {u_max:.6g}, n)",
+            "timed": "ZoneCurve.compute + maxwell_coexistence",
+        },
     )
 
 
@@ -470,8 +520,12 @@ def _transition_kV(scene, rtol):
     return transition_voltage(sc, "spinodal", Shared.of(sc))[0] / 1e3
 
 
-def transition_voltage_study(quick: bool = False, progress: Callable[[str], None] | None = None,
-                             repeats: int | None = None, scene_name: str = "tricircle") -> Study:
+def transition_voltage_study(
+    quick: bool = False,
+    progress: Callable[[str], None] | None = None,
+    repeats: int | None = None,
+    scene_name: str = "tricircle",
+) -> Study:
     """Study 3: the spinodal transition voltage (kV) of the built-in ``tricircle`` scene.
 
     The transition is an event of the continuation on the exact equations (the symmetric branch point
@@ -487,17 +541,22 @@ def transition_voltage_study(quick: bool = False, progress: Callable[[str], None
     repeats = repeats or (1 if quick else 3)
     scene = load_scene(scene_name)
     notes = []
-    progress(f"study 3: spinodal transition voltage of the {scene_name} scene "
-             f"({scene.material}{'' if scene.jlim is None else f', Jlim = {scene.jlim:g}'}, "
-             f"zone radius {scene.zone_radius * 1e3:g} mm)")
+    progress(
+        f"study 3: spinodal transition voltage of the {scene_name} scene "
+        f"({scene.material}{'' if scene.jlim is None else f', Jlim = {scene.jlim:g}'}, "
+        f"zone radius {scene.zone_radius * 1e3:g} mm)"
+    )
     used = scene
     try:  # the default setting first: says whether the scene has a transition, and warms up
         probe = _transition_kV(scene, DEFAULT_RTOL)
     except ModelRangeError as exc:
-        used = dataclasses.replace(scene, **FALLBACK_SCENE_CHANGES)
-        msg = (f"the {scene_name} scene as loaded ({scene.material}, zone radius {scene.zone_radius * 1e3:g} mm) "
-               f"has no transition: {exc}; using it with "
-               + ", ".join(f"{k} = {v}" for k, v in FALLBACK_SCENE_CHANGES.items()) + " instead")
+        used = dataclasses.replace(scene, **FALLBACK_SCENE_CHANGES)  # type: ignore[arg-type]
+        msg = (
+            f"the {scene_name} scene as loaded ({scene.material}, zone radius {scene.zone_radius * 1e3:g} mm) "
+            f"has no transition: {exc}; using it with "
+            + ", ".join(f"{k} = {v}" for k, v in FALLBACK_SCENE_CHANGES.items())
+            + " instead"
+        )
         notes.append(msg)
         progress("  note: " + msg)
         probe = _transition_kV(used, DEFAULT_RTOL)
@@ -506,8 +565,10 @@ def transition_voltage_study(quick: bool = False, progress: Callable[[str], None
     v = _transition_kV(used, 1e-12)
     checks = [{"rtol": 1e-12, "value": v, "relative_difference": abs(v - ref) / abs(ref)}]
     resolution = max(checks[0]["relative_difference"], ROUNDOFF)
-    progress(f"  reference {ref:.14g} kV (rtol 1e-13, {t_ref:.1f} s); rtol 1e-12 differs by "
-             f"{checks[0]['relative_difference']:.1e}")
+    progress(
+        f"  reference {ref:.14g} kV (rtol 1e-13, {t_ref:.1f} s); rtol 1e-12 differs by "
+        f"{checks[0]['relative_difference']:.1e}"
+    )
 
     def compute(rtol):
         return _transition_kV(used, rtol), None
@@ -517,15 +578,25 @@ def transition_voltage_study(quick: bool = False, progress: Callable[[str], None
     for r in rtols:
         sweep.add("rtol", r, {})
     return Study(
-        number=3, key="transition_voltage", title=f"transition voltage, {scene_name} scene (spinodal)",
-        quantity="transition voltage", unit="kV", resolution=resolution,
+        number=3,
+        key="transition_voltage",
+        title=f"transition voltage, {scene_name} scene (spinodal)",
+        quantity="transition voltage",
+        unit="kV",
+        resolution=resolution,
         reference={"rtol": REFERENCE_RTOL, "value": ref, "time": t_ref},
-        reference_checks=checks, measurements=sweep.measurements,
+        reference_checks=checks,
+        measurements=sweep.measurements,
         families={"rtol": "integrator tolerance (the continuation's Newton and event tolerances follow it)"},
         notes=notes,
-        setup={"scene": scene_name, "material": used.material, "jlim": used.jlim,
-               "zone_radius_mm": used.zone_radius * 1e3, "fallback": used is not scene,
-               "timed": "model + closing state + continuation to the first event (fit.transition_voltage)"},
+        setup={
+            "scene": scene_name,
+            "material": used.material,
+            "jlim": used.jlim,
+            "zone_radius_mm": used.zone_radius * 1e3,
+            "fallback": used is not scene,
+            "timed": "model + closing state + continuation to the first event (fit.transition_voltage)",
+        },
     )
 
 
@@ -552,25 +623,32 @@ def report(studies: list[Study], quick: bool = False, load_before=None) -> dict:
     except OSError:  # not available on every platform
         load_after = None
 
-    return _clean({
-        "quick": bool(quick),
-        "defaults": {"rtol": DEFAULT_RTOL, **_defaults()},
-        "reference_rtol": REFERENCE_RTOL,
-        "error": "relative, |x − x_ref| / |x_ref|",
-        "time": "wall time in s (time.perf_counter), best of `repeats`",
-        "machine": {"python": platform.python_version(), "numpy": np.__version__, "cpus": os.cpu_count(),
-                    "platform": platform.platform(),
-                    "load_average_before": None if load_before is None else list(load_before),
-                    "load_average_after": load_after},
-        "studies": [s.to_dict() for s in studies],
-    })
+    return _clean(
+        {
+            "quick": bool(quick),
+            "defaults": {"rtol": DEFAULT_RTOL, **_defaults()},
+            "reference_rtol": REFERENCE_RTOL,
+            "error": "relative, |x − x_ref| / |x_ref|",
+            "time": "wall time in s (time.perf_counter), best of `repeats`",
+            "machine": {
+                "python": platform.python_version(),
+                "numpy": np.__version__,
+                "cpus": os.cpu_count(),
+                "platform": platform.platform(),
+                "load_average_before": None if load_before is None else list(load_before),
+                "load_average_after": load_after,
+            },
+            "studies": [s.to_dict() for s in studies],
+        }
+    )
 
 
 def summary_lines(study: Study) -> list[str]:
     """A plain-text table of one study."""
-    lines = [f"study {study.number}: {study.title}",
-             f"  reference {study.reference['value']:.15g} {study.unit}".rstrip()
-             + f"  (resolution {study.resolution:.1e})"]
+    lines = [
+        f"study {study.number}: {study.title}",
+        f"  reference {study.reference['value']:.15g} {study.unit}".rstrip() + f"  (resolution {study.resolution:.1e})",
+    ]
     lines.append(f"  {'family':<7} {'setting':<22} {'value':>20} {'rel. error':>11} {'time (s)':>9}")
     for m in study.measurements:
         star = " *" if m.default else ""
@@ -580,11 +658,16 @@ def summary_lines(study: Study) -> list[str]:
         lines.append(f"  {m.family:<7} {m.label:<22} {m.value:>20.14g} {m.error:>11.2e} {m.time:>9.3f}{star}")
     dv = study.default_vs_front()
     if dv.get("on_front") is not None:
-        where = "on the Pareto front" if dv["on_front"] else (
-            "near the Pareto front" if dv["near_front"] else "off the Pareto front")
-        lines.append(f"  default (*) is {where}: time ×{dv['time_excess']:.2f} of the fastest setting as accurate "
-                     f"({dv['fastest_as_accurate']}), error ×{dv['error_excess']:.3g} of the best as fast "
-                     f"({dv['most_accurate_as_fast']})")
+        where = (
+            "on the Pareto front"
+            if dv["on_front"]
+            else ("near the Pareto front" if dv["near_front"] else "off the Pareto front")
+        )
+        lines.append(
+            f"  default (*) is {where}: time ×{dv['time_excess']:.2f} of the fastest setting as accurate "
+            f"({dv['fastest_as_accurate']}), error ×{dv['error_excess']:.3g} of the best as fast "
+            f"({dv['most_accurate_as_fast']})"
+        )
     for n in study.notes:
         lines.append(f"  note: {n}")
     return lines

@@ -14,6 +14,7 @@ def _pyplot():
 
     return plt
 
+
 _FAMILY_STYLE = {
     "rtol": ("tab:blue", "o", "rtol sweep"),
     "points": ("tab:orange", "s", "curve points"),
@@ -39,16 +40,24 @@ def _short(m):
 
 def _study_panel(ax, study):
     floor = study.resolution
-    families = {}
+    families: dict = {}
     for m in study.measurements:
         if m.error is not None and m.time is not None:
             families.setdefault(m.family, []).append(m)
     for fam, ms in families.items():
         color, marker, name = _FAMILY_STYLE.get(fam, ("tab:gray", "o", fam))
         # joined in the order of the setting (loose to tight, coarse to fine), as measured
-        ax.plot([m.time for m in ms], [max(m.error, floor) for m in ms], marker=marker, color=color, lw=1.3,
-                ms=5, label=name, alpha=0.9)
-        groups = []  # settings that land on the same spot share one label
+        ax.plot(
+            [m.time for m in ms],
+            [max(m.error, floor) for m in ms],
+            marker=marker,
+            color=color,
+            lw=1.3,
+            ms=5,
+            label=name,
+            alpha=0.9,
+        )
+        groups: list = []  # settings that land on the same spot share one label
         for m in ms:
             if m.default:
                 continue
@@ -60,20 +69,41 @@ def _study_panel(ax, study):
             else:
                 groups.append([x, y, [_short(m)]])
         for x, y, names in groups:
-            ax.annotate(",".join(names), (x, y), textcoords="offset points", fontsize=6.5, color=color,
-                        **_LABEL_PLACE.get(fam, _LABEL_PLACE["rtol"]))
+            ax.annotate(
+                ",".join(names),
+                (x, y),
+                textcoords="offset points",
+                fontsize=6.5,
+                color=color,
+                **_LABEL_PLACE.get(fam, _LABEL_PLACE["rtol"]),
+            )
     front = study.front()
     if len(front) > 1:
-        ax.step([m.time for m in front], [max(m.error, floor) for m in front], where="post", color="0.6", lw=0.8,
-                ls="--", label="Pareto front", zorder=0)
+        ax.step(
+            [m.time for m in front],
+            [max(m.error, floor) for m in front],
+            where="post",
+            color="0.6",
+            lw=0.8,
+            ls="--",
+            label="Pareto front",
+            zorder=0,
+        )
     d = study.default
     if d is not None and d.error is not None:
-        ax.plot(d.time, max(d.error, floor), "*", ms=16, color="gold", mec="k", mew=0.8, zorder=5,
-                label="default")
+        ax.plot(d.time, max(d.error, floor), "*", ms=16, color="gold", mec="k", mew=0.8, zorder=5, label="default")
     if study.reference_checks:
         ax.axhline(floor, color="0.5", lw=0.7, ls=":", zorder=0)
-        ax.text(0.99, floor, "reference resolution", transform=ax.get_yaxis_transform(), ha="right",
-                va="bottom", fontsize=6.5, color="0.4")
+        ax.text(
+            0.99,
+            floor,
+            "reference resolution",
+            transform=ax.get_yaxis_transform(),
+            ha="right",
+            va="bottom",
+            fontsize=6.5,
+            color="0.4",
+        )
     times = [m.time for m in study.measurements if m.time]
     if times and max(times) / min(times) > 3:
         ax.set_xscale("log")
@@ -101,13 +131,26 @@ def _tolerance_panel(ax, study):
     rows = [r for r in study.tolerance if r.get("achieved_error") is not None]
     floor = study.resolution
     r = [x["requested_rtol"] for x in rows]
-    ax.plot(r, [max(x["achieved_error"], floor) for x in rows], "o-", color="tab:blue", lw=1.3, ms=5,
-            label="p̂max")
+    ax.plot(r, [max(x["achieved_error"], floor) for x in rows], "o-", color="tab:blue", lw=1.3, ms=5, label="p̂max")
     if rows and rows[0].get("states_max_error_p_hat") is not None:
-        ax.plot(r, [x["states_max_error_p_hat"] for x in rows], "s--", color="tab:red", lw=1.1, ms=4,
-                label="p̂, worst of the curve's states")
-        ax.plot(r, [x["states_max_error_v_hat"] for x in rows], "^:", color="tab:brown", lw=1.1, ms=4,
-                label="V̂, worst of the curve's states")
+        ax.plot(
+            r,
+            [x["states_max_error_p_hat"] for x in rows],
+            "s--",
+            color="tab:red",
+            lw=1.1,
+            ms=4,
+            label="p̂, worst of the curve's states",
+        )
+        ax.plot(
+            r,
+            [x["states_max_error_v_hat"] for x in rows],
+            "^:",
+            color="tab:brown",
+            lw=1.1,
+            ms=4,
+            label="V̂, worst of the curve's states",
+        )
     lo, hi = min(r + [1e-14]), max(r + [1e-3])
     ax.plot([lo, hi], [lo, hi], color="k", lw=0.8, label="error = rtol")
     ax.plot([lo, hi], [lo * 100, hi * 100], color="0.6", lw=0.7, ls="--", label="error = 100 rtol")
@@ -133,7 +176,7 @@ def plot_accuracy(studies, path: str | Path, title: str | None = None):
     flat = list(axes.ravel())
     for ax, s in zip(flat, studies):
         _study_panel(ax, s)
-    for ax, s in zip(flat[len(studies):], tol):
+    for ax, s in zip(flat[len(studies) :], tol):
         _tolerance_panel(ax, s)
     for ax in flat[n:]:
         ax.set_visible(False)
