@@ -6,7 +6,7 @@ import pytest
 
 from coexist.model import build_model
 from coexist.numerics import compiled as C
-from coexist.shooting import _Integrators, attempt_function, solve_states
+from coexist.shooting import attempt_function, solve_states
 
 
 def test_compiled_function_equals_the_virtual_machine(tmp_path, monkeypatch):
@@ -43,10 +43,10 @@ def test_states_do_not_depend_on_the_path_taken(monkeypatch, tmp_path):
     phi = np.linspace(0.0, 0.32, 12)
     big = solve_states(model, np.tile(l0, 30), np.tile(phi, 30), derivatives=True)  # 360 > every small limit
     vm = solve_states(model, l0, phi, derivatives=True)
-    fns = model._built["integrators"]
-    assert isinstance(fns, _Integrators)
     for _ in range(20):  # past COMPILE_AFTER uses: compiled from here on where a compiler exists
         solve_states(model, l0[:2], phi[:2], derivatives=True)
+    if C.STATUS["last"] not in ("compiled", "cached"):
+        pytest.skip(f"no compiled code on this machine: {C.STATUS['last']}")
     fast = solve_states(model, l0, phi, derivatives=True)
     for st in (vm, fast):
         np.testing.assert_array_equal(st.status, big.status[:12])

@@ -18,10 +18,10 @@ from __future__ import annotations
 
 import functools
 import math
-import signal
 
 import numpy as np
 import pytest
+from conftest import TIGHT, time_limit
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
@@ -33,7 +33,6 @@ from coexist.settings import SolverSettings
 from coexist.shooting import LOCKED, OK, REASONS, WRINKLED_AT_POLE, reason_tag, reason_text, solve_states
 from coexist.simulation import equilibria_on_gas
 
-TIGHT = SolverSettings(rtol=1e-12)
 QUANTITIES = ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension")
 #: relative tolerance of the identities (measured residuals are 1e-9 or smaller)
 IDENTITY_RTOL = 1e-6
@@ -49,25 +48,6 @@ pole_stretches = st.floats(1.001, 6.0)
 @functools.cache
 def model_for(jlim):
     return build_model("neo-hookean") if jlim is None else build_model("gent", jlim)
-
-
-def within(seconds):
-    """Decorator-free time bound: returns a context manager raising TimeoutError after ``seconds``."""
-
-    class _Limit:
-        def __enter__(self):
-            def expired(signum, frame):
-                raise TimeoutError(f"call did not return within {seconds:g} s")
-
-            self.previous = signal.signal(signal.SIGALRM, expired)
-            signal.setitimer(signal.ITIMER_REAL, seconds)
-
-        def __exit__(self, *exc):
-            signal.setitimer(signal.ITIMER_REAL, 0)
-            signal.signal(signal.SIGALRM, self.previous)
-            return False
-
-    return _Limit()
 
 
 def locking_distance(jlim, l0):
@@ -157,7 +137,7 @@ def check_identities(model, l0, phi, state, jlim):
 @given(jlim=materials, phi=voltages, l0=pole_stretches)
 def test_every_state_is_verified_or_flagged(jlim, phi, l0):
     model = model_for(jlim)
-    with within(20.0):
+    with time_limit(20.0):
         s = solve_states(model, [l0], phi, TIGHT)
         T0 = float(np.ravel(model.tensions(l0, l0, phi)[0])[0])
         margin = float(np.ravel(model.tensions(l0, l0, phi)[4])[0])
@@ -195,7 +175,7 @@ def test_equilibria_sit_at_the_gas_pressure_with_consistent_stability(zones, log
     v_c = float(solve_states(model, [lam_c], 0.0).v_hat[0])
     gas = GasChamber.closed_at(10.0**log_chamber, 45.0333, closing, zones * v_c)
     bulged = sorted({1, 2, zones // 2, zones - 1} & set(range(1, zones)))
-    with within(30.0):
+    with time_limit(30.0):
         eqs = equilibria_on_gas(model, gas, zones, 0.0, SolverSettings(), 5.5, bulged)
     home = [e for e in eqs if e.k == 0 and abs(e.pole_stretch[0] - lam_c) < 1e-7]
     assert len(home) == 1 and home[0].stable
@@ -223,7 +203,7 @@ def test_pressure_volume_curve_states_and_limit_points(jlim, phi):
     top = 6.0 if jlim is None else min(6.0, 0.99 * math.sqrt((jlim + 3) / 2))
     grid = np.linspace(1.01, top, 60)
     tags = {tag for tag, _ in REASONS.values()}
-    with within(20.0):
+    with time_limit(20.0):
         try:
             curve = pressure_volume_curve(model, phi, grid)
         except ModelRangeError as exc:

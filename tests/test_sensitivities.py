@@ -7,12 +7,12 @@ uses for the derivatives of ``Ψ̂`` instead of integrating them.
 
 import numpy as np
 import pytest
+from conftest import TIGHT
 
 from coexist.model import build_model
 from coexist.settings import SolverSettings
 from coexist.shooting import CASADI_BATCH_LIMIT, solve_states
 
-TIGHT = SolverSettings(rtol=1e-12)
 H = 1e-4  # five-point central differences: truncation ~H⁴ f⁽⁵⁾/30, roundoff ~1e-12/H = 1e-8
 
 

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from conftest import TIGHT, cheb_nodes
 
 from coexist.curves import pressure_volume_curve
 from coexist.effects import Gent, NeoHookean
@@ -9,13 +10,6 @@ from coexist.errors import ModelRangeError, SceneError
 from coexist.model import MembraneModel
 from coexist.settings import SolverSettings
 from coexist.shooting import OK, WRINKLED, WRINKLED_AT_POLE, solve_states
-
-TIGHT = SolverSettings(rtol=1e-12)
-
-
-def _cheb_nodes(a, b, n):
-    k = np.arange(n)
-    return np.sort(0.5 * (a + b) + 0.5 * (b - a) * np.cos(np.pi * (k + 0.5) / n))
 
 
 def _interpolant(x, y, a, b):
@@ -30,7 +24,7 @@ def test_work_of_pressure_equals_change_of_potential(neo_hookean, phi):
     computed from the interpolants; relative error must be below 1e-6 (measured: ~1e-10).
     """
     a, b = 1.05, 3.0
-    x = _cheb_nodes(a, b, 48)
+    x = cheb_nodes(a, b, 48)
     s = solve_states(neo_hookean, x, phi, TIGHT).require_ok()
     P, V = _interpolant(x, s.p_hat, a, b), _interpolant(x, s.v_hat, a, b)
     work = (P * V.deriv()).integ(lbnd=a)(b)
