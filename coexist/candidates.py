@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError
+from .numerics.roots import bracketed_root
 from .zone_curves import Branch, ZoneCurve
 
 
@@ -32,19 +33,9 @@ def _sign_changes(y):
     return np.nonzero((y[..., :-1] * y[..., 1:] < 0) | (y[..., :-1] == 0))
 
 
-def _refine(residual, lo, hi, iterations=60):
-    """Vectorised bisection of ``residual`` on the brackets ``[lo, hi]`` (arrays) to 1e-12."""
-    a, b = np.array(lo, dtype=float), np.array(hi, dtype=float)
-    fa = residual(a)
-    for _ in range(iterations):
-        c = 0.5 * (a + b)
-        fc = residual(c)
-        left = np.sign(fc) == np.sign(fa)
-        a, fa = np.where(left, c, a), np.where(left, fc, fa)
-        b = np.where(left, b, c)
-        if np.all(np.abs(b - a) <= 1e-12 * np.maximum(1.0, np.abs(b))):
-            break
-    return 0.5 * (a + b)
+def _refine(residual, lo, hi):
+    """Roots of ``residual(x, idx)`` on the brackets ``[lo, hi]`` (arrays), to 1e-12: first guesses only."""
+    return bracketed_root(residual, lo, hi, xtol=1e-12, rtol=1e-12).x
 
 
 class _BranchInverse:
@@ -75,7 +66,7 @@ def candidate_equilibria(curve: ZoneCurve, gas, zones: int, bulged=None, samples
     for a in usable:
         u = np.linspace(a.start, a.stop, samples)
 
-        def hom(x):
+        def hom(x, idx=None):
             return curve.p(x) - gas.pressure(zones * curve.v(x))
 
         idx = _sign_changes(hom(u))[0]
@@ -104,8 +95,9 @@ def candidate_equilibria(curve: ZoneCurve, gas, zones: int, bulged=None, samples
                 continue
             kk = ks[rows, 0]
 
-            def mixed(Pv, kk=kk, ua_of=ua_of, ub_of=ub_of):
-                return Pv - gas.pressure((zones - kk) * curve.v(ua_of(Pv)) + kk * curve.v(ub_of(Pv)))
+            def mixed(Pv, idx, kk=kk, ua_of=ua_of, ub_of=ub_of):
+                k = kk[idx]
+                return Pv - gas.pressure((zones - k) * curve.v(ua_of(Pv)) + k * curve.v(ub_of(Pv)))
 
             for k, Pr in zip(kk, _refine(mixed, P[cols], P[cols + 1])):
                 out.append(Candidate((zones - int(k), int(k)), (float(ua_of(Pr)), float(ub_of(Pr))), curve.phi_hat))

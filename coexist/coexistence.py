@@ -25,32 +25,17 @@ import casadi as ca
 import numpy as np
 
 from .errors import ModelRangeError, SolverError
+from .numerics.roots import bisect
+from .numerics.splines import casadi_piecewise
+from .settings import SolverSettings
 from .zone_curves import ZoneCurve
 
 #: iterations allowed to every CasADi Newton solve
 MAX_NEWTON_ITERATIONS = 60
-
-
-def casadi_spline(spline, x, window=None):
-    """A scipy ``CubicSpline`` (piecewise polynomial) as a CasADi expression in ``x``.
-
-    Each piece ``Σ c_k (x − x_i)^(3−k)`` is selected with ``if_else``; the end pieces extend
-    beyond their interval. ``window = (first, last)`` keeps only those pieces (a Newton solve
-    started close to its solution needs only the pieces around it; the caller checks that the
-    solution stayed inside the window).
-    """
-    breaks = spline.x
-    coef = spline.c
-    expr = 0
-    first, last = (0, breaks.size - 2) if window is None else window
-    n = last + 1
-    for i in range(first, last + 1):
-        d = x - breaks[i]
-        piece = ((coef[0, i] * d + coef[1, i]) * d + coef[2, i]) * d + coef[3, i]
-        lo_ok = 1 if i == first else (x >= breaks[i])
-        hi_ok = 1 if i == n - 1 else (x < breaks[i + 1])
-        expr = expr + ca.if_else(ca.logic_and(lo_ok, hi_ok), piece, 0)
-    return expr
+#: absolute roundoff of the spline equations (values of order one, a few dozen operations)
+ROUNDOFF = 1e-13
+#: width in Φ̂ to which the critical point (where the pressure maximum and minimum merge) is bisected
+CRITICAL_XTOL = 1e-8
 
 
 @dataclass
@@ -80,30 +65,25 @@ class MaxwellSolver:
     #: spline pieces kept on each side of the initial guess
     WINDOW = 6
 
-    def __init__(self, curve: ZoneCurve):
+    def __init__(self, curve: ZoneCurve, settings: SolverSettings | None = None):
         self.curve = curve
+        self.settings = settings or SolverSettings()
 
     def _build(self, guess):
-        """CasADi residual and Newton rootfinder on the spline pieces around ``guess``."""
+        """The cached CasADi residual and Newton rootfinder, and their parameters: the spline pieces of
+        ``p̂``, ``V̂``, ``Ψ̂`` in a window of ``2 WINDOW + 1`` pieces around each state of ``guess``."""
         c = self.curve
-        n = c.grid.size - 2
-        windows = []
+        pieces = c.grid.size - 1
+        K = min(2 * self.WINDOW + 1, pieces)
+        params, bounds = [], []
         for g in guess:
-            i = int(np.clip(np.searchsorted(c.grid, g) - 1, 0, n))
-            windows.append((max(0, i - self.WINDOW), min(n, i + self.WINDOW)))
-        uu, ub = ca.SX.sym("u_unbulged"), ca.SX.sym("u_bulged")
-        p_u, p_b = casadi_spline(c.p, uu, windows[0]), casadi_spline(c.p, ub, windows[1])
-        v_u, v_b = casadi_spline(c.v, uu, windows[0]), casadi_spline(c.v, ub, windows[1])
-        psi_u, psi_b = casadi_spline(c.psi, uu, windows[0]), casadi_spline(c.psi, ub, windows[1])
-        x = ca.vertcat(uu, ub)
-        # equal pressure; equal potential Ψ − p̂V with the mean pressure (symmetric in the two states)
-        g = ca.vertcat(p_b - p_u, (psi_b - psi_u) - 0.5 * (p_u + p_b) * (v_b - v_u))
-        residual = ca.Function("maxwell_residual", [x], [g])
-        rootfinder = ca.rootfinder(
-            "maxwell", "newton", residual, {"max_iter": MAX_NEWTON_ITERATIONS, "abstol": 1e-13, "error_on_fail": False}
-        )
-        bounds = [(c.grid[w[0]], c.grid[w[1] + 1]) for w in windows]
-        return residual, rootfinder, bounds
+            i = int(np.clip(np.searchsorted(c.grid, g) - 1, 0, pieces - 1))
+            s0 = int(np.clip(i - self.WINDOW, 0, pieces - K))
+            params.append(c.grid[s0 : s0 + K + 1])
+            params.extend(spline.c[:, s0 : s0 + K].ravel(order="F") for spline in (c.p, c.v, c.psi))
+            bounds.append((c.grid[s0], c.grid[s0 + K]))
+        residual, rootfinder = _maxwell_functions(K, max(self.settings.inner_ftol, ROUNDOFF))
+        return residual, rootfinder, np.concatenate(params), bounds
 
     def equal_area(self, P: float) -> float | None:
         """Signed area ``Ψ̂(u_b) − Ψ̂(u_u) − P(V̂(u_b) − V̂(u_u))`` at pressure ``P`` between the first
@@ -127,8 +107,10 @@ class MaxwellSolver:
             )
         return rising[0], rising[1]
 
-    def initial_guess(self, samples: int = 200):
-        """Bracket the Maxwell pressure on the overlap of the two stable branches (sign change of the area)."""
+    def initial_guess(self):
+        """Bracket the Maxwell pressure on the overlap of the two stable branches (sign change of the area
+        on ``settings.maxwell_guess_samples`` pressures)."""
+        samples = self.settings.maxwell_guess_samples
         a, b = self._stable_pair()
         lo, hi = max(a.p_range[0], b.p_range[0]), min(a.p_range[1], b.p_range[1])
         if not hi > lo:
@@ -137,10 +119,11 @@ class MaxwellSolver:
                 "no_coexistence",
             )
         P = np.linspace(lo, hi, samples)[1:-1]
-        area = np.array([self.equal_area(x) for x in P])
+        c = self.curve
+        uu, ub = c.stretch_at_pressure(a, P), c.stretch_at_pressure(b, P)
+        area = c.psi(ub) - c.psi(uu) - P * (c.v(ub) - c.v(uu))
         sign = np.flatnonzero(area[:-1] * area[1:] < 0)
         if sign.size == 0:
-            c = self.curve
             loop = abs(c.p(a.stop) - c.p(b.start)) / max(abs(float(c.p(a.stop))), 1e-300)
             if b.start == a.stop or loop < 1e-4 or np.max(np.abs(area)) < 1e-7 * max(1.0, abs(float(c.psi(b.stop)))):
                 raise ModelRangeError(
@@ -158,16 +141,20 @@ class MaxwellSolver:
     def solve(self) -> Coexistence:
         """The coexisting pair (CasADi Newton on the exact spline), verified before it is returned."""
         guess = self.initial_guess()
-        residual, rootfinder, bounds = self._build(guess)
-        x = np.array(rootfinder(ca.DM(guess))).ravel()
+        residual, rootfinder, params, bounds = self._build(guess)
+        x = np.array(rootfinder(ca.DM(guess), params)).ravel()
         stats = rootfinder.stats()
-        res = float(np.max(np.abs(np.array(residual(x)).ravel())))
+        res = float(np.max(np.abs(np.array(residual(x, params)).ravel())))
         c = self.curve
         if not all(lo <= xi <= hi for xi, (lo, hi) in zip(x, bounds)):
             raise SolverError(
                 f"equal-free-energy solve at Φ̂ = {c.phi_hat:.6g} left the spline pieces around its initial guess"
             )
-        if not (stats.get("success", False) and np.all(np.isfinite(x)) and res < 1e-9):
+        if not (
+            stats.get("success", False)
+            and np.all(np.isfinite(x))
+            and res < max(self.settings.residual_tol, 1e3 * ROUNDOFF)
+        ):
             raise SolverError(
                 f"equal-free-energy solve failed at Φ̂ = {c.phi_hat:.6g}: "
                 f"{stats.get('return_status', 'no convergence')} (residual {res:.2e})"
@@ -199,9 +186,60 @@ class MaxwellSolver:
         )
 
 
-def maxwell_coexistence(curve: ZoneCurve) -> Coexistence:
-    """Coexisting unbulged and bulged states of one zone curve at fixed voltage (equal areas)."""
-    return MaxwellSolver(curve).solve()
+_MAXWELL_FUNCTIONS: dict = {}
+
+
+def _maxwell_functions(K: int, abstol: float):
+    """Residual and Newton rootfinder of the equal-area system for two states on windows of ``K`` spline
+    pieces, with the pieces as parameters: built once per ``(K, abstol)`` in a process, reused for
+    every curve (building them took 23 of 28 ms of a solve).
+
+    Unknowns ``(u_u, u_b)``; residual ``[p̂(u_b) − p̂(u_u), Ψ̂(u_b) − Ψ̂(u_u) − ½(p̂(u_u) + p̂(u_b))(V̂(u_b) − V̂(u_u))]``
+    (equal pressure; equal potential ``Ψ̂ − p̂V̂`` with the mean pressure, symmetric in the two states).
+    """
+    key = (K, abstol)
+    if key not in _MAXWELL_FUNCTIONS:
+        params = []
+
+        def state(x, tag):
+            breaks = ca.SX.sym(f"breaks_{tag}", K + 1)
+            coefs = [ca.SX.sym(f"{q}_{tag}", 4, K) for q in ("p", "v", "psi")]
+            params.extend([breaks, *(ca.vec(c) for c in coefs)])
+            return [casadi_piecewise(x, breaks, c) for c in coefs]
+
+        uu, ub = ca.SX.sym("u_unbulged"), ca.SX.sym("u_bulged")
+        p_u, v_u, psi_u = state(uu, "unbulged")
+        p_b, v_b, psi_b = state(ub, "bulged")
+        g = ca.vertcat(p_b - p_u, (psi_b - psi_u) - 0.5 * (p_u + p_b) * (v_b - v_u))
+        residual = ca.Function("maxwell_residual", [ca.vertcat(uu, ub), ca.vertcat(*params)], [g])
+        options = {"max_iter": MAX_NEWTON_ITERATIONS, "abstol": abstol, "error_on_fail": False}
+        _MAXWELL_FUNCTIONS[key] = (residual, ca.rootfinder("maxwell", "newton", residual, options))
+    return _MAXWELL_FUNCTIONS[key]
+
+
+def maxwell_coexistence(curve: ZoneCurve, settings: SolverSettings | None = None) -> Coexistence:
+    """Coexisting unbulged and bulged states of one zone curve at fixed voltage (equal areas).
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        The zone's ``p̂–V̂`` curve at one voltage, with two stable (rising) branches.
+    settings : SolverSettings, optional
+        Tolerances (the spline equations are solved to ``inner_ftol``, verified to ``residual_tol``).
+
+    Returns
+    -------
+    Coexistence
+        ``p̂`` with ``p̂(u_u) = p̂(u_b)`` and ``Ψ̂(u_b) − Ψ̂(u_u) = p̂ (V̂(u_b) − V̂(u_u))`` (equal areas).
+
+    Raises
+    ------
+    ModelRangeError
+        No second stable branch, or too close to the critical point to resolve.
+    SolverError
+        The Newton solve failed (says why).
+    """
+    return MaxwellSolver(curve, settings).solve()
 
 
 @dataclass
@@ -250,28 +288,29 @@ def _loop(curve: ZoneCurve):
     return None
 
 
-def phase_diagram(model, phi_values, pole_stretch_max: float, settings=None, points: int = 128) -> PhaseDiagram:
+def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSettings | None = None) -> PhaseDiagram:
     """Spinodals, binodal and critical point of one zone over the voltages ``phi_values``.
 
-    Each voltage gets its own directly shot curve (``points`` states in ``u = √(λ0 − λpre)``);
+    Each voltage gets its own directly shot curve (``settings.phase_diagram_points`` states in
+    ``u = √(λ0 − λpre)``);
     the binodal is :func:`maxwell_coexistence` on it; the critical point, where the pressure
     maximum and minimum merge, is found by bisection on ``Φ̂`` between a voltage with a loop and
     one without (to 1e-8 in ``Φ̂``).
     """
+    settings = settings or SolverSettings()
     phi_values = np.asarray(phi_values, dtype=float)
     pre = model.prestretch
-    u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), points)
+    u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), settings.phase_diagram_points)
     smax, smin, bino = (np.full(phi_values.size, np.nan) for _ in range(3))
     states, notes = [], []
     has_loop = np.zeros(phi_values.size, dtype=bool)
-    curves = {}
 
     def curve_at(phi):
         return ZoneCurve.compute(model, phi, pre + u**2, settings)
 
     for i, phi in enumerate(phi_values):
         try:
-            c = curves[i] = curve_at(phi)
+            c = curve_at(phi)
         except ModelRangeError as exc:
             notes.append(f"Φ̂ = {phi:.6g}: {exc}")
             continue
@@ -281,7 +320,7 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings=None, poi
         has_loop[i] = True
         smax[i], smin[i] = float(c.p(loop[0])), float(c.p(loop[1]))
         try:
-            co = maxwell_coexistence(c)
+            co = maxwell_coexistence(c, settings)
             bino[i] = co.p_hat
             states.append(co)
         except ModelRangeError as exc:
@@ -289,20 +328,15 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings=None, poi
     critical = None
     change = np.flatnonzero(has_loop[:-1] != has_loop[1:])
     for j in change:
-        lo, hi = phi_values[j], phi_values[j + 1]
-        with_loop_hi = has_loop[j + 1]
-        for _ in range(40):
-            if hi - lo < 1e-8:
-                break
-            mid = 0.5 * (lo + hi)
+        with_loop_hi = bool(has_loop[j + 1])
+
+        def like_lo(phi: float, with_loop_hi=with_loop_hi) -> bool | None:
             try:
-                loop = _loop(curve_at(mid))
+                return (_loop(curve_at(phi)) is not None) != with_loop_hi
             except ModelRangeError:
-                break
-            if (loop is not None) == with_loop_hi:
-                hi = mid
-            else:
-                lo = mid
+                return None  # no curve there: keep the bracket found so far
+
+        lo, hi, _ = bisect(like_lo, phi_values[j], phi_values[j + 1], xtol=CRITICAL_XTOL)
         edge = hi if with_loop_hi else lo
         try:
             c = curve_at(edge)

@@ -40,6 +40,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from .effects import Breakdown
 from .equilibria import (
     Configuration,
     Equilibrium,
@@ -49,31 +50,14 @@ from .equilibria import (
     make_equilibrium,
 )
 from .errors import SolverError
+from .numerics.roots import newton
 from .shooting import WRINKLED
 
-# --- settings of the driver (derived from the solver tolerance where they are accuracies) -----------
-#: first step in the scaled coordinates z (pole stretches in u = √(λ0 − λpre), voltage times w)
-INITIAL_STEP = 0.05
-#: largest step
-MAX_STEP = 0.6
-#: smallest step before the driver gives up
-MIN_STEP = 1e-7
-#: largest angle (radians) between the tangents of two accepted points
-MAX_TURN = 0.35
-#: Newton iterations per corrector
-MAX_NEWTON = 12
-#: accepted points per branch before the driver stops (a safeguard; the notes say so)
-MAX_POINTS = 600
+# The driver's step control and tolerances are in SolverSettings (initial_step, max_step, min_step,
+# max_turn, max_newton, max_points, loose_tolerance, chord_below; newton_tol and event_tol from rtol).
 #: weight of the voltage in the arclength, ``z = (u1 … uM, w Φ̂)``: a change of 0.01 in Φ̂ counts like
 #: 0.1 in ``u`` (fixed, so that the points traced do not depend on the voltage window asked for)
 VOLTAGE_WEIGHT = 10.0
-
-
-def newton_tolerance(rtol: float) -> float:
-    """Newton step (in ``u``) below which a corrector has converged: the shooting's own precision (a step
-    is amplified into the residual by ``dp̂/du``, a few units; where the shooting's noise keeps the steps
-    from shrinking, the corrector stops there instead, see :func:`correct`)."""
-    return max(rtol, 1e-14)
 
 
 @dataclass
@@ -146,23 +130,13 @@ def _scaled_jacobian(J, w):
     return Js
 
 
-#: Newton step below which a point *along* a branch is accepted (it only serves as the next predictor
-#: and to bracket events; every reported state and every located event is converged tightly)
-LOOSE_TOLERANCE = 1e-6
-
-
-#: once a Newton step is this small, the next evaluation reuses the last Jacobian (a chord step: no
-#: variational equations, half the cost); used where the solution's derivatives are not needed
-CHORD_BELOW = 1e-4
-
-
 def correct(
     system: GroupSystem,
     z0,
     normals,
     targets,
     w: float,
-    max_iter: int = MAX_NEWTON,
+    max_iter: int | None = None,
     loose: bool = False,
     formal: bool = False,
     chord: bool = False,
@@ -171,11 +145,11 @@ def correct(
 
     ``z0`` ``(P, M + 1)`` initial guesses, ``normals`` ``(P, M + 1)`` constraint normals (the previous
     tangent for pseudo-arclength, the voltage axis for a fixed voltage), ``targets`` ``(P,)``. A point
-    converges when its Newton step is below :func:`newton_tolerance` (``loose``: below
-    :data:`LOOSE_TOLERANCE`), or when its step stops shrinking at the shooting's noise level; it fails
+    converges when its Newton step is below ``settings.newton_tol`` (``loose``: below
+    ``settings.loose_tolerance``), or when its step stops shrinking at the shooting's noise level; it fails
     when a state is invalid, the step grows, or the iterations run out. The converged state is the
     last one evaluated (no extrapolation): its residual is what :class:`Equilibrium` reports.
-    ``chord``: once the steps are below :data:`CHORD_BELOW`, evaluate the residual alone and reuse the
+    ``chord``: once the steps are below ``settings.chord_below``, evaluate the residual alone and reuse the
     last Jacobian (the converged state's own derivatives are then those of the previous iterate).
     """
     z = np.array(z0, dtype=float, copy=True)
@@ -183,7 +157,9 @@ def correct(
     M = M1 - 1
     normals = np.asarray(normals, dtype=float)
     targets = np.asarray(targets, dtype=float)
-    tol = LOOSE_TOLERANCE if loose else newton_tolerance(system.settings.rtol)
+    settings = system.settings
+    max_iter = settings.max_newton if max_iter is None else max_iter
+    tol = settings.loose_tolerance if loose else settings.newton_tol
     ok = np.zeros(P, dtype=bool)
     done = np.zeros(P, dtype=bool)
     reason = [""] * P
@@ -197,12 +173,12 @@ def correct(
         act = np.flatnonzero(~done)
         if act.size == 0:
             break
-        use_chord = chord and np.all(prev_step[act] <= CHORD_BELOW)
+        use_chord = chord and np.all(prev_step[act] <= settings.chord_below)
         res = system.residual(z[act, :M], z[act, M] / w, formal, derivatives=not use_chord)
         st_ = res.states
         if use_chord:
             res.J = jac[act]
-            # the derivatives of the previous iterate (within CHORD_BELOW of this one) stand for its own
+            # the derivatives of the previous iterate (within chord_below of this one) stand for its own
             st_.dp_du, st_.dv_du, st_.dp_dphi, st_.dv_dphi = (slopes[act, k].copy() for k in range(4))
         else:
             jac[act] = res.J
@@ -235,7 +211,7 @@ def correct(
         size = np.max(np.abs(step), axis=1)
         # the pressure residual too: a tiny step in u can still leave a large pressure mismatch where the
         # gas makes a zone's volume very sensitive (∂r/∂u ≈ 150 for the tricircle's bulged zone)
-        small_r = np.max(np.abs(res.r), axis=1) <= (LOOSE_TOLERANCE if loose else 10 * system.settings.rtol) * (
+        small_r = np.max(np.abs(res.r), axis=1) <= (settings.loose_tolerance if loose else settings.residual_tol) * (
             1 + np.abs(res.gas_pressure)
         )
         for jj, i in enumerate(act):
@@ -338,15 +314,15 @@ class Tracer:
     system : GroupSystem
     phi_window : (float, float)
         Voltages between which the branch is wanted.
-    breakdown_field : float or None
-        Normalised breakdown field ``Êb``; ``None``: no breakdown event.
+    breakdown : Breakdown or None
+        The breakdown effect (:class:`~coexist.effects.Breakdown`); ``None``: no breakdown event.
     """
 
-    def __init__(self, system: GroupSystem, phi_window, breakdown_field=None):
+    def __init__(self, system: GroupSystem, phi_window, breakdown: Breakdown | None = None):
         self.system = system
         self.phi_lo, self.phi_hi = float(phi_window[0]), float(phi_window[1])
         self.w = VOLTAGE_WEIGHT
-        self.breakdown = breakdown_field
+        self.breakdown = breakdown
         self.M = system.groups
         self.counts = np.asarray(system.configuration.counts)
 
@@ -388,7 +364,7 @@ class Tracer:
         for j in range(M - 1):
             vals[f"merge:{j}"] = u[j + 1] - u[j]
         if self.breakdown is not None:
-            vals["breakdown"] = max(pt.eq.max_field) - self.breakdown
+            vals["breakdown"] = self.breakdown.margin(max(pt.eq.max_field))
         return vals
 
     def seed(self, z, index=None) -> Point:
@@ -446,11 +422,12 @@ class Tracer:
         notes: list[str] = []
         cur = Point(seed.z.copy(), sign * seed.tangent, seed.eq, seed.dp_du, seed.dv_du, seed.index, seed.stable, 0.0)
         prev = None
-        h = INITIAL_STEP
+        cfg = self.system.settings
+        h = cfg.initial_step
         end = None
         while True:
-            if len(pts) >= MAX_POINTS:
-                notes.append(f"continuation stopped after {MAX_POINTS} points at Φ̂ = {cur.phi:.8g}")
+            if len(pts) >= cfg.max_points:
+                notes.append(f"continuation stopped after {cfg.max_points} points at Φ̂ = {cur.phi:.8g}")
                 break
             new = self._solve(
                 self._predict(prev, cur, h), cur.tangent, cur.tangent @ cur.z + h, cur.tangent, cur.index, loose=True
@@ -463,16 +440,16 @@ class Tracer:
                     end = self._range_end(prev, cur, h, failure)
                     if end is not None:
                         break
-                if h <= MIN_STEP:
+                if h <= cfg.min_step:
                     if invalid:
-                        end = self._range_end(prev, cur, 2 * MIN_STEP, failure)
+                        end = self._range_end(prev, cur, 2 * cfg.min_step, failure)
                     if end is None:
                         notes.append(f"continuation stopped at Φ̂ = {cur.phi:.8g}: {failure.reason[0]} (step {h:.1e})")
                     break
                 h *= 0.5
                 continue
             turn = float(np.arccos(np.clip(new.tangent @ cur.tangent, -1, 1)))
-            if turn > MAX_TURN and h > MIN_STEP:
+            if turn > cfg.max_turn and h > cfg.min_step:
                 h *= 0.5
                 continue
             new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
@@ -501,7 +478,9 @@ class Tracer:
                 break
             pts.append(new)
             prev, cur = cur, new
-            h = min(MAX_STEP, h * (2.0 if turn < 0.25 * MAX_TURN else 1.4 if turn < 0.5 * MAX_TURN else 1.0))
+            h = min(
+                cfg.max_step, h * (2.0 if turn < 0.25 * cfg.max_turn else 1.4 if turn < 0.5 * cfg.max_turn else 1.0)
+            )
         return pts, events, end, notes
 
     # events ---------------------------------------------------------------------------------------------
@@ -584,7 +563,7 @@ class Tracer:
         # bracket ends as (σ, f, point, loose)
         A = (0.0, float(f_lo), a, False)
         B = (float(sig_b), float(f_hi), b, False)
-        tol = 10 * newton_tolerance(self.system.settings.rtol)
+        tol = self.system.settings.event_tol
         for _ in range(40):
             width = abs(B[0] - A[0])
             if width <= tol or (stop is not None and A[2] is not None and A[2] is not a and stop(A[2])):
@@ -597,7 +576,7 @@ class Tracer:
             cands = sorted({x for x in (rf - d, rf, rf + d) if lo_s < x < hi_s}) if d > 0.5 * tol else [rf]
             loose = width > 1e-3
             # in the tight phase the bracket's own ends are converged tightly too (a loose point is off the
-            # branch by up to LOOSE_TOLERANCE, which can put it on the wrong side of a close root)
+            # branch by up to loose_tolerance, which can put it on the wrong side of a close root)
             redo = [] if loose else [e for e in (A, B) if e[3]]
             pts = self._points_at(a, b, sig_b, cands + [e[0] for e in redo], loose, formal)
             for e, p in zip(redo, pts[len(cands) :]):
@@ -734,7 +713,7 @@ class Tracer:
         else:
             lo, hi = 0.0, float(h)
             best = cur
-            tol = 10 * newton_tolerance(self.system.settings.rtol)
+            tol = self.system.settings.event_tol
             while hi - lo > tol:
                 mid = 0.5 * (lo + hi)
                 p = self._points_at(cur, None, h, [mid], (hi - lo) > 1e-4)[0]
@@ -843,7 +822,7 @@ def symmetric_branch_point(system: GroupSystem, j: int, u_guess, phi_guess, max_
     M = system.groups
     u = np.array(u_guess, dtype=float)
     phi = float(phi_guess)
-    tol = newton_tolerance(system.settings.rtol)
+    tol = system.settings.newton_tol
     step_phi = np.inf
     prev = np.inf
     for _ in range(max_iter):
@@ -948,14 +927,12 @@ class StableSegment:
         tb = b.tangent if (b.z - a.z) @ b.tangent >= 0 else -b.tangent
         frac = (phi - a.phi) / (b.phi - a.phi) if b.phi != a.phi else 0.0
         frac = float(np.clip(frac, -0.5, 1.5))
-        for _ in range(8):  # invert Φ̂ along the Hermite curve
-            z = hermite(a.z, ta, b.z, tb, frac)
-            g = z[-1] / self.tracer.w - phi
-            zp = hermite(a.z, ta, b.z, tb, frac + 1e-6)
-            d = (zp[-1] - z[-1]) / self.tracer.w / 1e-6
-            if d == 0:
-                break
-            frac -= g / d
+
+        def voltage_gap(x, _):  # Φ̂ along the Hermite curve minus the target, and its slope (forward difference)
+            z0, z1 = hermite(a.z, ta, b.z, tb, float(x[0])), hermite(a.z, ta, b.z, tb, float(x[0]) + 1e-6)
+            return np.array([z0[-1] / self.tracer.w - phi]), np.array([(z1[-1] - z0[-1]) / self.tracer.w / 1e-6])
+
+        frac = float(newton(voltage_gap, frac, xtol=1e-12, max_iter=8, stop_when_stalled=False).x[0])
         z = hermite(a.z, ta, b.z, tb, frac)
         z[-1] = phi * self.tracer.w
         return z
@@ -992,7 +969,7 @@ class StableSegment:
             return False
         u = np.sort(corr.z[0, :M])
         u_eq = np.sort(np.sqrt(np.asarray(eq.pole_stretch) - self.tracer.system.model.prestretch))
-        return bool(np.max(np.abs(u - u_eq)) <= max(tol, 10 * LOOSE_TOLERANCE))
+        return bool(np.max(np.abs(u - u_eq)) <= max(tol, 10 * self.tracer.system.settings.loose_tolerance))
 
 
 class EquilibriumMap:
@@ -1010,14 +987,14 @@ class EquilibriumMap:
     settings : SolverSettings
     phi_window : (float, float)
         Voltages of interest; segments are traced up to its edges.
-    breakdown_field : float or None
-        Normalised breakdown field; a segment ends where the largest field reaches it.
+    breakdown : Breakdown or None
+        A segment ends where the largest field reaches the breakdown field (:class:`~coexist.effects.Breakdown`).
     """
 
-    def __init__(self, model, gas, zones: int, settings, phi_window, breakdown_field=None):
+    def __init__(self, model, gas, zones: int, settings, phi_window, breakdown: Breakdown | None = None):
         self.model, self.gas, self.zones, self.settings = model, gas, int(zones), settings
         self.phi_window = (float(phi_window[0]), float(phi_window[1]))
-        self.breakdown = breakdown_field
+        self.breakdown = breakdown
         self.segments: list[StableSegment] = []
         self._tracers: dict = {}
 

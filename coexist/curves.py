@@ -14,10 +14,12 @@ import numpy as np
 
 from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
+from .numerics.roots import bracketed_root, chebyshev_extremum
 from .settings import SolverSettings
 from .shooting import OK, MembraneStates, first_valid_run, reason_tag, reason_text, solve_states
 
-_STATE_FIELDS = (
+#: the state quantities of a curve (attributes of :class:`~coexist.shooting.MembraneStates`), in table order
+STATE_FIELDS = (
     "pole_stretch",
     "phi_hat",
     "p_hat",
@@ -72,7 +74,7 @@ class Curve:
     rtol: float = 0.0
 
     def __getattr__(self, name):
-        if name in _STATE_FIELDS:
+        if name in STATE_FIELDS:
             return getattr(self.states, name)
         raise AttributeError(name)
 
@@ -145,69 +147,6 @@ def _valid_run(states: MembraneStates, pole_stretch):
     return run, starts, stopped
 
 
-def refine_extrema(evaluate, brackets, settings: SolverSettings, nodes: int = 9):
-    """Locate extrema of ``g(λ0)``, one per bracket, by Chebyshev interpolation on shrinking brackets.
-
-    Parameters
-    ----------
-    evaluate : callable
-        ``evaluate(l0_array) -> (g_values, MembraneStates)``; called once per round for all brackets.
-    brackets : list of (a, b, maximum)
-        Pole-stretch intervals that each hold one interior extremum (a maximum if ``maximum``).
-    settings : SolverSettings
-    nodes : int
-        Chebyshev nodes per bracket; the interpolant of degree ``nodes − 1`` is differentiated and
-        its stationary point taken, then the bracket shrinks 16-fold around it. A bracket is done
-        when the interpolated extremum changes by less than ``rtol`` between rounds (the value is
-        quadratic in the location error, so this holds the value to the solver tolerance).
-
-    Returns
-    -------
-    list of MembraneStates
-        The state at each extremum (one entry each), evaluated afresh at the located pole stretch.
-    """
-    if not brackets:
-        return []
-    a = np.array([b[0] for b in brackets], dtype=float)
-    b = np.array([b[1] for b in brackets], dtype=float)
-    sign = np.array([1.0 if br[2] else -1.0 for br in brackets])
-    m = len(brackets)
-    x_star = 0.5 * (a + b)
-    g_prev = np.full(m, np.nan)
-    open_ = np.ones(m, dtype=bool)
-    k = np.arange(nodes)
-    unit = np.cos(np.pi * (k + 0.5) / nodes)[::-1]
-    for _ in range(6):
-        idx = np.flatnonzero(open_)
-        if idx.size == 0:
-            break
-        x = 0.5 * (a[idx] + b[idx])[:, None] + 0.5 * (b[idx] - a[idx])[:, None] * unit[None, :]
-        g, _ = evaluate(x.ravel())
-        g = np.asarray(g).reshape(idx.size, nodes)
-        for j, i in enumerate(idx):
-            if not np.all(np.isfinite(g[j])):
-                raise SolverError(f"no valid state near the limit point in pole stretch {a[i]:.8g}..{b[i]:.8g}")
-            cheb = np.polynomial.Chebyshev.fit(x[j], sign[i] * g[j], nodes - 1, domain=[a[i], b[i]])
-            roots = cheb.deriv().roots()
-            roots = roots[np.abs(roots.imag) < 1e-9 * (b[i] - a[i])].real
-            roots = roots[(roots >= a[i]) & (roots <= b[i])]
-            cand = np.concatenate([roots, x[j]])
-            values = cheb(cand)
-            x_star[i] = cand[np.argmax(values)]
-            g_star = sign[i] * values.max()
-            width = b[i] - a[i]
-            if (
-                abs(g_star - g_prev[i]) <= 0.5 * settings.rtol * max(1.0, abs(g_star))
-                or width <= settings.limit_point_xtol * x_star[i]
-            ):
-                open_[i] = False
-            g_prev[i] = g_star
-            half = max(width / 16, settings.limit_point_xtol * x_star[i])
-            a[i], b[i] = max(a[i], x_star[i] - half), min(b[i], x_star[i] + half)
-    _, states = evaluate(x_star)
-    return [_take(states, slice(i, i + 1)) for i in range(m)]
-
-
 def _limit_point(kind: str, s: MembraneStates) -> LimitPoint:
     return LimitPoint(
         kind=kind,
@@ -252,11 +191,24 @@ def _find_limit_points(states, quantities, evaluate_states, settings):
 
         def g_of(x, attr=attr):
             st = evaluate_states(x)
-            return np.where(st.ok, getattr(st, attr), np.nan), st
+            return np.where(st.ok, getattr(st, attr), np.nan)
 
-        res = refine_extrema(g_of, [brackets[j] for j in sel], settings)
-        for j, s in zip(sel, res):
-            found[j] = _limit_point(kinds[j], s)
+        lo, hi, is_max = (np.array([brackets[j][k] for j in sel]) for k in range(3))
+        try:
+            x_star, _ = chebyshev_extremum(
+                g_of,
+                lo,
+                hi,
+                is_max,
+                ftol=0.5 * settings.rtol,
+                xtol=settings.limit_point_xtol,
+                nodes=settings.limit_point_nodes,
+            )
+        except ValueError as exc:
+            raise SolverError(f"no valid state near a limit point of {attr}: {exc}") from None
+        at = evaluate_states(x_star)
+        for k, j in enumerate(sel):
+            found[j] = _limit_point(kinds[j], _take(at, slice(k, k + 1)))
     return sorted(found, key=lambda lp: lp.pole_stretch)
 
 
@@ -282,7 +234,7 @@ def pressure_volume_curve(
     phi_hat : float
         ``Φ̂ = (Φ/H)√(ε/μ)``.
     pole_stretch : array_like, optional
-        Increasing pole stretches; default 200 points from ``1.01 λpre`` to ``4``.
+        Increasing pole stretches; default ``settings.curve_points`` (200) from ``1.01 λpre`` to ``4``.
     settings : SolverSettings, optional
 
     Returns
@@ -298,20 +250,29 @@ def pressure_volume_curve(
     1.879
     """
     settings = settings or SolverSettings()
-    if pole_stretch is None:
-        pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), 200)
-    l0 = _check_range(pole_stretch, model)
-    states = solve_states(model, l0, phi_hat, settings)
-    run, starts, stopped = _valid_run(states, l0)
-    states = _take(states, run)
-
-    limits = _find_limit_points(
-        states,
-        {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
+    return _trace(
+        "pressure_volume",
+        phi_hat,
+        model,
+        pole_stretch,
+        settings.curve_points,
         lambda x: solve_states(model, x, phi_hat, settings),
+        {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
         settings,
     )
-    return Curve("pressure_volume", float(phi_hat), states, limits, starts, stopped, settings.rtol)
+
+
+def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, settings) -> Curve:
+    """A curve of ``family`` from ``evaluate(λ0) -> MembraneStates`` on ``pole_stretch`` (default: ``points``
+    from ``1.01 λpre`` to ``max(4, 1.5 λpre)``): its valid run, and the extrema of ``quantities`` located."""
+    if pole_stretch is None:
+        pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), points)
+    l0 = _check_range(pole_stretch, model)
+    states = evaluate(l0)
+    run, starts, stopped = _valid_run(states, l0)
+    states = _take(states, run)
+    limits = _find_limit_points(states, quantities, evaluate, settings)
+    return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
 
 
 def voltage_at_pressure(
@@ -332,68 +293,46 @@ def voltage_at_pressure(
         raise SceneError("a voltage-charge curve needs a model with electrostatics", "voltage")
     l0 = np.atleast_1d(np.asarray(pole_stretch, dtype=float))
     n = l0.size
-    # bracket: s = 0 and the voltage that makes the pole tension vanish
-    lo_s = np.zeros(n)
+    # bracket: s = 0 and the voltage that makes the pole tension vanish (grown by doubling, then located)
     hi_s = np.ones(n)
     for _ in range(60):
         grow = model.pole(l0, np.sqrt(hi_s))[0] > 0
         if not np.any(grow):
             break
         hi_s = np.where(grow, hi_s * 2, hi_s)
-    a, b = lo_s.copy(), hi_s.copy()
-    for _ in range(60):  # bisection of T0(λ0, √s) = 0
-        mid = 0.5 * (a + b)
-        pos = model.pole(l0, np.sqrt(mid))[0] > 0
-        a, b = np.where(pos, mid, a), np.where(pos, b, mid)
-    hi_s = a
+    pole_root = bracketed_root(
+        lambda x, idx: model.pole(l0[idx], np.sqrt(x))[0], np.zeros(n), hi_s, rtol=1e-15, ftol=1e-14 * l0
+    )
     s0 = solve_states(model, l0, 0.0, settings)
     f0 = np.where(s0.ok, s0.p_hat - p_hat, -np.inf)
     feasible = f0 >= 0
-    lo, hi = np.zeros(n), hi_s
-    f_lo = np.where(feasible, f0, np.nan)
-    f_hi = np.full(n, -p_hat)  # towards the pole-wrinkling voltage the pressure falls to zero
-    # secant iterates (x_a, f_a) -> (x_b, f_b), safeguarded by the bracket [lo, hi]
-    x_a, f_a = lo.copy(), f_lo.copy()
-    with np.errstate(all="ignore"):
-        x_b = np.where(feasible, hi * f0 / (f0 + p_hat), 0.0)
-    done = ~feasible | (f0 == 0)
-    failed = np.zeros(n, dtype=bool)
     result = s0
-    for _ in range(iterations):
-        idx = np.flatnonzero(~done)
-        if idx.size == 0:
-            break
-        x_new = x_b[idx]
-        st = solve_states(model, l0[idx], np.sqrt(x_new), settings)
-        f = np.where(st.ok, st.p_hat - p_hat, -np.inf)
-        up = f > 0
-        lo[idx[up]], f_lo[idx[up]] = x_new[up], f[up]
-        hi[idx[~up]] = x_new[~up]
-        f_hi[idx[~up]] = np.where(np.isfinite(f[~up]), f[~up], f_hi[idx[~up]])
-        # converged: the pressure is met to the solver's accuracy; a stalled iterate only counts when
-        # its residual is still at that level (it is noise-limited), otherwise the search failed
-        tight = np.abs(f) <= 0.5 * settings.rtol * p_hat
-        stalled = (np.abs(x_new - x_a[idx]) <= 1e-14 * np.abs(x_new)) | (hi[idx] - lo[idx] <= 1e-15 * hi[idx])
-        conv = st.ok & (tight | (stalled & (np.abs(f) <= 100 * settings.rtol * p_hat)))
-        if np.any(conv):
-            result = _merge(result, _take(st, conv), idx[conv])
-            done[idx[conv]] = True
-        give_up = ~conv & stalled
-        done[idx[give_up]] = True
-        failed[idx[give_up]] = True
-        # next iterate: secant through the last two points if finite and inside the bracket,
-        # else regula falsi on the bracket, else bisection
-        fa, xa = f_a[idx], x_a[idx]
-        with np.errstate(all="ignore"):
-            sec = x_new - f * (x_new - xa) / (f - fa)
-            rf = lo[idx] + f_lo[idx] * (hi[idx] - lo[idx]) / (f_lo[idx] - f_hi[idx])
-        lo_i, hi_i = lo[idx], hi[idx]
-        sec_ok = np.isfinite(sec) & (sec > lo_i) & (sec < hi_i) & np.isfinite(f)
-        rf_ok = np.isfinite(rf) & (rf > lo_i) & (rf < hi_i)
-        nxt = np.where(sec_ok, sec, np.where(rf_ok, rf, 0.5 * (lo_i + hi_i)))
-        x_a[idx], f_a[idx] = x_new, f
-        x_b[idx] = nxt
-    converged = done & feasible & ~failed
+    converged = feasible & (f0 == 0)
+    open_ = np.flatnonzero(feasible & (f0 > 0))
+    if open_.size:
+
+        def residual(x, idx):
+            rows = open_[idx]
+            st = solve_states(model, l0[rows], np.sqrt(x), settings)
+            _merge(result, _take(st, st.ok), rows[st.ok])
+            result.status[rows[~st.ok]] = st.status[~st.ok]
+            return np.where(st.ok, st.p_hat - p_hat, -np.inf)  # an invalid state: beyond the root
+
+        # towards the pole-wrinkling voltage the pressure falls to zero: f = −p̂ at the upper end
+        root = bracketed_root(
+            residual,
+            np.zeros(open_.size),
+            pole_root.x[open_],
+            f0[open_],
+            np.full(open_.size, -p_hat),
+            rtol=1e-15,
+            ftol=settings.inner_ftol * p_hat,
+            max_iter=iterations,
+        )
+        # converged: the pressure is met to the solver's accuracy, or the bracket closed with the residual
+        # still at that level (noise-limited); anything else failed
+        met = root.converged & np.isfinite(root.f) & (np.abs(root.f) <= 10 * settings.residual_tol * p_hat)
+        converged[open_] = met
     status = result.status.copy()
     status[~converged & (status == OK)] = NO_VOLTAGE
     status[~feasible] = np.where(s0.ok[~feasible], NO_VOLTAGE, s0.status[~feasible])
@@ -422,17 +361,32 @@ def voltage_charge_curve(
     settings = settings or SolverSettings()
     if not (np.isfinite(p_hat) and p_hat > 0):
         raise SceneError(f"p̂ must be a positive number, got {p_hat!r}", "p_hat")
-    if pole_stretch is None:
-        pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), 120)
-    l0 = _check_range(pole_stretch, model)
-    states = voltage_at_pressure(model, l0, p_hat, settings)
-    run, starts, stopped = _valid_run(states, l0)
-    states = _take(states, run)
-
-    limits = _find_limit_points(
-        states,
-        {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("charge_max", "charge_min")},
+    return _trace(
+        "voltage_charge",
+        p_hat,
+        model,
+        pole_stretch,
+        settings.charge_curve_points,
         lambda x: voltage_at_pressure(model, x, p_hat, settings),
+        {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("charge_max", "charge_min")},
         settings,
     )
-    return Curve("voltage_charge", float(p_hat), states, limits, starts, stopped, settings.rtol)
+
+
+def curves_csv(curves) -> str:
+    """CSV text, one row per state of every curve: its family, the name and value held fixed, and the
+    state quantities (:data:`STATE_FIELDS`; the field and the smallest tension as ``max_field_hat``,
+    ``min_tension_hat``). Values are written with ``repr`` (every digit)."""
+    import csv
+    import io
+
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    header = [{"max_field": "max_field_hat", "min_tension": "min_tension_hat"}.get(k, k) for k in STATE_FIELDS]
+    w.writerow(["family", "fixed_name", "fixed_value", *header])
+    for c in curves:
+        s = c.states
+        name = "phi_hat" if c.family == "pressure_volume" else "p_hat"
+        for i in range(s.pole_stretch.size):
+            w.writerow([c.family, name, repr(c.fixed)] + [repr(float(getattr(s, k)[i])) for k in STATE_FIELDS])
+    return buf.getvalue()

@@ -1,10 +1,16 @@
-"""Physical effects a membrane model is built from: one class each, "off" included.
+"""Physical effects a scene is simulated with: one class each, "off" included.
 
-A model is assembled from one elasticity effect and one electrostatics effect, each behind its
+A membrane model is assembled from one elasticity effect and one electrostatics effect, each behind its
 Protocol (:class:`Elasticity`, :class:`Electrostatics`); each contributes its own symbolic terms to
-the free energy at fixed voltage. "Off" is an effect too (:class:`NoElectrostatics`): its terms are
-the constant zero, which CasADi folds away, so the equations of a model without voltage contain no
-trace of the field (``tests/test_model.py`` checks it symbolically) and the assembler has no branch.
+the free energy at fixed voltage. What holds the zones' pressure is an effect too, behind
+:class:`PressureSource`: the gas of a closed chamber (:class:`GasChamber`) or a pressure reservoir
+(:class:`PressureReservoir`); and a breakdown field, when a scene gives one, is the effect
+:class:`Breakdown` (an event that ends a path). A scene lists exactly the effects it builds
+(:meth:`coexist.scene.Scene.effects`); CasADi is imported only when a model is built from them.
+
+"Off" is an effect too (:class:`NoElectrostatics`): its terms are the constant zero, which CasADi folds
+away, so the equations of a model without voltage contain no trace of the field (``tests/test_model.py``
+checks it symbolically) and the assembler has no branch.
 Elasticity is written as a function of ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3`` and electrostatics of
 ``K = λ1²λ2²`` (both models of the project are of this form), which lets the model differentiate
 through the invariants. All energies are per unit reference volume and normalised by the shear
@@ -17,9 +23,16 @@ import math
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-import casadi as ca
+import numpy as np
 
 from .errors import SceneError
+
+
+def _symbolic_zero():
+    """The constant zero as a CasADi expression (CasADi is imported where a model is built, not before)."""
+    import casadi as ca
+
+    return ca.SX(0.0)
 
 
 def first_invariant(l1, l2):
@@ -62,9 +75,13 @@ def area_invariant(l1, l2):
 
 class Elasticity(Protocol):
     """What an elasticity effect gives the model: its energy ``Ws/μ`` as a function of ``I = I1 − 3``, and
-    how far the chains are from locking (a positive constant if they never lock)."""
+    how far the chains are from locking (a positive constant if they never lock); ``locking_stretch`` is
+    the equibiaxial stretch at which they lock (None if they never do)."""
 
     name: str
+
+    @property
+    def locking_stretch(self) -> float | None: ...
 
     def energy_of_invariant(self, i1: Any) -> Any: ...
 
@@ -99,7 +116,14 @@ class NeoHookean:
 
     def locking_margin(self, l1, l2):
         """Always positive: a neo-Hookean membrane never locks."""
+        import casadi as ca
+
         return ca.SX(1.0)
+
+    @property
+    def locking_stretch(self) -> float | None:
+        """None: a neo-Hookean membrane never locks."""
+        return None
 
     def describe(self) -> dict:
         return {"material": self.name}
@@ -125,11 +149,19 @@ class Gent:
 
     def energy_of_invariant(self, i1):
         """``Ws/μ`` as a function of ``I = I1 − 3``."""
+        import casadi as ca
+
         return -0.5 * self.jlim * ca.log1p(-i1 / self.jlim)  # log1p: exact as Jlim → ∞
 
     def locking_margin(self, l1, l2):
         """``1 − (I1 − 3)/Jlim``: the chains lock where it reaches zero."""
         return 1 - first_invariant(l1, l2) / self.jlim
+
+    @property
+    def locking_stretch(self) -> float:
+        """``√((Jlim + 3)/2)``: the equibiaxial stretch at which the chains lock, ``2λ² + λ⁻⁴ − 3 = Jlim``
+        without its ``λ⁻⁴`` (relative difference below ``1/(2λ⁶)``, 1.5e-6 at ``Jlim = 97``)."""
+        return math.sqrt((self.jlim + 3) / 2)
 
     def describe(self) -> dict:
         return {"material": self.name, "jlim": self.jlim}
@@ -166,13 +198,113 @@ class NoElectrostatics:
     enabled = False
 
     def energy_of_invariant(self, k, phi):
-        return ca.SX(0.0)
+        return _symbolic_zero()
 
     def charge_density(self, l1, l2, phi):
-        return ca.SX(0.0)
+        return _symbolic_zero()
 
     def field(self, l1, l2, phi):
-        return ca.SX(0.0)
+        return _symbolic_zero()
+
+
+# --- what holds the pressure -----------------------------------------------------------------------
+class PressureSource(Protocol):
+    """What holds the zones' gauge pressure ``p̂`` as a function of their total volume ``ΣV̂``."""
+
+    name: str
+
+    def pressure(self, total_volume: Any) -> Any: ...
+
+    def stiffness(self, total_volume: Any) -> Any: ...
+
+    def free_energy(self, total_volume: Any) -> Any: ...
+
+
+@dataclass(frozen=True)
+class GasChamber:
+    """Isothermal ideal gas, fixed amount, rigid chamber: ``(V̂c + ΣV̂)(p̂atm + p̂) = n̂``.
+
+    Parameters
+    ----------
+    chamber_volume : float
+        ``V̂c = Vc/A³``.
+    atmospheric_pressure : float
+        ``p̂atm = Patm A/(μH)``.
+    gas_amount : float
+        ``n̂ = NkT/(μHA²)``, fixed when the valves close.
+    """
+
+    chamber_volume: float
+    atmospheric_pressure: float
+    gas_amount: float
+    name = "isothermal-ideal-gas"
+
+    def __post_init__(self):
+        for key in ("chamber_volume", "atmospheric_pressure", "gas_amount"):
+            v = getattr(self, key)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise SceneError(f"must be a positive number, got {v!r}", key)
+
+    @classmethod
+    def closed_at(cls, chamber_volume, atmospheric_pressure, closing_pressure, zone_volumes_total):
+        """The gas that fills chamber and zones at gauge pressure ``p̂`` when the valves close."""
+        n = (chamber_volume + zone_volumes_total) * (atmospheric_pressure + closing_pressure)
+        return cls(float(chamber_volume), float(atmospheric_pressure), float(n))
+
+    def pressure(self, total_volume):
+        """Gauge pressure ``p̂ = n̂/(V̂c + ΣV̂) − p̂atm``."""
+        return self.gas_amount / (self.chamber_volume + total_volume) - self.atmospheric_pressure
+
+    def stiffness(self, total_volume):
+        """``c = −dp̂/dΣV̂ = n̂/(V̂c + ΣV̂)²`` (the gas resists a change of the total volume)."""
+        return self.gas_amount / (self.chamber_volume + total_volume) ** 2
+
+    def free_energy(self, total_volume):
+        """``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂``."""
+        return -self.gas_amount * np.log(self.chamber_volume + total_volume) + self.atmospheric_pressure * total_volume
+
+
+@dataclass(frozen=True)
+class PressureReservoir:
+    """Pressure control (no chamber in the scene): the gauge pressure is ``p̂`` whatever the volume."""
+
+    pressure_hat: float
+    name = "pressure-control"
+
+    def __post_init__(self):
+        if not (isinstance(self.pressure_hat, (int, float)) and math.isfinite(self.pressure_hat)):
+            raise SceneError(f"must be a finite number, got {self.pressure_hat!r}", "pressure_hat")
+
+    def pressure(self, total_volume):
+        return self.pressure_hat + 0.0 * np.asarray(total_volume)
+
+    def stiffness(self, total_volume):
+        return 0.0 * np.asarray(total_volume)
+
+    def free_energy(self, total_volume):
+        return -self.pressure_hat * total_volume
+
+
+@dataclass(frozen=True)
+class Breakdown:
+    """Electrical breakdown: a path ends where the largest true field in a zone reaches ``field_hat``.
+
+    Parameters
+    ----------
+    field_hat : float
+        Normalised breakdown field ``Êb = Eb √(ε/μ)``.
+    """
+
+    field_hat: float
+    name = "breakdown-check"
+
+    def __post_init__(self):
+        if not (isinstance(self.field_hat, (int, float)) and math.isfinite(self.field_hat) and self.field_hat > 0):
+            raise SceneError(f"must be a positive number, got {self.field_hat!r}", "breakdown_field")
+
+    def margin(self, max_field: float) -> float:
+        """``Ê_max − Êb``: the event function (the path ends where it reaches zero from below)."""
+        return float(max_field) - self.field_hat
 
 
 def material_from_name(name: str, jlim: float | None = None):

@@ -37,79 +37,14 @@ equations integrated with it: no spline enters a residual.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .errors import SceneError, SolverError
+from .numerics.roots import bracketed_root
+from .settings import SolverSettings
 from .shooting import OK, StateDerivatives, reason_tag, reason_text, solve_states
-
-
-# --- what holds the pressure -----------------------------------------------------------------------
-@dataclass(frozen=True)
-class GasChamber:
-    """Isothermal ideal gas, fixed amount, rigid chamber: ``(V̂c + ΣV̂)(p̂atm + p̂) = n̂``.
-
-    Parameters
-    ----------
-    chamber_volume : float
-        ``V̂c = Vc/A³``.
-    atmospheric_pressure : float
-        ``p̂atm = Patm A/(μH)``.
-    gas_amount : float
-        ``n̂ = NkT/(μHA²)``, fixed when the valves close.
-    """
-
-    chamber_volume: float
-    atmospheric_pressure: float
-    gas_amount: float
-    name = "isothermal-ideal-gas"
-
-    def __post_init__(self):
-        for key in ("chamber_volume", "atmospheric_pressure", "gas_amount"):
-            v = getattr(self, key)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise SceneError(f"must be a positive number, got {v!r}", key)
-
-    @classmethod
-    def closed_at(cls, chamber_volume, atmospheric_pressure, closing_pressure, zone_volumes_total):
-        """The gas that fills chamber and zones at gauge pressure ``p̂`` when the valves close."""
-        n = (chamber_volume + zone_volumes_total) * (atmospheric_pressure + closing_pressure)
-        return cls(float(chamber_volume), float(atmospheric_pressure), float(n))
-
-    def pressure(self, total_volume):
-        """Gauge pressure ``p̂ = n̂/(V̂c + ΣV̂) − p̂atm``."""
-        return self.gas_amount / (self.chamber_volume + total_volume) - self.atmospheric_pressure
-
-    def stiffness(self, total_volume):
-        """``c = −dp̂/dΣV̂ = n̂/(V̂c + ΣV̂)²`` (the gas resists a change of the total volume)."""
-        return self.gas_amount / (self.chamber_volume + total_volume) ** 2
-
-    def free_energy(self, total_volume):
-        """``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂``."""
-        return -self.gas_amount * np.log(self.chamber_volume + total_volume) + self.atmospheric_pressure * total_volume
-
-
-@dataclass(frozen=True)
-class PressureReservoir:
-    """Pressure control (no chamber in the scene): the gauge pressure is ``p̂`` whatever the volume."""
-
-    pressure_hat: float
-    name = "pressure-control"
-
-    def __post_init__(self):
-        if not (isinstance(self.pressure_hat, (int, float)) and math.isfinite(self.pressure_hat)):
-            raise SceneError(f"must be a finite number, got {self.pressure_hat!r}", "pressure_hat")
-
-    def pressure(self, total_volume):
-        return self.pressure_hat + 0.0 * np.asarray(total_volume)
-
-    def stiffness(self, total_volume):
-        return 0.0 * np.asarray(total_volume)
-
-    def free_energy(self, total_volume):
-        return -self.pressure_hat * total_volume
 
 
 # --- configurations --------------------------------------------------------------------------------
@@ -243,8 +178,6 @@ def failure_reason(status: int) -> tuple[str, str]:
 
 
 # --- residuals ---------------------------------------------------------------------------------------
-#: below this separation in ``u`` two groups count as one state: the divided difference is not formed
-MERGE_TOLERANCE = 1e-7
 
 
 @dataclass
@@ -302,7 +235,7 @@ class GroupSystem:
         J[:, 0, M] = st.dp_dphi[:, 0] + c * (st.dv_dphi @ n)
         for j in range(M - 1):
             du = st.u[:, j + 1] - st.u[:, j]
-            near = np.abs(du) < MERGE_TOLERANCE
+            near = np.abs(du) < self.settings.merge_tolerance  # one state: no divided difference
             safe = np.where(near, 1.0, du)
             D = (st.p[:, j + 1] - st.p[:, j]) / safe
             # merged groups: the divided difference is the slope there (no better value exists)
@@ -349,9 +282,9 @@ def fold_index(slopes, u: float, samples: int = 64, depth: int = 4) -> int:
     from its stable side a fold has ``dp̂/dV̂ → −∞``). The folds are bracketed on ``samples`` points,
     intervals where ``|dV̂/du|`` is small against its largest value are halved up to ``depth`` times (the
     folds of a spiral crowd together where the volume hardly changes, and two of them inside one
-    interval would not show as a sign change), and each fold is located by the Illinois method, all
-    at once. ``tests/test_zone_stability_fe.py`` checks the count against the negative eigenvalues of a
-    finite-element energy Hessian at fixed volume.
+    interval would not show as a sign change), and the folds are located all at once
+    (:func:`coexist.numerics.roots.bracketed_root`). ``tests/test_zone_stability_fe.py`` checks the count
+    against the negative eigenvalues of a finite-element energy Hessian at fixed volume.
     """
     u = float(u)
     if u <= 0:
@@ -375,31 +308,27 @@ def fold_index(slopes, u: float, samples: int = 64, depth: int = 4) -> int:
     idx = np.flatnonzero(dv[:-1] * dv[1:] < 0)
     if idx.size == 0:
         return 0
-    a, b, fa, fb = grid[idx].copy(), grid[idx + 1].copy(), dv[idx].copy(), dv[idx + 1].copy()
-    sigma = np.sign(fa)
-    side = np.zeros(idx.size)
-    for _ in range(40):
-        c = b - fb * (b - a) / (fb - fa)
-        fc, _ = (np.asarray(x, dtype=float) for x in slopes(c))
-        left = np.sign(fc) == np.sign(fa)
-        fb = np.where(left & (side == -1), 0.5 * fb, fb)
-        fa = np.where(~left & (side == 1), 0.5 * fa, fa)
-        a, fa = np.where(left, c, a), np.where(left, fc, fa)
-        b, fb = np.where(left, b, c), np.where(left, fb, fc)
-        side = np.where(left, -1, 1)
-        if np.all(np.abs(b - a) <= 1e-10 * np.maximum(1.0, np.abs(b))):
-            break
-    _, dp_fold = (np.asarray(x, dtype=float) for x in slopes(0.5 * (a + b)))
+    sigma = np.sign(dv[idx])
+    folds = bracketed_root(
+        lambda x, _: np.asarray(slopes(x)[0], dtype=float),
+        grid[idx],
+        grid[idx + 1],
+        dv[idx],
+        dv[idx + 1],
+        xtol=1e-10,
+        rtol=1e-10,
+    )
+    _, dp_fold = (np.asarray(x, dtype=float) for x in slopes(folds.x))
     return max(int(np.sum(-np.sign(dp_fold * sigma))), 0)
 
 
-def pressure_branch(model, u, phi, settings, samples: int = 64) -> int:
+def pressure_branch(model, u, phi, settings: SolverSettings) -> int:
     """Which monotone piece of its zone curve a zone at ``(u, Φ̂)`` is on: the number of pressure extrema
     (roots of ``dp̂/du``) between the flat state and ``u`` — 0 on the first rising branch, 1 past the
     pressure maximum (falling), 2 past the following minimum (re-stiffened), and so on. Counted on
-    ``samples`` directly shot states with exact derivatives."""
+    ``settings.stability_samples`` directly shot states with exact derivatives."""
     u = float(u)
-    grid = np.linspace(0.0, u, samples + 1)[1:]
+    grid = np.linspace(0.0, u, settings.stability_samples + 1)[1:]
     s = solve_states(model, model.prestretch + grid**2, phi, settings, derivatives=True)
     dp = np.where(s.ok, StateDerivatives.of(s).dp_dl0, np.nan)
     ok = np.isfinite(dp)
@@ -418,7 +347,7 @@ def configuration_label(configuration: Configuration, branches=None) -> str:
     return base
 
 
-def zone_index(model, u, phi, settings, samples: int = 64) -> int:
+def zone_index(model, u, phi, settings: SolverSettings) -> int:
     """Unstable axisymmetric modes at fixed volume of one zone at ``(u, Φ̂)``, on directly shot states with
     exact derivatives (:func:`fold_index`)."""
     u = float(u)
@@ -437,12 +366,13 @@ def zone_index(model, u, phi, settings, samples: int = 64) -> int:
         d = StateDerivatives.of(s)
         return np.where(good, d.dv_dl0 * 2 * x, np.nan), np.where(good, d.dp_dl0 * 2 * x, np.nan)
 
-    return fold_index(slopes, u, samples)
+    return fold_index(slopes, u, settings.stability_samples, settings.fold_refinements)
 
 
-def zone_index_on_curve(curve, u) -> int:
+def zone_index_on_curve(curve, u, settings: SolverSettings | None = None) -> int:
     """:func:`fold_index` on an interpolated zone curve (:class:`~coexist.zone_curves.ZoneCurve`, in ``u``): a first
     guess of a zone's index where exact states are not at hand (the jumps' gradient flow)."""
+    settings = settings or SolverSettings()
     lo = float(curve.grid[0])
 
     def slopes(x):
@@ -452,7 +382,9 @@ def zone_index_on_curve(curve, u) -> int:
         # below the curve's first point the zone is barely inflated: rising, no fold
         return np.where(inside, curve.dv(xc), 1.0), np.where(inside, curve.dp(xc), 1.0)
 
-    return fold_index(slopes, min(float(u), float(curve.grid[-1])))
+    return fold_index(
+        slopes, min(float(u), float(curve.grid[-1])), settings.stability_samples, settings.fold_refinements
+    )
 
 
 # --- an equilibrium ----------------------------------------------------------------------------------
@@ -561,16 +493,17 @@ class Equilibrium:
         }
 
 
-def merged(configuration: Configuration, u) -> tuple[Configuration, np.ndarray]:
-    """Groups closer than :data:`MERGE_TOLERANCE` in ``u`` joined into one (the configuration a state
-    really is in), and the groups' ``u`` in order."""
+def merged(configuration: Configuration, u, tol: float | None = None) -> tuple[Configuration, np.ndarray]:
+    """Groups closer than ``tol`` (default: ``SolverSettings().merge_tolerance``) in ``u`` joined into one
+    (the configuration a state really is in), and the groups' ``u`` in order."""
+    tol = SolverSettings().merge_tolerance if tol is None else tol
     u = np.asarray(u, dtype=float)
     order = np.argsort(u, kind="stable")
     counts = [configuration.counts[i] for i in order]
     us = list(u[order])
     out_c, out_u = [counts[0]], [us[0]]
     for c, x in zip(counts[1:], us[1:]):
-        if abs(x - out_u[-1]) <= MERGE_TOLERANCE * max(1.0, abs(x)):
+        if abs(x - out_u[-1]) <= tol * max(1.0, abs(x)):
             w = out_c[-1] / (out_c[-1] + c)
             out_u[-1] = w * out_u[-1] + (1 - w) * x
             out_c[-1] += c

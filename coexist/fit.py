@@ -10,27 +10,29 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .errors import CoexistError, ModelRangeError, SceneError
+from .numerics.roots import bracketed_root
 from .scene import Scene
+from .settings import SolverSettings
 from .simulation import Simulation, pole_stretch_max, snap_through
-
-#: trial radii on which the fit first brackets its root
-BRACKET_SAMPLES = 12
 
 
 @dataclass
 class Shared:
-    """What every trial of a fit shares: the model and the zone's snap-through at zero voltage."""
+    """What every trial of a fit shares: the model, the zone's snap-through at zero voltage, and the
+    solver settings."""
 
     model: object
     snap: tuple
+    settings: SolverSettings
 
     @classmethod
-    def of(cls, scene: Scene) -> Shared:
+    def of(cls, scene: Scene, settings: SolverSettings | None = None) -> Shared:
+        """Build the model of ``scene`` and solve its snap-through once."""
+        settings = settings or SolverSettings()
         model = scene.model()
-        return cls(model, snap_through(model, scene.settings, pole_stretch_max(scene)))
+        return cls(model, snap_through(model, settings, pole_stretch_max(scene, settings)), settings)
 
 
 def transition_voltage(
@@ -45,8 +47,8 @@ def transition_voltage(
     if kind not in ("spinodal", "equal_free_energy"):
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
     shared = shared or Shared.of(scene)
-    sc = scene if measure else replace(scene, settings=replace(scene.settings, error_estimates=False))
-    sim = Simulation.from_scene(sc, model=shared.model, snap=shared.snap)
+    settings = shared.settings if measure else replace(shared.settings, error_estimates=False)
+    sim = Simulation.from_scene(scene, settings, model=shared.model, snap=shared.snap)
     t = sim.first_transition(kind)
     return float(scene.voltage_of(t.phi_hat)), float(scene.voltage_of(t.phi_hat_error))
 
@@ -57,10 +59,10 @@ def fit_zone_radius(
     """The zone radius ``A`` (m) that puts the first transition of the ramp at ``target_voltage`` (V).
 
     The admissible radii are those whose closing pressure the zones can hold (``p̂close < p̂max``). The
-    transition is evaluated at :data:`BRACKET_SAMPLES` radii; a radius at which it does not exist (no
-    stable start, or no transition below the scene's top voltage) is left out, never scored. Brent's
-    method then solves between the first two neighbouring radii whose transitions lie on either side of
-    the target (to 1e-9 mm).
+    transition is evaluated at ``settings.fit_samples`` radii; a radius at which it does not exist (no
+    stable start, or no transition below the scene's top voltage) is left out, never scored. The Illinois
+    method (:func:`~coexist.numerics.roots.bracketed_root`) then solves between the first two
+    neighbouring radii whose transitions lie on either side of the target (to 1e-9 mm).
     """
     if scene.chamber is None or scene.voltage is None:
         raise SceneError("fitting needs a scene with [chamber] and [voltage]", "[chamber]")
@@ -76,7 +78,7 @@ def fit_zone_radius(
     # the transitions move fastest as the closing pressure nears the snap-through (a → a_max): the
     # trial radii crowd there, geometrically in the distance from it
     top = a_max * 1e3
-    gaps = np.geomspace(top - lo_mm, max(top - hi_mm, 1e-12), BRACKET_SAMPLES)
+    gaps = np.geomspace(top - lo_mm, max(top - hi_mm, 1e-12), shared.settings.fit_samples)
     radii = top - gaps
     tried = {}
     why = []
@@ -98,7 +100,8 @@ def fit_zone_radius(
             if v0 == 0:
                 return a0 / 1e3
             if v0 * v1 < 0:
-                return brentq(f, a0, a1, xtol=1e-9) / 1e3
+                root = bracketed_root(lambda a, _: np.array([f(float(a[0]))]), a0, a1, v0, v1, xtol=1e-9)
+                return float(root.x[0]) / 1e3
         # no bracket yet: where the transition starts to exist (a radius without one next to a radius
         # with one), the transitions run furthest; sample there, closer each round
         order = sorted(tried)

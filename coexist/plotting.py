@@ -5,7 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 
-def _pyplot():
+def pyplot():
+    """matplotlib's pyplot on the non-interactive Agg backend (imported on first use)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -47,19 +48,33 @@ def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
     ax.legend(fontsize=8)
 
 
-def _save(fig, path, title=None):
-    plt = _pyplot()
+def save_figure(fig, path, title=None, title_size=10) -> Path:
+    """Lay out ``fig`` and write it to ``path`` atomically: drawn into a temporary file in the same folder,
+    then renamed over ``path``, so a failure leaves no half-written figure (and no old one destroyed)."""
+    import os
+    import tempfile
+
+    plt = pyplot()
+    path = Path(path)
     if title:
-        fig.suptitle(title, fontsize=10)
+        fig.suptitle(title, fontsize=title_size)
     fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return Path(path)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=130)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
+    return path
 
 
 def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None):
     """The ``p̂–V̂`` family (left) and the ``Φ̂–Q̂`` family (right), limit points marked."""
-    plt = _pyplot()
+    plt = pyplot()
     panels = 2 if vq_curves else 1
     fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.2), squeeze=False)
     _family_panel(
@@ -83,13 +98,13 @@ def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None
             "voltage  Φ̂ = (Φ/H)√(ε/μ)",
             "voltage–charge at fixed pressure",
         )
-    return _save(fig, path, title)
+    return save_figure(fig, path, title)
 
 
 def plot_ramp_volumes(report, path, title=None, branches=()):
     """Zone volumes against voltage: the branches of the configurations the ramp visits (stable solid,
     unstable dashed; traced on the exact equations), the ramp path with its jumps, transitions marked."""
-    plt = _pyplot()
+    plt = pyplot()
     import numpy as np
 
     res = report.result
@@ -158,48 +173,34 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
     ax.legend(fontsize=8, loc="upper left")
     if title:
         ax.set_title(title, fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_coexisting_states(curve, state, scale_title, path):
     """The paper's Fig. 7(c): the p̂–V̂ curve at the transition voltage, coexisting states marked."""
-    plt = _pyplot()
+    plt = pyplot()
     import numpy as np
 
     fig, ax = plt.subplots(figsize=(6.0, 4.4))
     u = np.linspace(curve.grid[0], curve.grid[-1], 800)
     ax.plot(curve.v(u), curve.p(u), color="tab:blue", lw=1.6, label=f"zone curve at Φ̂ = {curve.phi_hat:.4f}")
     ax.axhline(state.p_hat, color="0.5", ls="--", lw=0.8)
-    ax.plot(
-        [state.v_unbulged],
-        [state.p_hat],
-        "o",
-        color="tab:green",
-        ms=9,
-        mec="k",
-        label=f"unbulged ({state.zones - state.k} zones)",
-    )
+    marks = [(state.v_unbulged, "o", "tab:green", f"unbulged ({state.zones - state.k} zones)")]
     if state.k:
-        ax.plot(
-            [state.v_bulged],
-            [state.p_hat],
-            "s",
-            color="tab:red",
-            ms=9,
-            mec="k",
-            label=f"bulged ({state.k} zone{'s' if state.k > 1 else ''})",
-        )
+        marks.append((state.v_bulged, "s", "tab:red", f"bulged ({state.k} zone{'s' if state.k > 1 else ''})"))
+    for v, marker, color, label in marks:
+        ax.plot([v], [state.p_hat], marker, color=color, ms=9, mec="k", label=label)
     ax.set_xlabel("volume  V̂ = V/A³")
     ax.set_ylabel("pressure  p̂ = pA/(μH)")
     ax.set_title(scale_title, fontsize=10)
     ax.grid(alpha=0.3)
     ax.legend(fontsize=8)
-    return _save(fig, path)
+    return save_figure(fig, path)
 
 
 def plot_phase_diagram(diagram, path, title=None):
     """Binodal, spinodals and critical point in the (Φ̂, p̂) plane."""
-    plt = _pyplot()
+    plt = pyplot()
 
     import numpy as np
 
@@ -224,4 +225,4 @@ def plot_phase_diagram(diagram, path, title=None):
     ax.legend(fontsize=8)
     if title:
         ax.set_title(title, fontsize=10)
-    return _save(fig, path)
+    return save_figure(fig, path)

@@ -28,6 +28,8 @@ import numpy as np
 from .continuation import EquilibriumMap, Event, StableSegment
 from .equilibria import Configuration, Equilibrium, merged, zone_index_on_curve
 from .errors import ModelRangeError, SolverError
+from .numerics.roots import bracketed_root, newton
+from .settings import SolverSettings
 
 
 @dataclass
@@ -89,9 +91,6 @@ class RampResult:
 
 
 # --- the jump ----------------------------------------------------------------------------------------
-#: points of the zone curve a jump's gradient flow runs on (it only decides the basin; the landing state
-#: is then solved exactly)
-JUMP_CURVE_POINTS = 160
 
 
 @dataclass
@@ -104,7 +103,7 @@ class Landing:
     mode: str = ""
 
 
-def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8):
+def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8, settings=None):
     """Follow ``dV̂j/dt = −(p̂(V̂j) − p̂_gas(Σ nk V̂k))`` for groups of ``nj`` zones from ``u0``.
 
     This is the gradient flow of the total potential ``G`` in the zone volumes: air flows from the
@@ -160,7 +159,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
             return counts, u, "range_end", snaps
         if sol.t_events[1].size:
             j = int(np.argmin(curve.dv(u)))
-            target = _equal_volume_shape(curve, u[j])
+            target = _equal_volume_shape(curve, u[j], settings)
             if target is None:
                 return counts, u, "volume_fold", snaps
             snaps.append((float(u[j]), float(target)))
@@ -177,7 +176,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     return counts, u, "stalled", snaps
 
 
-def _equal_volume_shape(curve, u_fold):
+def _equal_volume_shape(curve, u_fold, settings=None):
     """Another state of the zone with the volume of the fold at ``u_fold`` that is stable at fixed volume
     (index 0 by Maddocks' rule), the nearest in ``u``; None if there is none."""
     v0 = float(curve.v(u_fold))
@@ -185,12 +184,10 @@ def _equal_volume_shape(curve, u_fold):
     vals = curve.v(g) - v0
     cands = []
     for i in np.flatnonzero(vals[:-1] * vals[1:] < 0):
-        from scipy.optimize import brentq
-
-        x = brentq(lambda s: float(curve.v(s)) - v0, g[i], g[i + 1], xtol=1e-14)
+        x = float(bracketed_root(lambda s, _: curve.v(s) - v0, g[i], g[i + 1], xtol=1e-14).x[0])
         if abs(x - u_fold) < 1e-6 or curve.dv(x) <= 0:
             continue
-        if zone_index_on_curve(curve, x) == 0:
+        if zone_index_on_curve(curve, x, settings) == 0:
             cands.append(x)
     if not cands:
         return None
@@ -219,7 +216,7 @@ class Ramp:
         key = round(phi, 15)
         if key not in self._curves:
             pre = self.emap.model.prestretch
-            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), JUMP_CURVE_POINTS)
+            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), self.emap.settings.jump_curve_points)
             self._curves[key] = ZoneCurve.compute(self.emap.model, abs(phi), pre + u**2, self.emap.settings)
         return self._curves[key]
 
@@ -280,7 +277,9 @@ class Ramp:
                 continue
             v_scale = max(float(np.max(np.abs(curve.v(u)))), 1e-9)
             du = 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12)
-            counts_end, u_end, status, snaps = gradient_flow(curve, self.emap.gas, counts, u + du)
+            counts_end, u_end, status, snaps = gradient_flow(
+                curve, self.emap.gas, counts, u + du, settings=self.emap.settings
+            )
             if snaps:
                 where = ", ".join(f"{1 + a * a:.4g} -> {1 + b * b:.4g}" for a, b in snaps)
                 mode += (
@@ -306,7 +305,7 @@ class Ramp:
             if status != "converged":
                 last_err = f"the gradient flow did not settle ({status})"
                 continue
-            conf, uc = merged(Configuration(tuple(counts_end)), u_end)
+            conf, uc = merged(Configuration(tuple(counts_end)), u_end, self.emap.settings.merge_tolerance)
             conf, uc = _merge_loose(conf, uc, 1e-4)
             eq = self._polish(conf, uc, phi_f)
             if eq is None:
@@ -331,7 +330,7 @@ class Ramp:
         if not corr.ok[0]:
             return None
         eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
-        idx = tuple(zone_index_on_curve(self._curve(phi), x) for x in np.sort(corr.z[0, :M]))
+        idx = tuple(zone_index_on_curve(self._curve(phi), x, self.emap.settings) for x in np.sort(corr.z[0, :M]))
         eq.zone_index = idx
         return eq
 
@@ -583,25 +582,55 @@ def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
     return sorted(out, key=lambda t: t.phi_hat)
 
 
+def equal_free_energy_voltage(
+    state_a, state_b, phi0: float, lo: float, hi: float, settings: SolverSettings, sign_at_lo=None
+):
+    """The voltage where two configurations have equal total free energy: Newton's method on
+    ``ΔĜ(Φ̂) = Ĝa − Ĝb = 0`` with its exact slope ``dΔĜ/dΦ̂ = −(Q̂a − Q̂b)`` (both states converged at
+    every iterate by ``state_a(Φ̂)``, ``state_b(Φ̂)``), safeguarded by ``[lo, hi]``.
+
+    It stops where the Newton step is below ``settings.crossing_tol(Φ̂)`` (``100 rtol Φ̂``) or stops
+    shrinking (the states' own noise).
+
+    Returns
+    -------
+    (phi, step, ea, eb)
+        The voltage, the last step (its error estimate) and the two states there.
+
+    Raises
+    ------
+    SolverError
+        If the iteration does not settle (names the voltage).
+    """
+    last: dict = {}
+
+    def delta_g(x, _):
+        ea, eb = state_a(float(x[0])), state_b(float(x[0]))
+        last.update(ea=ea, eb=eb)
+        return np.array([ea.free_energy - eb.free_energy]), np.array([-(ea.total_charge - eb.total_charge)])
+
+    root = newton(delta_g, phi0, xtol=settings.crossing_tol(phi0), lo=lo, hi=hi, sign_at_lo=sign_at_lo, max_iter=12)
+    if not root.converged[0]:
+        raise SolverError(f"equal free energy did not converge near Φ̂ = {float(root.x[0]):.10g}")
+    return float(root.x[0]), float(root.step[0]), last["ea"], last["eb"]
+
+
 def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transition | None:
-    """Newton's method on ``ΔĜ(Φ̂) = 0`` (slope ``−ΔQ̂``) with both states converged at every iterate; it stops
-    where the step is below ``100 rtol Φ̂`` or stops shrinking (the states' own noise)."""
-    phi = lo - dlo * (hi - lo) / (dhi - dlo)
-    tol = 100 * A.tracer.system.settings.rtol * max(abs(phi), 1e-3)
-    step, prev = np.inf, np.inf
-    for _ in range(12):
-        ea, eb = A.states([phi])[0], B.states([phi])[0]
-        dG = ea.free_energy - eb.free_energy
-        slope = -(ea.total_charge - eb.total_charge)
-        if slope == 0:
-            return None
-        step = -dG / slope
-        if abs(step) <= tol or abs(step) >= 0.5 * prev:
-            break
-        prev = abs(step)
-        phi = float(np.clip(phi + step, lo, hi))
-    else:
-        raise SolverError(f"equal free energy of {A.label} and {B.label} did not converge near Φ̂ = {phi:.10g}")
+    """The equal-free-energy crossing of ``A`` and ``B`` bracketed by ``[lo, hi]`` (``ΔĜ`` values ``dlo``,
+    ``dhi``), from the secant estimate (:func:`equal_free_energy_voltage`)."""
+    phi0 = lo - dlo * (hi - lo) / (dhi - dlo)
+    try:
+        phi, step, ea, eb = equal_free_energy_voltage(
+            lambda x: A.states([x])[0],
+            lambda x: B.states([x])[0],
+            phi0,
+            lo,
+            hi,
+            A.tracer.system.settings,
+            np.sign(dlo),
+        )
+    except SolverError as exc:
+        raise SolverError(f"{A.label} and {B.label}: {exc}") from None
     # label: from the configuration lower in G below the crossing to the one lower above it
     below = A if (dlo < 0) else B
     above = B if below is A else A

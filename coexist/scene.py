@@ -24,6 +24,7 @@ so that ``dΨ̂ = p̂ dV̂ − Q̂ dΦ̂``; a true field normalises as ``Ê = E 
 from __future__ import annotations
 
 import datetime
+import functools
 import math
 import sys
 from dataclasses import dataclass, field
@@ -34,7 +35,6 @@ import numpy as np
 
 from .errors import SceneError
 from .scene_format import DEFAULTS, did_you_mean, read_document
-from .settings import SolverSettings
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -120,8 +120,6 @@ class Scene:
         ``None``: the pressure is controlled directly (at ``controlled_pressure``).
     voltage : VoltagePath or None
         ``None``: no voltage, the electrostatic terms are not built at all.
-    settings : SolverSettings
-        Tolerances of the solvers.
     name, description, source : str
         ``source`` is the file path or the built-in scene name.
     fitted : dict
@@ -140,7 +138,6 @@ class Scene:
     controlled_pressure: float | None = None
     chamber: Chamber | None = None
     voltage: VoltagePath | None = None
-    settings: SolverSettings = field(default_factory=SolverSettings)
     name: str = ""
     description: str = ""
     fitted: dict = field(default_factory=dict)
@@ -282,21 +279,26 @@ class Scene:
             names.append("electrostatics:ideal-dielectric")
         if self.prestretch != 1.0:
             names.append("prestretch")
-        names.append("gas:isothermal-ideal-gas" if self.chamber is not None else "pressure-control")
+        from .effects import Breakdown, GasChamber, PressureReservoir
+
+        names.append(f"gas:{GasChamber.name}" if self.chamber is not None else PressureReservoir.name)
         if self.breakdown_field is not None:
-            names.append("breakdown-check")
+            names.append(Breakdown.name)
         return names
 
-    def model(self):
-        """The :class:`coexist.model.MembraneModel` with exactly the scene's effects (imports CasADi)."""
-        from .effects import Gent, IdealDielectric, NeoHookean, NoElectrostatics
-        from .model import MembraneModel
+    def elasticity(self):
+        """The scene's elasticity effect (:func:`coexist.effects.material_from_name`)."""
+        from .effects import material_from_name
 
-        return MembraneModel(
-            elasticity=Gent(float(self.jlim)) if self.material == "gent" and self.jlim is not None else NeoHookean(),
-            electrostatics=IdealDielectric() if self.voltage is not None else NoElectrostatics(),
-            prestretch=self.prestretch,
-        )
+        return material_from_name(self.material, self.jlim)
+
+    def model(self):
+        """The :class:`coexist.model.MembraneModel` with exactly the scene's effects (imports CasADi).
+
+        Built once per material, voltage on/off and prestretch in a process (:func:`coexist.model.build_model`,
+        cached): scenes that differ in geometry, chamber or voltage path share one model.
+        """
+        return _shared_model(self.material, self.jlim, self.voltage is not None, float(self.prestretch))
 
     def to_dict(self) -> dict:
         """JSON-ready description: SI values with units in the key names, effects, groups, notes."""
@@ -340,11 +342,17 @@ class Scene:
             "zones": {"count": self.zone_count, "controlled_pressure_Pa": self.controlled_pressure},
             "chamber": chamber,
             "voltage": voltage,
-            "solver": {"relative_tolerance": self.settings.rtol},
             "effects": self.effects(),
             "dimensionless_groups": self.dimensionless_groups(),
             "fitted": _json_safe(self.fitted),
         }
+
+
+@functools.lru_cache(maxsize=32)
+def _shared_model(material: str, jlim: float | None, voltage: bool, prestretch: float):
+    from .model import build_model
+
+    return build_model(material, jlim, voltage=voltage, prestretch=prestretch)
 
 
 def _scaled(x, factor):

@@ -18,10 +18,12 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
               ``atmospheric_pressure_*`` [101.325 kPa]; absent: the pressure is controlled directly
 [voltage]     a ramp ``start_*`` [0], ``stop_*`` (required), ``step_*`` [(stop − start)/100], which goes
               up from start to stop and back down to start; or a list ``values_*``; absent: no voltage
-[solver]      ``accuracy`` ("draft", "default", "high" or a tolerance) or ``rtol``
 [fitted]      free-form notes of fitted parameters, carried through unchanged
 top level     ``name``, ``description``
 ============  ===========================================================================================
+
+A scene holds no solver settings: how accurately it is solved is a choice of the run
+(:class:`~coexist.settings.SolverSettings`; ``--accuracy`` / ``--rtol`` on the command line).
 
 Unit suffixes (:data:`UNITS`): length ``_m _mm _um``; shear modulus ``_Pa _kPa _MPa``; pressure
 ``_Pa _kPa _mbar _bar``; volume ``_m3 _l _ml``; voltage ``_V _kV``; field ``_V_per_m _MV_per_m``.
@@ -38,7 +40,6 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SceneError
-from .settings import SolverSettings
 
 MAX_ZONES = 1000
 MAX_VOLTAGE_POINTS = 100_000
@@ -71,7 +72,7 @@ DEFAULTS = {
 
 @dataclass(frozen=True)
 class _Key:
-    """One scene key: its kind (a key of UNITS, or number/integer/string/accuracy) and its rule."""
+    """One scene key: its kind (a key of UNITS, or number/integer/string) and its rule."""
 
     kind: str
     rule: str = ""  # "positive", "nonnegative", "at_least_one"
@@ -102,7 +103,6 @@ SCHEMA = {
         "step": _Key("voltage", "positive", "kV"),
         "values": _Key("voltage", "nonnegative", "kV", many=True),
     },
-    "solver": {"accuracy": _Key("accuracy"), "rtol": _Key("number", "positive")},
 }
 TOP_LEVEL = ("name", "description", "fitted", *SCHEMA)
 _RULES = {
@@ -177,8 +177,6 @@ def _value(key: _Key, value, unit: str, where: str):
         if isinstance(value, bool) or not isinstance(value, int):
             raise SceneError(f"expected a whole number, got {_describe(value)}", where)
         return value
-    if key.kind == "accuracy" and isinstance(value, str):
-        return value
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         quoted = " (write numbers without quotes)" if isinstance(value, str) else ""
         raise SceneError(f"expected a number, got {_describe(value)}{quoted}", where)
@@ -238,6 +236,12 @@ def read_document(doc: dict, source: str) -> dict:
     ``chamber`` and ``voltage`` are plain dicts (or ``None``); values are in SI units.
     """
     for key in doc:
+        if key == "solver":
+            raise SceneError(
+                "a scene describes the experiment only: the solver's tolerance is a choice of the run "
+                "(--accuracy draft|default|high or --rtol X on the command line, SolverSettings in Python)",
+                "[solver]",
+            )
         if key not in TOP_LEVEL:
             table = isinstance(doc[key], dict)
             raise SceneError(_unknown_top_level(key, table), f"[{key}]" if table else key)
@@ -245,7 +249,7 @@ def read_document(doc: dict, source: str) -> dict:
     fitted = doc.get("fitted", {})
     if not isinstance(fitted, dict):
         raise SceneError(f"must be a table (a [fitted] header), got {_describe(fitted)}", "[fitted]")
-    membrane, zones, chamber, voltage, solver = (_Section(doc, s) for s in SCHEMA)
+    membrane, zones, chamber, voltage = (_Section(doc, s) for s in SCHEMA)
     material, jlim = _material(membrane)
     thickness = membrane.get("thickness", DEFAULTS["thickness"])
     radius = membrane.get("zone_radius", DEFAULTS["zone_radius"])
@@ -281,7 +285,6 @@ def read_document(doc: dict, source: str) -> dict:
         controlled_pressure=pressure,
         chamber=_chamber(chamber),
         voltage=_voltage(voltage),
-        settings=_settings(solver),
         name=name if name is not None else Path(source).stem,
         description=description or "",
         fitted=copy.deepcopy(fitted),
@@ -379,15 +382,3 @@ def ramp_path(start: float, stop: float, step: float) -> np.ndarray:
     up = start + step * np.arange(n + 1)
     up = np.append(up[up < stop - 1e-9 * step], stop)
     return np.concatenate([up, up[-2::-1]])
-
-
-def _settings(solver: _Section) -> SolverSettings:
-    if "accuracy" in solver and "rtol" in solver:
-        raise SceneError("give either accuracy or rtol, not both", solver.where("rtol"))
-    name = "rtol" if "rtol" in solver else "accuracy"
-    try:
-        if name == "rtol":
-            return SolverSettings(rtol=solver.get("rtol"))
-        return SolverSettings.from_accuracy(solver.get("accuracy"))
-    except SceneError as exc:
-        raise SceneError(exc.message, solver.where(name)) from None

@@ -1,11 +1,15 @@
-"""Numerical settings, in one place, passed down to every solver.
+"""Every numerical choice of the library, in one object passed down to every solver.
 
-The command line's ``--rtol`` / ``--accuracy`` options map onto :class:`SolverSettings`.
+The physical scene (:class:`~coexist.scene.Scene`) says what is simulated; :class:`SolverSettings` says
+how: the integrator's tolerance and everything derived from it (Newton, bracketing and event
+tolerances), the sample counts of every grid, and the continuation's step control. The command line's
+``--rtol`` / ``--accuracy`` options set ``rtol``, and through it every tolerance below; the accuracy
+study (``coexist accuracy``) reads the sampling defaults from here.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 from .errors import SceneError
 
@@ -15,14 +19,15 @@ ACCURACY_LEVELS = {"draft": 1e-6, "default": 1e-10, "high": 1e-12}
 
 @dataclass(frozen=True)
 class SolverSettings:
-    """Tolerances and limits of the shooting integrator and the solvers built on it.
+    """Tolerances, sample counts and limits of the shooting integrator and the solvers built on it.
 
     Parameters
     ----------
     rtol : float
         Relative tolerance of the adaptive 8th-order Runge-Kutta (DOP853) integration of the
         membrane equations. The shooting result (``p̂``, ``V̂``, ``Q̂``, ``Ψ̂``) carries a relative
-        error of about ``rtol`` (see ``coexist accuracy``).
+        error of about ``rtol`` (see ``coexist accuracy``); every Newton, bracketing and event tolerance
+        of the library is derived from it (the properties below).
     atol_factor : float
         Absolute tolerance as a multiple of ``rtol`` (states are of order one after scaling).
     pole_radius : float or None
@@ -34,8 +39,6 @@ class SolverSettings:
     max_radius_factor : float
         A trajectory that has not returned to the clamp stretch by ``R = max_radius_factor``
         (in units of the estimated clamp radius) has no equilibrium at that pole stretch.
-    limit_point_xtol : float
-        Tolerance on the pole stretch when a pressure or voltage extremum is located.
     sensitivity_error_control : bool
         Whether the variational equations (exact derivatives of a state to ``λ0`` and ``Φ̂``) take part
         in the integrator's step-size control. Off (default): they are integrated on the steps the
@@ -45,22 +48,113 @@ class SolverSettings:
     error_estimates : bool
         Measure the error of every transition voltage by locating it again at ``rtol/100`` (at least
         1e-13); off, a transition carries only its location bracket.
+    limit_point_xtol : float
+        Relative width in pole stretch at which the search for a pressure or voltage extremum stops
+        (it usually stops earlier, when the extremal value has settled to ``rtol/2``).
+    limit_point_nodes : int
+        Chebyshev nodes per round of that search.
+    curve_points : int
+        Pole stretches of a ``p̂–V̂`` curve when none are given (:func:`~coexist.curves.pressure_volume_curve`).
+    charge_curve_points : int
+        Pole stretches of a ``Φ̂–Q̂`` curve when none are given (:func:`~coexist.curves.voltage_charge_curve`).
+    zone_curve_points : int
+        Points of the zone curves the N-zone layer takes first guesses and figures from
+        (:class:`~coexist.zone_curves.ZoneCurve`; never a reported number).
+    jump_curve_points : int
+        Points of the zone curve a ramp's jump runs its gradient flow on (it decides the basin only; the
+        landing state is then solved exactly).
+    snap_grid_points : int
+        Pole stretches on which the zero-voltage pressure maximum is first bracketed.
+    phase_diagram_points : int
+        Spline points per voltage of the one-zone phase diagram (:func:`~coexist.coexistence.phase_diagram`).
+    maxwell_guess_samples : int
+        Pressures sampled for the first guess of the one-zone equal-area construction.
+    candidate_samples : int
+        Samples per branch on which the first guesses of N-zone equilibria are bracketed.
+    stability_samples : int
+        Points between the flat state and a zone's stretch on which its curve's folds and pressure
+        extrema are counted (the fold index, :func:`~coexist.equilibria.fold_index`).
+    fold_refinements : int
+        Times an interval where ``|dV̂/du|`` is small is halved while counting folds (a spiral's folds
+        crowd together).
+    discovery_voltages : int
+        Voltages at which every configuration is searched for when the coexistence table is asked for.
+    fit_samples : int
+        Trial zone radii on which a fit first brackets its root (:func:`~coexist.fit.fit_zone_radius`).
+    locking_margin : float
+        The pole-stretch range of the zone curves ends at this fraction of the Gent locking stretch.
+    stretch_max_factor : float
+        ... and for materials that do not lock, at this multiple of the prestretch.
+    initial_step, max_step, min_step : float
+        First, largest and smallest arclength step of the continuation (scaled coordinates ``z``).
+    max_turn : float
+        Largest angle (radians) between the tangents of two accepted continuation points.
+    max_newton : int
+        Newton iterations per continuation corrector.
+    max_points : int
+        Accepted points per branch before the continuation stops (a safeguard; the notes say so).
+    loose_tolerance : float
+        Newton step below which a point *along* a branch is accepted (it only serves as the next predictor
+        and to bracket events; every reported state and every located event is converged to
+        :attr:`newton_tol`).
+    chord_below : float
+        Once a Newton step is this small, the next evaluation reuses the last Jacobian (a chord step).
+    merge_tolerance : float
+        Below this separation in ``u`` two groups of zones count as one state.
     """
 
+    # integration
     rtol: float = 1e-10
     atol_factor: float = 1e-2
     pole_radius: float | None = None
     max_steps: int = 4000
     max_radius_factor: float = 1000.0
-    limit_point_xtol: float = 1e-9
     sensitivity_error_control: bool = False
     error_estimates: bool = True
+    # limit points
+    limit_point_xtol: float = 1e-9
+    limit_point_nodes: int = 9
+    # sampling
+    curve_points: int = 200
+    charge_curve_points: int = 120
+    zone_curve_points: int = 240
+    jump_curve_points: int = 160
+    snap_grid_points: int = 80
+    phase_diagram_points: int = 128
+    maxwell_guess_samples: int = 200
+    candidate_samples: int = 400
+    stability_samples: int = 64
+    fold_refinements: int = 4
+    discovery_voltages: int = 13
+    fit_samples: int = 12
+    locking_margin: float = 0.95
+    stretch_max_factor: float = 6.0
+    # continuation
+    initial_step: float = 0.05
+    max_step: float = 0.6
+    min_step: float = 1e-7
+    max_turn: float = 0.35
+    max_newton: int = 12
+    max_points: int = 600
+    loose_tolerance: float = 1e-6
+    chord_below: float = 1e-4
+    merge_tolerance: float = 1e-7
 
     def __post_init__(self):
         if not (1e-14 <= self.rtol <= 1e-2):
             raise SceneError(f"relative tolerance must lie in [1e-14, 1e-2], got {self.rtol!r}", "rtol")
         if self.max_steps < 10:
             raise SceneError(f"max_steps must be at least 10, got {self.max_steps!r}", "max_steps")
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name.endswith(("_points", "_samples", "_voltages", "_nodes")) and not (
+                isinstance(value, int) and value >= 5
+            ):
+                raise SceneError(f"{f.name} must be an integer of at least 5, got {value!r}", f.name)
+        if not (0 < self.locking_margin < 1):
+            raise SceneError(f"locking_margin must lie in (0, 1), got {self.locking_margin!r}", "locking_margin")
+        if not (0 < self.min_step <= self.initial_step <= self.max_step):
+            raise SceneError("continuation steps must satisfy 0 < min_step <= initial_step <= max_step", "min_step")
 
     @property
     def series_radius(self) -> float:
@@ -74,13 +168,49 @@ class SolverSettings:
         """Absolute tolerance ``atol_factor * rtol``."""
         return self.atol_factor * self.rtol
 
+    @property
+    def newton_tol(self) -> float:
+        """Newton step (in ``u``) below which a corrector has converged: ``max(rtol, 1e-14)``, the
+        shooting's own precision (a step is amplified into the residual by ``dp̂/du``, a few units; where the
+        shooting's noise keeps the steps from shrinking, the corrector stops there instead)."""
+        return max(self.rtol, 1e-14)
+
+    @property
+    def event_tol(self) -> float:
+        """Bracket width (arclength) at which an event along a branch counts as located: ``10 newton_tol``."""
+        return 10 * self.newton_tol
+
+    @property
+    def residual_tol(self) -> float:
+        """Relative residual of an equilibrium's pressure balance that counts as converged: ``10 rtol``."""
+        return 10 * self.rtol
+
+    def crossing_tol(self, phi_hat: float) -> float:
+        """Newton step in ``Φ̂`` at which an equal-free-energy voltage has converged: ``100 rtol max(|Φ̂|, 1e-3)``
+        (the free energies carry ``rtol``, their difference is divided by the difference of charges)."""
+        return 100 * self.rtol * max(abs(phi_hat), 1e-3)
+
+    @property
+    def inner_ftol(self) -> float:
+        """Relative residual to which an inner root (a voltage at a pressure) is solved: ``rtol/1000``,
+        well inside the states' own precision, so that it adds nothing to the error of what it feeds."""
+        return 1e-3 * self.rtol
+
     def with_rtol(self, rtol: float) -> SolverSettings:
-        """A copy with another relative tolerance."""
+        """A copy with another relative tolerance (every derived tolerance follows it)."""
         return replace(self, rtol=float(rtol))
 
     @classmethod
     def from_accuracy(cls, accuracy: str | float | None) -> SolverSettings:
-        """Settings for a named accuracy level (``draft``, ``default``, ``high``) or a tolerance."""
+        """Settings for a named accuracy level (``draft``, ``default``, ``high``) or a tolerance.
+
+        Examples
+        --------
+        >>> SolverSettings.from_accuracy("high").rtol
+        1e-12
+        >>> SolverSettings.from_accuracy("1e-8").newton_tol
+        1e-08
+        """
         if accuracy is None:
             return cls()
         if isinstance(accuracy, str):

@@ -24,6 +24,7 @@ import numpy as np
 from .errors import ModelRangeError, SceneError
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
+from .numerics.roots import bracketed_root, newton
 from .settings import SolverSettings
 
 #: pole stretches closer than this (relative) to the clamp stretch are below double-precision resolution
@@ -248,13 +249,14 @@ def _cap_angle(l0):
     """Half-angle α of a spherical cap whose arc, ``λ0`` times the unit radius, spans a unit chord:
     ``sin α / α = 1/λ0`` on ``(0, π)``, by Newton's method from ``α ≈ √(6(1 − 1/λ0))`` (exact as
     ``λ0 → 1``; vectorised). Only an estimate is needed (it scales the trial pressure)."""
-    target = 1.0 / l0
-    a = np.minimum(np.sqrt(6.0 * (1.0 - target)), 3.0)
-    for _ in range(8):
-        s, c = np.sin(a), np.cos(a)
-        g = s - target * a  # sin α − α/λ0, whose root is the same and better behaved
-        a = np.clip(a - g / (c - target), 1e-300, math.pi * (1 - 1e-12))
-    return a
+    target = 1.0 / np.asarray(l0, dtype=float)
+    start = np.minimum(np.sqrt(6.0 * (1.0 - target)), 3.0)
+
+    def g(a, idx):  # sin α − α/λ0, whose root is the same and better behaved; positive below the root
+        return np.sin(a) - target[idx] * a, np.cos(a) - target[idx]
+
+    root = newton(g, start, rtol=1e-14, lo=1e-300, hi=math.pi * (1 - 1e-12), sign_at_lo=1.0, max_iter=30)
+    return root.x
 
 
 def trial_pressure(model: MembraneModel, l0, phi):
@@ -659,18 +661,8 @@ def solve_states(
             _shoot(
                 model,
                 settings,
-                l0,
-                phi,
-                T0,
-                live,
-                lam_clamp,
-                status,
-                fail_radius,
-                out,
-                min_tension,
-                max_field,
-                steps,
-                shapes,
+                (l0, phi, T0, live, lam_clamp),
+                _Diagnostics(status, fail_radius, out, min_tension, max_field, steps, shapes),
                 derivatives,
                 formal,
             )
@@ -708,25 +700,33 @@ def solve_states(
     )
 
 
-def _shoot(
-    model,
-    settings,
-    l0,
-    phi,
-    T0,
-    live,
-    lam_clamp,
-    status,
-    fail_radius,
-    out,
-    min_tension,
-    max_field,
-    steps,
-    shapes,
-    derivatives,
-    formal=False,
-):
-    """Integrate the live trajectories; fills ``out`` and the diagnostics in place."""
+@dataclass
+class _Diagnostics:
+    """The arrays :func:`_shoot` fills in place, one entry per requested state."""
+
+    status: np.ndarray
+    fail_radius: np.ndarray
+    out: dict
+    min_tension: np.ndarray
+    max_field: np.ndarray
+    steps: np.ndarray
+    shapes: list | None
+
+
+def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, formal=False):
+    """Integrate the live trajectories of ``problem = (λ0, Φ̂, T̂0, live, λclamp)``; fills ``diagnostics``
+    in place."""
+    l0, phi, T0, live, lam_clamp = problem
+    d = diagnostics
+    status, fail_radius, out, min_tension, max_field, steps, shapes = (
+        d.status,
+        d.fail_radius,
+        d.out,
+        d.min_tension,
+        d.max_field,
+        d.steps,
+        d.shapes,
+    )
     l0, phi, T0 = (a[live] for a in (l0, phi, T0))
     m = live.size
     p = trial_pressure(model, l0, phi)
@@ -781,26 +781,20 @@ def _shoot(
         return (T1_, d1_) if k == 1 else (T2_, d2_)
 
     def exact_min(cols, k, Ra, ya, h, da, db):
-        """Minimum of tension k inside the steps (Ra, Ra + h): secant (Illinois) on dT/dR = 0, each
-        iterate one step of the integrator from the last node."""
+        """Minimum of tension k inside the steps (Ra, Ra + h): the root of dT/dR = 0
+        (:func:`~coexist.numerics.roots.bracketed_root`), each iterate one step of the integrator from the
+        last node; the smallest tension met on the way is the minimum."""
         stepper = fns.stepper(kind, cols.size)
         fa_ = stepper.rhs(Ra, ya)
-        lo, hi = np.zeros(cols.size), h.copy()
-        glo, ghi = da.copy(), db.copy()
         best = np.full(cols.size, np.inf)
-        for _ in range(10):
-            with np.errstate(all="ignore"):
-                s_ = np.where(ghi != glo, lo - glo * (hi - lo) / (ghi - glo), 0.5 * (lo + hi))
-            s_ = np.where((s_ > lo) & (s_ < hi), s_, 0.5 * (lo + hi))
-            y_s, f_s, _, _ = stepper.step(Ra, ya, fa_, s_)
+
+        def slope_at(s_, idx):
+            y_s, f_s, _, _ = stepper.step(Ra[idx], ya[:, idx], fa_[:, idx], s_)
             T_s, g_s = tension_and_slope(y_s, f_s, k)
-            best = np.minimum(best, T_s)
-            left = np.sign(g_s) == np.sign(glo)
-            ghi = np.where(left & (np.sign(g_s) == np.sign(glo)), ghi, ghi)
-            lo, glo = np.where(left, s_, lo), np.where(left, g_s, glo)
-            hi, ghi = np.where(left, hi, s_), np.where(left, ghi, g_s)
-            if np.all(np.abs(hi - lo) <= 1e-9 * np.maximum(h, 1e-300)):
-                break
+            best[idx] = np.minimum(best[idx], T_s)
+            return g_s
+
+        bracketed_root(slope_at, np.zeros(cols.size), h, da, db, xtol=1e-9 * np.maximum(h, 1e-300), max_iter=10)
         return best
 
     def refine_min(R, T1, T2, d1, d2, cols, y_new=None):

@@ -17,29 +17,31 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .continuation import EquilibriumMap, Event, StableSegment, error_floor, relocate
-from .equilibria import Configuration, Equilibrium, GasChamber, PressureReservoir, zone_index_on_curve
+from .effects import Breakdown, GasChamber, PressureReservoir, PressureSource
+from .equilibria import Configuration, Equilibrium, zone_index_on_curve
 from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
-from .ramp import Ramp, RampResult, Transition, equal_free_energy
+from .numerics.roots import newton
+from .ramp import Ramp, RampResult, Transition, equal_free_energy, equal_free_energy_voltage
 from .scene import Scene
 from .settings import SolverSettings
 from .shooting import StateDerivatives, solve_states
 
-#: the pole-stretch range of the zone curves ends at this fraction of the Gent locking stretch
-LOCKING_MARGIN = 0.95
-#: upper end of the pole-stretch range for materials that do not lock (times the prestretch)
-NEO_HOOKEAN_STRETCH_MAX = 6.0
-#: voltages at which every configuration is searched for (first guesses, then the exact continuation)
-#: when the coexistence table is asked for; a stable piece narrower than the spacing and not reached
-#: from the ramp could be missed
-DISCOVERY_VOLTAGES = 13
+
+def pole_stretch_max(scene: Scene, settings: SolverSettings | None = None) -> float:
+    """Upper end of the zone curves of ``scene`` (:func:`stretch_range_end` of its material)."""
+    return stretch_range_end(scene.elasticity(), scene.prestretch, settings)
 
 
-def pole_stretch_max(scene: Scene) -> float:
-    """Upper end of the zone curves: short of Gent locking (equibiaxial ``2λ² + λ⁻⁴ − 3 = Jlim``)."""
-    if scene.material == "gent" and scene.jlim is not None:
-        return LOCKING_MARGIN * math.sqrt((scene.jlim + 3) / 2)
-    return NEO_HOOKEAN_STRETCH_MAX * scene.prestretch
+def stretch_range_end(elasticity, prestretch: float, settings: SolverSettings | None = None) -> float:
+    """Upper end of the pole stretches a zone is followed to: ``locking_margin`` times the material's
+    equibiaxial locking stretch (:attr:`~coexist.effects.Gent.locking_stretch`), or ``stretch_max_factor``
+    times the prestretch for a material that does not lock (:class:`~coexist.settings.SolverSettings`)."""
+    settings = settings or SolverSettings()
+    lock = elasticity.locking_stretch
+    if lock is not None:
+        return settings.locking_margin * lock
+    return settings.stretch_max_factor * prestretch
 
 
 def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float, float]:
@@ -48,7 +50,7 @@ def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float
     from .curves import pressure_volume_curve
 
     pre = model.prestretch
-    grid = pre * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(lam_max / pre - 1), 80) ** 2)
+    grid = pre * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(lam_max / pre - 1), settings.snap_grid_points) ** 2)
     curve = pressure_volume_curve(model, 0.0, grid, settings)
     maxima = [lp for lp in curve.limit_points if lp.kind == "pressure_max"]
     if maxima:
@@ -57,14 +59,15 @@ def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float
     return float(curve.states.p_hat[i]), float(curve.states.pole_stretch[i])
 
 
-def snap_through_pressure(scene: Scene) -> float:
+def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) -> float:
     """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``)."""
     from .effects import NoElectrostatics
     from .model import MembraneModel
 
     base = scene.model()
     model = MembraneModel(base.elasticity, NoElectrostatics(), base.prestretch)
-    return snap_through(model, scene.settings, pole_stretch_max(scene))[0]
+    settings = settings or SolverSettings()
+    return snap_through(model, settings, pole_stretch_max(scene, settings))[0]
 
 
 def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: float, lam_hi: float) -> float:
@@ -74,24 +77,20 @@ def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: flo
     s_lo = solve_states(model, [lo], 0.0, settings)
     if not (s_lo.ok[0] and s_lo.p_hat[0] <= p_hat):
         raise SceneError(f"p̂ = {p_hat:.6g} is below the smallest computed state (p̂ = {s_lo.p_hat[0]:.3g})", "pressure")
-    lam = lo + (hi - lo) * 0.5
-    for _ in range(60):
-        st = solve_states(model, [lam], 0.0, settings, derivatives=True)
+
+    def residual(x, _):
+        st = solve_states(model, x, 0.0, settings, derivatives=True)
         if not st.ok[0]:
-            raise SolverError(f"no valid state at pole stretch {lam:.8g} while solving for p̂ = {p_hat:.6g}")
-        f = st.p_hat[0] - p_hat
-        if f > 0:
-            hi = lam
-        else:
-            lo = lam
-        d = StateDerivatives.of(st).dp_dl0[0]
-        new = lam - f / d if d > 0 else 0.5 * (lo + hi)
-        if not lo < new < hi:
-            new = 0.5 * (lo + hi)
-        if abs(new - lam) <= 1e-14 * lam or hi - lo <= 1e-14 * lam:
-            return float(new)
-        lam = new
-    raise SolverError(f"the state at p̂ = {p_hat:.6g} did not converge")
+            raise SolverError(f"no valid state at pole stretch {x[0]:.8g} while solving for p̂ = {p_hat:.6g}")
+        slope = StateDerivatives.of(st).dp_dl0
+        return st.p_hat - p_hat, np.where(slope > 0, slope, np.nan)  # no rising slope: bisect the bracket
+
+    root = newton(
+        residual, 0.5 * (lo + hi), rtol=1e-14, lo=lo, hi=hi, sign_at_lo=-1.0, max_iter=60, stop_when_stalled=False
+    )
+    if not root.converged[0]:
+        raise SolverError(f"the state at p̂ = {p_hat:.6g} did not converge")
+    return float(root.x[0])
 
 
 @dataclass
@@ -99,12 +98,13 @@ class Simulation:
     """A scene made ready to solve: model, what holds the pressure, and the map of its stable states.
 
     Build it with :meth:`from_scene`. ``phi_window`` is the voltage range the map is traced over (the
-    scene's path, or a wider one for a fit).
+    scene's path, or a wider one for a fit); ``settings`` are the numerical choices of every solver.
     """
 
     scene: Scene
+    settings: SolverSettings
     model: MembraneModel
-    gas: GasChamber | PressureReservoir
+    gas: PressureSource
     closing_stretch: float
     p_hat_max: float
     lam_max: float
@@ -113,13 +113,25 @@ class Simulation:
     _start: StableSegment | None = field(default=None, repr=False)
 
     @classmethod
-    def from_scene(cls, scene: Scene, model=None, phi_window=None, snap=None) -> Simulation:
-        """Assemble a simulation. ``model`` and ``snap = (p̂max, λ0 at it)`` may be passed in when many
-        scenes share one material (a fit)."""
+    def from_scene(
+        cls, scene: Scene, settings: SolverSettings | None = None, model=None, phi_window=None, snap=None
+    ) -> Simulation:
+        """Assemble a simulation of ``scene`` solved with ``settings`` (default: :class:`SolverSettings`).
+
+        ``model`` and ``snap = (p̂max, λ0 at it)`` may be passed in when many scenes share one material
+        (a fit); ``phi_window`` widens the voltage range the map is traced over.
+
+        Raises
+        ------
+        SceneError
+            If the zones cannot hold the closing (or controlled) pressure, or the scene has neither a
+            chamber nor a controlled pressure (names the field).
+        """
+        settings = settings or SolverSettings()
         model = model if model is not None else scene.model()
-        lam_max = pole_stretch_max(scene)
+        lam_max = pole_stretch_max(scene, settings)
         if snap is None:  # at zero voltage a model with electrostatics gives the passive numbers (tested)
-            snap = snap_through(model, scene.settings, lam_max)
+            snap = snap_through(model, settings, lam_max)
         p_max, lam_at_max = snap
         if phi_window is None:
             path = scene.voltage_hat_path
@@ -146,12 +158,12 @@ class Simulation:
             )
         lam_lo = model.prestretch * (1 + 2e-3)
         try:
-            lam_c = state_at_pressure(model, p_close, scene.settings, lam_lo, lam_at_max)
+            lam_c = state_at_pressure(model, p_close, settings, lam_lo, lam_at_max)
         except SceneError as exc:
             raise SceneError(f"{exc.message}; raise it", field_name) from None
-        gas: GasChamber | PressureReservoir
+        gas: PressureSource
         if scene.chamber is not None:
-            v_c = float(solve_states(model, [lam_c], 0.0, scene.settings).v_hat[0])
+            v_c = float(solve_states(model, [lam_c], 0.0, settings).v_hat[0])
             gas = GasChamber.closed_at(
                 float(scene.v_hat(scene.chamber.volume)),
                 float(scene.p_hat(scene.chamber.atmospheric_pressure)),
@@ -160,9 +172,9 @@ class Simulation:
             )
         else:
             gas = PressureReservoir(p_close)
-        breakdown = None if scene.breakdown_field is None else scene.breakdown_field / scene.field_scale
-        emap = EquilibriumMap(model, gas, scene.zone_count, scene.settings, phi_window, breakdown)
-        return cls(scene, model, gas, lam_c, p_max, lam_max, tuple(phi_window), emap)
+        breakdown = None if scene.breakdown_field is None else Breakdown(scene.breakdown_field / scene.field_scale)
+        emap = EquilibriumMap(model, gas, scene.zone_count, settings, phi_window, breakdown)
+        return cls(scene, settings, model, gas, lam_c, p_max, lam_max, tuple(phi_window), emap)
 
     # ---------------------------------------------------------------------------------------------
     @property
@@ -183,9 +195,9 @@ class Simulation:
         if self.scene.voltage is None:
             raise SceneError("this scene has no [voltage]: nothing to ramp", "[voltage]")
         result = Ramp(self.emap, self.lam_max).run(self.scene.voltage_hat_path, self.start, progress)
-        if self.scene.settings.error_estimates:
+        if self.settings.error_estimates:
             self.measure_errors(result.transitions + result.equal_free_energy)
-        return RampReport(self.scene, result, self.gas, self.scene.effects(), dict(self.scene.fitted))
+        return RampReport(self.scene, self.settings, result, self.gas, self.scene.effects(), dict(self.scene.fitted))
 
     def branches(self, segments) -> list:
         """The whole branch of each segment's configuration through it (stable and unstable pieces, through
@@ -209,7 +221,7 @@ class Simulation:
             if t.kind == "equal_free_energy":
                 seg_a, seg_b = t.segments
                 crossing = _tight_crossing(t, seg_a, seg_b, tight_map)
-                floor = error_floor(t.phi_hat, self.scene.settings.rtol)
+                floor = error_floor(t.phi_hat, self.settings.rtol)
                 t.phi_hat_error = max(t.phi_hat_error, 0.0) + crossing + floor
                 t.measured = True
                 continue
@@ -223,7 +235,7 @@ class Simulation:
             t.measured = ev.measured
 
     def _tight_map(self) -> EquilibriumMap:
-        tight_settings = self.scene.settings.with_rtol(max(self.scene.settings.rtol / 100, 1e-13))
+        tight_settings = self.settings.with_rtol(max(self.settings.rtol / 100, 1e-13))
         return EquilibriumMap(
             self.model, self.gas, self.scene.zone_count, tight_settings, self.phi_window, self.emap.breakdown
         )
@@ -246,8 +258,9 @@ class Simulation:
                     self._measure_event(ev, seg.tracer.system.configuration.counts, tight_map)
 
     # ---------------------------------------------------------------------------------------------
-    def discover(self, bulged=None, voltages: int = DISCOVERY_VOLTAGES) -> None:
-        """Seed the map with every stable equilibrium found at ``voltages`` voltages across the window
+    def discover(self, bulged=None, voltages: int | None = None) -> None:
+        """Seed the map with every stable equilibrium found at ``voltages`` voltages (default: the settings'
+        ``discovery_voltages``) across the window
         (first guesses on zone curves shot at each voltage, then converged exactly; each new one is
         traced). Configurations: homogeneous and ``(N − k, k)`` for ``k`` in ``bulged``."""
         from .candidates import candidate_equilibria
@@ -255,9 +268,10 @@ class Simulation:
 
         lo, hi = self.phi_window
         pre = self.model.prestretch
-        u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), 200)
+        u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), self.settings.zone_curve_points)
+        voltages = voltages or self.settings.discovery_voltages
         phis = np.linspace(lo, hi, voltages) if hi > lo else np.array([lo])
-        st = solve_states(self.model, np.tile(pre + u**2, phis.size), np.repeat(phis, u.size), self.scene.settings)
+        st = solve_states(self.model, np.tile(pre + u**2, phis.size), np.repeat(phis, u.size), self.settings)
         n = u.size
         for i, phi in enumerate(phis):
             from .curves import _take
@@ -266,7 +280,9 @@ class Simulation:
                 curve = ZoneCurve.from_states(_take(st, slice(i * n, (i + 1) * n)), phi, pre)
             except ModelRangeError:
                 continue
-            for cand in candidate_equilibria(curve, self.gas, self.scene.zone_count, bulged):
+            for cand in candidate_equilibria(
+                curve, self.gas, self.scene.zone_count, bulged, self.settings.candidate_samples
+            ):
                 eq = converge_candidate(self.emap, cand, curve)
                 if eq is None:
                     continue
@@ -280,7 +296,7 @@ class Simulation:
     def equilibria_at(self, phi: float = 0.0, bulged=None) -> list[Equilibrium]:
         """Every equilibrium (stable or not) at one voltage on the scene's gas (:func:`equilibria_on_gas`)."""
         return equilibria_on_gas(
-            self.model, self.gas, self.scene.zone_count, phi, self.scene.settings, self.lam_max, bulged, self.emap
+            self.model, self.gas, self.scene.zone_count, phi, self.settings, self.lam_max, bulged, self.emap
         )
 
     def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
@@ -309,7 +325,7 @@ class Simulation:
                 for c in crossings
                 if "homogeneous" in (c.from_label, c.to_label) and {c.from_label, c.to_label} & labels
             ]
-            if self.scene.settings.error_estimates:
+            if self.settings.error_estimates:
                 self.measure_errors(crossings)
                 self.measure_segment_ends(segs)
             note = (
@@ -346,7 +362,7 @@ class Simulation:
                 source=end,
                 source_counts=start.tracer.system.configuration.counts,
             )
-            if self.scene.settings.error_estimates:
+            if self.settings.error_estimates:
                 self.measure_errors([t])
             return t
         if kind == "equal_free_energy":
@@ -376,7 +392,7 @@ class Simulation:
                     f"which {label} has the free energy of the homogeneous state",
                     "no_transition",
                 )
-            if self.scene.settings.error_estimates:
+            if self.settings.error_estimates:
                 self.measure_errors(found[:1])
             return found[0]
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
@@ -405,10 +421,10 @@ def equilibria_on_gas(
 
     emap = emap or EquilibriumMap(model, gas, zones, settings, (phi, phi))
     pre = model.prestretch
-    u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(lam_max - pre), 240)
+    u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(lam_max - pre), settings.zone_curve_points)
     curve = ZoneCurve.compute(model, phi, pre + u**2, settings)
     out: list[Equilibrium] = []
-    for cand in candidate_equilibria(curve, gas, zones, bulged):
+    for cand in candidate_equilibria(curve, gas, zones, bulged, settings.candidate_samples):
         eq = converge_candidate(emap, cand, curve)
         if eq is None:
             continue
@@ -433,7 +449,7 @@ def converge_candidate(emap: EquilibriumMap, cand, curve) -> Equilibrium | None:
     if not corr.ok[0] or np.any(np.diff(np.sort(corr.z[0, :M])) < 1e-6):
         return None
     eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
-    eq.zone_index = tuple(zone_index_on_curve(curve, x) for x in np.sort(corr.z[0, :M]))
+    eq.zone_index = tuple(zone_index_on_curve(curve, x, emap.settings) for x in np.sort(corr.z[0, :M]))
     return eq
 
 
@@ -449,24 +465,11 @@ def _tight_crossing(t: Transition, A: StableSegment, B: StableSegment, tight_map
             raise SolverError(f"{seg.label}: no state at Φ̂ = {phi:.10g} at the tighter tolerance")
         return make_equilibrium(tr.system, corr.res, corr.rows[0])
 
-    phi = t.phi_hat
     lo = max(A.phi_range[0], B.phi_range[0])
     hi = min(A.phi_range[1], B.phi_range[1])
-    tol = 100 * tight_map.settings.rtol * max(abs(phi), 1e-3)
-    prev = np.inf
-    for _ in range(8):
-        ea, eb = tight_state(A, phi), tight_state(B, phi)
-        slope = -(ea.total_charge - eb.total_charge)
-        step = -(ea.free_energy - eb.free_energy) / slope
-        if not (np.isfinite(step) and lo <= phi + step <= hi):
-            raise SolverError(
-                f"equal free energy of {A.label} and {B.label}: the tighter solve left their "
-                f"common range near Φ̂ = {t.phi_hat:.10g}"
-            )
-        if abs(step) <= tol or abs(step) >= 0.5 * prev:
-            break
-        prev = abs(step)
-        phi += step
+    phi, step, _, _ = equal_free_energy_voltage(
+        lambda x: tight_state(A, x), lambda x: tight_state(B, x), t.phi_hat, lo, hi, tight_map.settings
+    )
     # twice the change (the tighter value has noise of its own), and the last step, which the tight
     # states still leave open
     return 2 * abs(phi - t.phi_hat) + abs(step)
@@ -488,6 +491,7 @@ class RampReport:
     """A ramp in physical units, ready for tables, JSON and figures."""
 
     scene: Scene
+    settings: SolverSettings
     result: RampResult
     gas: object
     effects: list
@@ -556,7 +560,7 @@ class RampReport:
             "scene": self.scene.to_dict(),
             "effects": self.effects,
             "fitted_parameters": self.fitted,
-            "relative_tolerance": self.scene.settings.rtol,
+            "relative_tolerance": self.settings.rtol,
             "gas_amount_hat": getattr(self.gas, "gas_amount", None),
             "steps": steps,
             "transitions": [self.transition_dict(t) for t in self.result.transitions + self.result.equal_free_energy],
@@ -564,6 +568,6 @@ class RampReport:
         }
 
 
-def simulate_ramp(scene: Scene, progress=None) -> RampReport:
+def simulate_ramp(scene: Scene, settings: SolverSettings | None = None, progress=None) -> RampReport:
     """Run the scene's voltage path through the whole pipeline (a convenience for ``Simulation``)."""
-    return Simulation.from_scene(scene).ramp(progress)
+    return Simulation.from_scene(scene, settings).ramp(progress)

@@ -15,56 +15,13 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.interpolate import CubicSpline, PPoly
-from scipy.optimize import brentq
 
 from .errors import ModelRangeError
 from .model import MembraneModel
+from .numerics.roots import bracketed_root
+from .numerics.splines import interpolating_cubics
 from .settings import SolverSettings
 from .shooting import first_valid_run, reason_tag, reason_text, solve_states
-
-
-class FastCubic:
-    """A scipy cubic spline (``PPoly``) with a lean evaluator for the many small calls of the solvers.
-
-    ``scipy``'s ``PPoly.__call__`` costs about 12 µs of overhead per call; this one evaluates the same
-    polynomial pieces (Horner form, end pieces extrapolated as scipy does) with a handful of numpy
-    operations. ``x`` and ``c`` are the breakpoints and coefficients, as in ``PPoly``.
-    """
-
-    def __init__(self, ppoly):
-        self.ppoly = ppoly
-        self.x = ppoly.x
-        self.c = ppoly.c
-        c = np.vstack([np.zeros((4 - ppoly.c.shape[0], ppoly.c.shape[1])), ppoly.c])  # degree <= 3
-        self._c0, self._c1, self._c2, self._c3 = (np.ascontiguousarray(r) for r in c)
-        self._last = self.x.size - 2
-
-    def __call__(self, u):
-        i = np.minimum(np.maximum(self.x.searchsorted(u, "right") - 1, 0), self._last)
-        d = u - self.x[i]
-        return ((self._c0[i] * d + self._c1[i]) * d + self._c2[i]) * d + self._c3[i]
-
-    def derivative(self):
-        return FastCubic(self.ppoly.derivative())
-
-    def roots(self, extrapolate=False):
-        return self.ppoly.roots(extrapolate=extrapolate)
-
-
-_BASES: dict = {}
-
-
-def _spline_basis(x):
-    """Coefficients (4, n−1, n) of the not-a-knot cubic splines through the unit vectors on grid ``x``."""
-    key = (x.size, float(x[0]), float(x[-1]), hash(x.tobytes()))
-    basis = _BASES.get(key)
-    if basis is None:
-        basis = CubicSpline(x, np.eye(x.size)).c
-        if len(_BASES) > 256:
-            _BASES.clear()
-        _BASES[key] = basis
-    return basis
 
 
 @dataclass(frozen=True)
@@ -113,11 +70,7 @@ class ZoneCurve:
         self.pole_stretch = l0
         # not-a-knot spline coefficients are linear in the data: one basis per grid, reused by every
         # curve on that grid (the voltage family shares its grid), then one product per quantity
-        basis = _spline_basis(x)
-        coef = np.tensordot(basis, np.column_stack([p_hat, v_hat, psi_hat]), axes=1)  # (4, n-1, 3)
-        self.p, self.v, self.psi = (
-            FastCubic(PPoly.construct_fast(np.ascontiguousarray(coef[:, :, j]), x)) for j in range(3)
-        )
+        self.p, self.v, self.psi = interpolating_cubics(x, np.column_stack([p_hat, v_hat, psi_hat]))
         self._q_values = np.asarray(q_hat, dtype=float)
         self._q = None
         self.dp = self.p.derivative()
@@ -129,7 +82,7 @@ class ZoneCurve:
     def q(self):
         """Spline of ``Q̂`` (built on first use: most solvers never need the charge)."""
         if self._q is None:
-            self._q = FastCubic(CubicSpline(self.grid, self._q_values))
+            (self._q,) = interpolating_cubics(self.grid, self._q_values[:, None])
         return self._q
 
     def to_u(self, pole_stretch):
@@ -211,17 +164,29 @@ class ZoneCurve:
         """Pole stretches of the pressure maxima and minima (spline roots of ``dp̂/dλ0``)."""
         return self._critical(self.p)
 
-    def stretch_at_pressure(self, branch: Branch, p_hat: float) -> float:
-        """The ``u`` on ``branch`` where ``p̂(u) = p_hat`` (spline inverse by Brent's method)."""
-        f = lambda x: float(self.p(x)) - p_hat  # noqa: E731
-        fa, fb = f(branch.start), f(branch.stop)
-        if fa == 0:
-            return branch.start
-        if fb == 0:
-            return branch.stop
-        if fa * fb > 0:
+    def stretch_at_pressure(self, branch: Branch, p_hat):
+        """The ``u`` on ``branch`` where ``p̂(u) = p_hat`` (a float, or an array for an array of pressures): the
+        spline inverted by :func:`~coexist.numerics.roots.bracketed_root`, all pressures at once.
+
+        Raises
+        ------
+        ValueError
+            If a pressure lies outside the branch's range.
+        """
+        P = np.atleast_1d(np.asarray(p_hat, dtype=float))
+        fa, fb = float(self.p(branch.start)) - P, float(self.p(branch.stop)) - P
+        if np.any(fa * fb > 0):
             raise ValueError("pressure outside the branch")
-        return brentq(f, branch.start, branch.stop, xtol=1e-14, rtol=1e-15, maxiter=200)
+        root = bracketed_root(
+            lambda x, idx: self.p(x) - P[idx],
+            branch.start,
+            np.full(P.size, branch.stop),
+            fa,
+            fb,
+            xtol=1e-14,
+            rtol=1e-15,
+        )
+        return float(root.x[0]) if np.ndim(p_hat) == 0 else root.x
 
     def interpolation_error(self, model: MembraneModel, settings: SolverSettings | None = None) -> dict:
         """Largest error of the splines at the grid mid-points against fresh shooting, relative to

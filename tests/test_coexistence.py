@@ -8,6 +8,7 @@ from scipy.integrate import quad
 from scipy.optimize import brentq
 
 from coexist.coexistence import MaxwellSolver, maxwell_coexistence, phase_diagram
+from coexist.continuation import EquilibriumMap
 from coexist.errors import ModelRangeError
 from coexist.model import build_model
 from coexist.scene import load_scene
@@ -85,7 +86,7 @@ def test_two_interconnected_balloons():
     unstable beyond it, where one balloon grows at the other's expense in a stable asymmetric state.
     Every equilibrium is converged on the exact equations (Simulation.equilibria_at)."""
     from coexist.curves import pressure_volume_curve
-    from coexist.equilibria import GasChamber
+    from coexist.effects import GasChamber
     from coexist.shooting import solve_states
 
     base = load_scene("two-balloons")
@@ -99,16 +100,8 @@ def test_two_interconnected_balloons():
     gas = GasChamber.closed_at(
         base.chamber_volume_hat, base.atmospheric_pressure_hat, float(past.p_hat[0]), 2 * float(past.v_hat[0])
     )
-    filled = Simulation(
-        base,
-        sim.model,
-        gas,
-        lp.pole_stretch * 1.05,
-        sim.p_hat_max,
-        sim.lam_max,
-        sim.phi_window,
-        type(sim.emap)(sim.model, gas, 2, base.settings, sim.phi_window),
-    )
+    emap = EquilibriumMap(sim.model, gas, 2, sim.settings, sim.phi_window)
+    filled = replace(sim, gas=gas, closing_stretch=lp.pole_stretch * 1.05, emap=emap)
     eqs = filled.equilibria_at(0.0)
     sym = [e for e in eqs if e.k == 0 and abs(e.pole_stretch[0] - lp.pole_stretch * 1.05) < 1e-6]
     assert len(sym) == 1 and not sym[0].stable
@@ -173,7 +166,7 @@ def test_pressure_control_equal_free_energy_is_the_maxwell_voltage():
     which one bulged zone has the free energy of none (the coexistence table, on exact states) must be
     where the CasADi Maxwell construction on the single-zone curve gives exactly the controlled
     pressure: two independent routes to one number (to the Maxwell solver's spline error)."""
-    from coexist.equilibria import PressureReservoir
+    from coexist.effects import PressureReservoir
     from coexist.scene import parse_scene
 
     text = (

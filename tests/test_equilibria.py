@@ -5,15 +5,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from coexist.equilibria import (
-    Configuration,
-    GasChamber,
-    GroupSystem,
-    PressureReservoir,
-    hessian_eigenvalues,
-    merged,
-    two_group,
-)
+from coexist.effects import GasChamber, PressureReservoir
+from coexist.equilibria import Configuration, GroupSystem, hessian_eigenvalues, merged, two_group
 from coexist.errors import SceneError
 from coexist.model import build_model
 from coexist.settings import SolverSettings

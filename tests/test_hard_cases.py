@@ -28,7 +28,7 @@ from scipy.optimize import brentq
 
 from coexist.coexistence import maxwell_coexistence, phase_diagram
 from coexist.curves import pressure_volume_curve, voltage_at_pressure, voltage_charge_curve
-from coexist.equilibria import GasChamber, PressureReservoir
+from coexist.effects import GasChamber, PressureReservoir
 from coexist.errors import CoexistError, ModelRangeError, SceneError
 from coexist.model import QUADRATURE_FACTORS, build_model
 from coexist.scene import parse_scene

@@ -26,7 +26,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 from scipy.optimize import brentq
 
-from coexist.equilibria import GasChamber
+from coexist.effects import GasChamber
 from coexist.errors import ModelRangeError
 from coexist.model import build_model
 from coexist.settings import SolverSettings

@@ -6,13 +6,13 @@ Scenes are variations of the built-in ``tricircle`` (its fitted zone radius, Gen
 """
 
 import re
-from dataclasses import replace
 
 import numpy as np
 import pytest
 from scipy.optimize import brentq, root
 
 from coexist.scene import builtin_scene_text, load_scene, parse_scene
+from coexist.settings import SolverSettings
 from coexist.shooting import solve_states
 from coexist.simulation import Simulation
 
@@ -98,8 +98,7 @@ def test_error_estimate_is_honest(tricircle):
     """Each transition at the default rtol lies within its stated error of the same transition at
     rtol 1e-12 (computed afresh: a different continuation, different points, different steps)."""
     scene, _, report = tricircle
-    tight_scene = replace(scene, settings=replace(scene.settings, rtol=1e-12, error_estimates=False))
-    tight = Simulation.from_scene(tight_scene).ramp()
+    tight = Simulation.from_scene(scene, SolverSettings(rtol=1e-12, error_estimates=False)).ramp()
     a, b = transitions(report), transitions(tight)
     assert set(a) == set(b)
     for key, (kv, err) in a.items():
@@ -186,7 +185,7 @@ def test_no_state_with_an_unstable_zone_is_called_stable(two_zones):
         seen.add((st.label, round(s.phi_hat, 9)))
         assert st.stable and st.min_eigenvalue > 0
         for lam in st.pole_stretch:
-            assert zone_index(sim.model, np.sqrt(lam - 1), st.phi_hat, sim.scene.settings) == 0
+            assert zone_index(sim.model, np.sqrt(lam - 1), st.phi_hat, sim.settings) == 0
 
 
 def test_small_chamber_two_bulged_zones_are_not_stable():
@@ -205,7 +204,7 @@ def _independent_equal_free_energy(sim, t):
     """The equal-free-energy voltage of ``t`` from scratch: at each Φ̂ the homogeneous and the
     one-bulged states are solved with scipy (brentq, hybr root) on freshly shot states, and ``ΔĜ`` is
     bracketed by brentq; nothing of the continuation, its Newton or its residuals is used."""
-    model, gas, settings = sim.model, sim.gas, sim.scene.settings.with_rtol(1e-12)
+    model, gas, settings = sim.model, sim.gas, sim.settings.with_rtol(1e-12)
     hom, mix = (t.state_before, t.state_after) if t.from_label == "homogeneous" else (t.state_after, t.state_before)
 
     def shoot(lam, phi):

@@ -59,7 +59,6 @@ def test_three_line_scene_takes_documented_defaults():
     assert (scene.shear_modulus, scene.relative_permittivity, scene.prestretch) == (45e3, 4.7, 1.0)
     assert scene.zone_radius == pytest.approx(0.01) and scene.zone_count == 1
     assert scene.chamber is None and scene.voltage is None and scene.breakdown_field is None
-    assert scene.settings.rtol == 1e-10
     assert scene.effects() == ["elasticity:neo-hookean", "pressure-control"]
     assert parse_scene("").zone_radius == pytest.approx(0.01)
 
@@ -69,7 +68,7 @@ def test_three_line_scene_runs():
     from coexist.curves import pressure_volume_curve
 
     scene = parse_scene(THREE_LINES + "[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 30\n")
-    curve = pressure_volume_curve(scene.model(), 0.0, np.linspace(1.01, 3.0, 30), scene.settings)
+    curve = pressure_volume_curve(scene.model(), 0.0, np.linspace(1.01, 3.0, 30))
     p_max = curve.limit_points[0].p_hat
     assert p_max == pytest.approx(1.8792, abs=1e-4)
     scene.check_closing_pressure(p_max)
@@ -107,7 +106,7 @@ def test_normalisation_follows_the_seed():
     assert groups["chamber_volume_hat"] == pytest.approx(300e-6 / A**3)
     assert groups["atmospheric_pressure_hat"] == pytest.approx(101_325.0 / scene.pressure_scale)
     # the gas closed with 2.5 A³ in the zones: NkT = (Vc + ΣV)(Patm + p), in units of μHA²
-    from coexist.equilibria import GasChamber
+    from coexist.effects import GasChamber
 
     gas = GasChamber.closed_at(
         groups["chamber_volume_hat"], groups["atmospheric_pressure_hat"], groups["closing_pressure_hat"], 2.5
@@ -158,12 +157,16 @@ def test_units_convert_to_si():
     assert scene.chamber.atmospheric_pressure == 1e5
 
 
-def test_fitted_notes_and_solver_settings_carry_through():
-    scene = parse_scene('[fitted]\nzone_radius = "fitted to 4.0 kV"\nwhen = 2024-05-01\n[solver]\naccuracy = "draft"\n')
+def test_fitted_notes_carry_through_and_a_scene_holds_no_solver_settings():
+    """Notes of fitted parameters pass unchanged; a [solver] section is refused with the way to set the
+    tolerance (a choice of the run, not of the experiment)."""
+    scene = parse_scene('[fitted]\nzone_radius = "fitted to 4.0 kV"\nwhen = 2024-05-01\n')
     assert scene.fitted == {"zone_radius": "fitted to 4.0 kV", "when": datetime.date(2024, 5, 1)}
     assert scene.to_dict()["fitted"]["when"] == "2024-05-01"
-    assert scene.settings.rtol == 1e-6
-    assert parse_scene("[solver]\nrtol = 1e-8\n").settings.rtol == 1e-8
+    assert "solver" not in scene.to_dict() and not hasattr(scene, "settings")
+    with pytest.raises(SceneError, match="--rtol") as info:
+        parse_scene('[solver]\naccuracy = "draft"\n')
+    assert info.value.field == "[solver]"
 
 
 # --- validation: every bad input names its field ---------------------------------------------------
@@ -230,10 +233,7 @@ BAD = [
     ("[voltage]\nvalues_kV = 3", "[voltage].values_kV", "list"),
     ("[voltage]\nvalues_kV = [1]\nstop_kV = 2", "[voltage].stop_kV", "not both"),
     ("[voltage]\nvalues_volts = [1]", "[voltage].values_volts", "unknown unit"),
-    ('[solver]\naccuracy = "medium"', "[solver].accuracy", "draft"),
-    ("[solver]\naccuracy = true", "[solver].accuracy", "number"),
-    ("[solver]\nrtol = 1", "[solver].rtol", "tolerance"),
-    ('[solver]\nrtol = 1e-8\naccuracy = "high"', "[solver].rtol", "not both"),
+    ("[solver]\nrtol = 1e-8", "[solver]", "--accuracy"),
 ]
 
 
@@ -385,8 +385,6 @@ _GOOD = {
     "stop": 5,
     "step": 0.5,
     "values": [0, 1, 2],
-    "accuracy": "draft",
-    "rtol": 1e-8,
     "pressure": 15,
 }
 #: keys that make a consistent section, where not any subset does
@@ -398,7 +396,6 @@ _NAMES = {
         [["volume", "closing_pressure"], ["volume", "closing_pressure", "atmospheric_pressure"]]
     ),
     "voltage": st.sampled_from([["values"], ["stop"], ["start", "stop"], ["stop", "step"], ["start", "stop", "step"]]),
-    "solver": st.sampled_from([[], ["accuracy"], ["rtol"]]),
 }
 _MUTATIONS = [
     "value",

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import accuracy_option, info, library_errors, load_scene_arg, parse_floats, scene_with_settings, write_json
+from .common import accuracy_option, info, library_errors, load_scene_arg, parse_floats, settings_from, write_json
 from .ramp import format_voltage
 
 #: with more zones than this, the configurations to list must be named with --bulged (each is a continuation)
@@ -35,7 +35,8 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
 
     from .common import InputError
 
-    sc = scene_with_settings(load_scene_arg(scene), accuracy, rtol)
+    sc = load_scene_arg(scene)
+    settings = settings_from(accuracy, rtol)
     N = sc.zone_count
     ks = None
     if bulged is not None:
@@ -48,7 +49,7 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
             f"(e.g. --bulged 1,2): each is a continuation of its own"
         )
     info("tracing the stable states of each configuration ...")
-    sim = Simulation.from_scene(sc)
+    sim = Simulation.from_scene(sc, settings)
     if sc.voltage is None:
         _without_voltage(sc, sim, as_json, ks)
         return
@@ -94,7 +95,7 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
             }
         )
     if as_json:
-        write_json({"scene": sc.to_dict(), "relative_tolerance": sc.settings.rtol, "configurations": out})
+        write_json({"scene": sc.to_dict(), "relative_tolerance": sim.settings.rtol, "configurations": out})
         return
     for o in out:
         click.echo(f"{o['bulged_zones']} of {o['zones']} bulged:")
@@ -116,7 +117,7 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
                 f"(λ0 {e['bulged_pole_stretch']:.4f})"
             )
     click.echo(
-        f"(exact equilibria, solver rtol {sc.settings.rtol:.0e}; errors measured by locating each "
+        f"(exact equilibria, solver rtol {sim.settings.rtol:.0e}; errors measured by locating each "
         "voltage again at rtol/100)"
     )
 
@@ -139,7 +140,7 @@ def _without_voltage(sc, sim, as_json, ks):
         for e in eqs
     ]
     if as_json:
-        write_json({"scene": sc.to_dict(), "relative_tolerance": sc.settings.rtol, "equilibria_at_0V": out})
+        write_json({"scene": sc.to_dict(), "relative_tolerance": sim.settings.rtol, "equilibria_at_0V": out})
         return
     click.echo(f"{sc.name}: no voltage; the equilibria of {sc.zone_count} zones on the closed gas:")
     for o in out:
@@ -148,4 +149,4 @@ def _without_voltage(sc, sim, as_json, ks):
             f"  {o['configuration']:<16} {'stable' if o['stable'] else 'unstable':<9} "
             f"{o['pressure_mbar']:.4f} mbar  volumes {vols} ml"
         )
-    click.echo(f"(states converged on the exact equations, rtol {sc.settings.rtol:.0e})")
+    click.echo(f"(states converged on the exact equations, rtol {sim.settings.rtol:.0e})")

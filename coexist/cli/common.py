@@ -109,15 +109,6 @@ def load_scene_arg(scene):
         raise InputError(f"{scene or 'default scene'}: {exc}") from None
 
 
-def scene_with_settings(scene, accuracy, rtol):
-    """The scene with the command line's accuracy, if one was given explicitly."""
-    from dataclasses import replace
-
-    if rtol is None and accuracy == "default":
-        return scene
-    return replace(scene, settings=settings_from(accuracy, rtol))
-
-
 def stderr_progress(length, label):
     """A click progress bar on stderr."""
     import sys

@@ -116,7 +116,7 @@ def curves(
         plot_curves(pv, vq, plot_path, title=_title(model))
         info(f"wrote {plot_path}")
     if csv_path is not None:
-        from coexist.results import curves_csv
+        from coexist.curves import curves_csv
 
         text = curves_csv(pv + vq)
         if csv_file is None:

@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import click
 
-from .common import InputError, accuracy_option, info, library_errors, load_scene_arg, scene_with_settings, write_json
+from .common import InputError, accuracy_option, info, library_errors, load_scene_arg, settings_from, write_json
 from .ramp import format_voltage
 
 
@@ -42,14 +42,15 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
 
     if not target_kv > 0:
         raise InputError(f"--transition-kV: must be positive, got {target_kv:g}")
-    sc = scene_with_settings(load_scene_arg(scene), accuracy, rtol)
+    sc = load_scene_arg(scene)
+    settings = settings_from(accuracy, rtol)
     if sc.chamber is None or sc.voltage is None:
         raise InputError(f"{sc.name}: fitting needs a scene with [chamber] and [voltage]")
     info("fitting the zone radius on the exact equilibria ...")
-    shared = Shared.of(sc)
+    shared = Shared.of(sc, settings)
     radius = fit_zone_radius(sc, target_kv * 1e3, kind, shared)
     fitted = replace(sc, zone_radius=radius)
-    check, err = transition_voltage(fitted, kind, shared, measure=sc.settings.error_estimates)
+    check, err = transition_voltage(fitted, kind, shared, measure=settings.error_estimates)
     rows = []
     if not no_sensitivity:
         info("sensitivity (each input moved by ±1 %) ...")
@@ -62,7 +63,7 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
         "transition_kV_at_fit": check / 1e3,
         "transition_error_kV": err / 1e3,
         "sensitivity": rows,
-        "relative_tolerance": sc.settings.rtol,
+        "relative_tolerance": settings.rtol,
     }
     if as_json:
         write_json(data)
@@ -81,4 +82,4 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
         e = "-" if r["equal_free_energy"] is None else f"{r['equal_free_energy']:.4f}"
         click.echo(f"{r['parameter']:<24}{v:>12}{s:>14}{e:>14}")
     click.echo("('-': no stable start, the zones cannot hold the closing pressure, or no transition in range)")
-    click.echo(f"(exact equilibria, solver rtol {sc.settings.rtol:.0e})")
+    click.echo(f"(exact equilibria, solver rtol {settings.rtol:.0e})")

@@ -32,12 +32,12 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     """The (Φ̂, p̂) phase diagram of one clamped zone under pressure control: where bulged and unbulged
     states coexist (binodal, equal free energy), where each stops being stable (spinodals), and the
     critical point where they merge."""
-    import math
-
     import numpy as np
 
+    from coexist.coexistence import CRITICAL_XTOL
     from coexist.coexistence import phase_diagram as compute
     from coexist.model import build_model
+    from coexist.simulation import stretch_range_end
 
     settings = settings_from(accuracy, rtol)
     if scene is None and material is None:
@@ -52,7 +52,7 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
         raise InputError(f"--jlim: must be positive, got {jlim:g}")
     gent = material.strip().lower() == "gent"
     model = build_model(material, jlim=jlim if gent else None, prestretch=prestretch)
-    lmax = 0.95 * math.sqrt((jlim + 3) / 2) if gent else 6.0 * prestretch
+    lmax = stretch_range_end(model.elasticity, prestretch, settings)
     plot_path = check_output_path(plot, overwrite, "--plot")
     info(f"{points} voltages ...")
     d = compute(model, np.linspace(lo, hi, points), lmax, settings)
@@ -80,6 +80,6 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     for n in d.notes:
         click.echo(f"note: {n}")
     click.echo(
-        f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {128} shot states per voltage, "
-        "critical voltage bisected to 1e-8)"
+        f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {settings.phase_diagram_points} shot "
+        f"states per voltage, critical voltage bisected to {CRITICAL_XTOL:g})"
     )

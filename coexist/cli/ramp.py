@@ -10,7 +10,7 @@ from .common import (
     info,
     library_errors,
     load_scene_arg,
-    scene_with_settings,
+    settings_from,
     stderr_progress,
     write_json,
 )
@@ -47,12 +47,13 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
     """
     from coexist.simulation import Simulation
 
-    sc = scene_with_settings(load_scene_arg(scene), accuracy, rtol)
+    sc = load_scene_arg(scene)
+    settings = settings_from(accuracy, rtol)
     plot_path = check_output_path(plot, overwrite, "--plot")
     states_path = check_output_path(states_plot, overwrite, "--states-plot")
     info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
     info("following the stable states along the voltage path ...")
-    sim = Simulation.from_scene(sc)
+    sim = Simulation.from_scene(sc, settings)
     n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
     with stderr_progress(n, "ramp") as bar:
         report = sim.ramp(progress=lambda i: bar.update(1))
@@ -88,8 +89,8 @@ def _states_figure(report, sim, path):
             import numpy as np
 
             pre = sim.model.prestretch
-            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(sim.lam_max - pre), 240)
-            curve = ZoneCurve.compute(sim.model, s.phi_hat, pre + u**2, sim.scene.settings)
+            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(sim.lam_max - pre), sim.settings.zone_curve_points)
+            curve = ZoneCurve.compute(sim.model, s.phi_hat, pre + u**2, sim.settings)
             kv = report.voltage_kV(s.phi_hat)
             plot_coexisting_states(
                 curve,

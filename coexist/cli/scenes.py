@@ -119,7 +119,6 @@ def _print_scene(scene):
             else f"{len(v.values)} values up to {v.peak / 1e3:g} kV"
         )
         click.echo(f"voltage: {path} ({len(v.values)} points)")
-    click.echo(f"solver: relative tolerance {scene.settings.rtol:g}")
     click.echo(f"effects: {', '.join(scene.effects())}")
     click.echo("dimensionless groups:")
     groups = scene.dimensionless_groups()

@@ -23,10 +23,11 @@ _BINARY = {
     ca.OP_FMIN: "_np.minimum({0}, {1})",
     ca.OP_FMAX: "_np.maximum({0}, {1})",
     ca.OP_ATAN2: "_np.arctan2({0}, {1})",
-    ca.OP_LT: "({0} < {1})",
-    ca.OP_LE: "({0} <= {1})",
-    ca.OP_EQ: "({0} == {1})",
-    ca.OP_NE: "({0} != {1})",
+    # comparisons are 0.0 or 1.0 in CasADi: numpy booleans would add as `or` (True + True == True)
+    ca.OP_LT: "1.0 * ({0} < {1})",
+    ca.OP_LE: "1.0 * ({0} <= {1})",
+    ca.OP_EQ: "1.0 * ({0} == {1})",
+    ca.OP_NE: "1.0 * ({0} != {1})",
     ca.OP_COPYSIGN: "_np.copysign({0}, {1})",
     ca.OP_HYPOT: "_np.hypot({0}, {1})",
     ca.OP_IF_ELSE_ZERO: "_np.where({0}, {1}, 0.0)",
@@ -48,6 +49,16 @@ _UNARY = {
     ca.OP_TANH: "_np.tanh({0})",
     ca.OP_ASSIGN: "{0}",
 }
+#: CasADi's operation codes by name, for error messages
+_OP_NAMES = {getattr(ca, n): n for n in dir(ca) if n.startswith("OP_")}
+
+
+def _literal(value: float) -> str:
+    """A float constant as Python source: ``inf`` and ``nan`` through numpy, negatives in parentheses
+    (``(-2.0) ** x``, not ``-(2.0 ** x)``)."""
+    if not np.isfinite(value):
+        return "_np.nan" if np.isnan(value) else ("_np.inf" if value > 0 else "(-_np.inf)")
+    return f"({value!r})" if np.signbit(value) else repr(value)
 
 
 def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) -> str:
@@ -68,11 +79,14 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
     args = [f"i{i}" for i in range(fun.n_in())]
     body = []
     slot: dict = {}  # CasADi work slot -> ("const", value) or ("var", name)
-    outputs = ["0.0"] * fun.n_out()
+    outputs = [("const", 0.0)] * fun.n_out()
+
+    def source(entry):
+        kind, value = entry
+        return _literal(value) if kind == "const" else value
 
     def ref(k):
-        kind, value = slot[k]
-        return repr(value) if kind == "const" else value
+        return source(slot[k])
 
     for k in range(fun.n_instructions()):
         op = fun.instruction_id(k)
@@ -82,7 +96,7 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
             slot[outs[0]] = ("var", f"i{ins[0]}")
             continue
         if op == ca.OP_OUTPUT:
-            outputs[outs[0]] = ref(ins[0])
+            outputs[outs[0]] = slot[ins[0]]
             continue
         if op == ca.OP_CONST:
             slot[outs[0]] = ("const", float(fun.instruction_constant(k)))
@@ -90,7 +104,7 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
         if op == ca.OP_ASSIGN:
             slot[outs[0]] = slot[ins[0]]
             continue
-        operands = [slot[i] for i in ins[: 2 if op in _BINARY else 1]]
+        operands = [slot[i] for i in ins]  # one input for a unary operation, two for a binary one
         if all(kind == "const" for kind, _ in operands):
             # fold constants at generation time with CasADi's own arithmetic
             slot[outs[0]] = ("const", _fold(op, [v for _, v in operands]))
@@ -102,22 +116,24 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
             slot[outs[0]] = operands[1] if operands[0] == ("const", 0.0) else operands[0]
             continue
         var = f"v{k}"
-        template = _BINARY[op] if op in _BINARY else _UNARY.get(op)
+        template = (_BINARY if len(ins) == 2 else _UNARY).get(op)
         if template is None:
-            raise NotImplementedError(f"CasADi operation {op} has no numpy translation")
-        body.append(f"    {var} = " + template.format(*[ref(i) for i in ins[: 2 if op in _BINARY else 1]]))
+            raise NotImplementedError(
+                f"CasADi operation {_OP_NAMES.get(op, op)} in {fun.name()} has no numpy translation"
+            )
+        body.append(f"    {var} = " + template.format(*[ref(i) for i in ins]))
         slot[outs[0]] = ("var", var)
     if into:
         # write output k into row k of a caller's array (no temporaries for the result)
         lines = [f"def {name}({', '.join(args)}, out):"] + body
-        lines += [f"    out[{k}] = {o}" for k, o in enumerate(outputs)]
+        lines += [f"    out[{k}] = {source(o)}" for k, o in enumerate(outputs)]
         lines.append("    return out")
         return "\n".join(lines) + "\n"
     # an output that is a constant (an effect switched off) still gets the broadcast shape of the inputs
     zeros = f"_np.zeros_like({' + '.join(args)}, dtype=float)" if args else "0.0"
-    outputs = [o if o.startswith(("v", "i")) else f"{o} + {zeros}" for o in outputs]
+    returned = [f"{source(o)} + {zeros}" if o[0] == "const" else source(o) for o in outputs]
     lines = [f"def {name}({', '.join(args)}):"] + body
-    lines.append("    return (" + "".join(f"{o}, " for o in outputs) + ")")
+    lines.append("    return (" + "".join(f"{o}, " for o in returned) + ")")
     return "\n".join(lines) + "\n"
 
 

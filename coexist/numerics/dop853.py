@@ -249,7 +249,6 @@ def integrate(fun, t0, y0, t_end, rtol, atol, max_steps, event=None, h0=None):
         accepted = (err <= 1.0) & finite
         grow = _SAFETY * np.where(err > 0, err, 1.0) ** _ERROR_EXPONENT
         factor = np.where(err == 0, _MAX_FACTOR, np.minimum(np.maximum(grow, _MIN_FACTOR), _MAX_FACTOR))
-        factor = np.where(accepted, factor, np.minimum(1.0, factor))
         factor = np.where(finite, factor, 0.25)
         steps[active] += 1
         h[active] = ha * factor

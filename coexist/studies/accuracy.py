@@ -36,7 +36,6 @@ Everything returned is a plain dataclass with a ``to_dict()`` for JSON.
 from __future__ import annotations
 
 import dataclasses
-import inspect
 import math
 import time
 from collections.abc import Callable
@@ -49,8 +48,6 @@ from ..settings import SolverSettings
 
 #: the project's default tolerance (``SolverSettings()``)
 DEFAULT_RTOL = SolverSettings().rtol
-#: points of a default ``p̂–V̂`` curve (``pressure_volume_curve`` without ``pole_stretch``)
-DEFAULT_CURVE_POINTS = 200
 #: tightest tolerance the project accepts is 1e-14; references use this one
 REFERENCE_RTOL = 1e-13
 #: study 1: voltage and pole-stretch range of the curve (the ``curves`` command's default range)
@@ -69,18 +66,10 @@ TIME_NOISE_FACTOR = 1.5
 ROUNDOFF = 1e-15
 
 
-def _default_of(func, name):
-    return inspect.signature(func).parameters[name].default
-
-
 def _defaults():
-    """The project's default sampling, read from the library so the study follows any change."""
-    from ..coexistence import phase_diagram
-
-    return {
-        "curve_points": DEFAULT_CURVE_POINTS,
-        "spline_points": int(_default_of(phase_diagram, "points")),
-    }
+    """The project's default sampling, read from :class:`SolverSettings` so the study follows any change."""
+    defaults = SolverSettings()
+    return {"curve_points": defaults.curve_points, "spline_points": defaults.phase_diagram_points}
 
 
 # --- results -------------------------------------------------------------------------------------
@@ -460,7 +449,7 @@ def maxwell_pressure_study(
     def compute(rtol, n):
         u = np.linspace(STUDY2_U_MIN, u_max, int(n))
         curve = ZoneCurve.compute(model, STUDY2_PHI_HAT, 1 + u**2, SolverSettings(rtol=rtol))
-        return maxwell_coexistence(curve).p_hat, None
+        return maxwell_coexistence(curve, SolverSettings(rtol=rtol)).p_hat, None
 
     progress(f"study 2: Maxwell pressure of a Gent (Jlim = {STUDY2_JLIM:g}) zone at Φ̂ = 0")
     compute(1e-6, 64)  # warm-up (CasADi)
@@ -516,8 +505,8 @@ def maxwell_pressure_study(
 def _transition_kV(scene, rtol):
     from ..fit import Shared, transition_voltage
 
-    sc = dataclasses.replace(scene, settings=SolverSettings(rtol=rtol, error_estimates=False))
-    return transition_voltage(sc, "spinodal", Shared.of(sc))[0] / 1e3
+    settings = SolverSettings(rtol=rtol, error_estimates=False)
+    return transition_voltage(scene, "spinodal", Shared.of(scene, settings))[0] / 1e3
 
 
 def transition_voltage_study(

@@ -5,15 +5,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-
-def _pyplot():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
-
+from ..plotting import pyplot, save_figure
 
 _FAMILY_STYLE = {
     "rtol": ("tab:blue", "o", "rtol sweep"),
@@ -133,24 +125,9 @@ def _tolerance_panel(ax, study):
     r = [x["requested_rtol"] for x in rows]
     ax.plot(r, [max(x["achieved_error"], floor) for x in rows], "o-", color="tab:blue", lw=1.3, ms=5, label="p̂max")
     if rows and rows[0].get("states_max_error_p_hat") is not None:
-        ax.plot(
-            r,
-            [x["states_max_error_p_hat"] for x in rows],
-            "s--",
-            color="tab:red",
-            lw=1.1,
-            ms=4,
-            label="p̂, worst of the curve's states",
-        )
-        ax.plot(
-            r,
-            [x["states_max_error_v_hat"] for x in rows],
-            "^:",
-            color="tab:brown",
-            lw=1.1,
-            ms=4,
-            label="V̂, worst of the curve's states",
-        )
+        for key, style, color, name in (("p_hat", "s--", "tab:red", "p̂"), ("v_hat", "^:", "tab:brown", "V̂")):
+            worst = [x[f"states_max_error_{key}"] for x in rows]
+            ax.plot(r, worst, style, color=color, lw=1.1, ms=4, label=f"{name}, worst of the curve's states")
     lo, hi = min(r + [1e-14]), max(r + [1e-3])
     ax.plot([lo, hi], [lo, hi], color="k", lw=0.8, label="error = rtol")
     ax.plot([lo, hi], [lo * 100, hi * 100], color="0.6", lw=0.7, ls="--", label="error = 100 rtol")
@@ -167,7 +144,7 @@ def plot_accuracy(studies, path: str | Path, title: str | None = None):
     """One work-precision panel per study (log error against log time, one line per setting family,
     the default starred, the Pareto front dashed) and, with study 1, the achieved error against the
     requested tolerance."""
-    plt = _pyplot()
+    plt = pyplot()
     tol = [s for s in studies if s.tolerance]
     n = len(studies) + len(tol)
     cols = 2 if n > 1 else 1
@@ -180,8 +157,4 @@ def plot_accuracy(studies, path: str | Path, title: str | None = None):
         _tolerance_panel(ax, s)
     for ax in flat[n:]:
         ax.set_visible(False)
-    fig.suptitle(title or "What accuracy costs in time (work-precision)", fontsize=11)
-    fig.tight_layout()
-    fig.savefig(path, dpi=130)
-    plt.close(fig)
-    return Path(path)
+    return save_figure(fig, path, title or "What accuracy costs in time (work-precision)", title_size=11)
