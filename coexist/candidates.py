@@ -57,6 +57,30 @@ def candidate_equilibria(curve: ZoneCurve, gas, zones: int, bulged=None, samples
     Homogeneous: ``p̂(u) = p̂_gas(N V̂(u))`` on each piece that is stable at fixed volume. Two groups:
     for each pair of such pieces with overlapping pressures and each ``k`` in ``bulged`` (default
     ``1..N−1``), the pressure ``P = p̂_gas((N−k)V̂(u_a(P)) + kV̂(u_b(P)))``.
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        One zone's curve at the voltage ``Φ̂`` of the candidates.
+    gas : GasChamber or PressureReservoir
+        What holds the pressure (its ``pressure(ΣV̂)``).
+    zones : int
+        Number of zones ``N ≥ 1``.
+    bulged : iterable of int, optional
+        The ``k`` (zones on the second piece) to look for; values outside ``1..N−1`` are ignored.
+    samples : int
+        Samples per piece (and per shared pressure range) on which roots are bracketed.
+
+    Returns
+    -------
+    list of Candidate
+        Homogeneous candidates (``counts = (N,)``) first, then two-group ones (``(N − k, k)``, the
+        first group on the piece of smaller ``u``); refined to 1e-12 on the splines.
+
+    Raises
+    ------
+    SceneError
+        If ``zones`` is not a positive integer.
     """
     if not (isinstance(zones, (int, np.integer)) and zones >= 1):
         raise SceneError(f"zone count must be a positive integer, got {zones!r}", "zones")

@@ -40,7 +40,21 @@ CRITICAL_XTOL = 1e-8
 
 @dataclass
 class Coexistence:
-    """Coexisting unbulged (``u``) and bulged (``b``) states of one zone at voltage ``phi_hat``."""
+    """Coexisting unbulged (``u``) and bulged (``b``) states of one zone at voltage ``phi_hat``.
+
+    Attributes
+    ----------
+    phi_hat, p_hat : float
+        The voltage ``Φ̂`` and the common pressure ``p̂``.
+    pole_stretch_unbulged, pole_stretch_bulged : float
+        Pole stretches ``λ0`` of the two states.
+    v_unbulged, v_bulged, q_unbulged, q_bulged, psi_unbulged, psi_bulged : float
+        ``V̂``, ``Q̂`` and ``Ψ̂`` of the two states (from the curve's splines).
+    residual : float
+        Largest residual of the equal-area equations at the solution.
+    iterations : int
+        Newton iterations taken (-1 if CasADi does not report them).
+    """
 
     phi_hat: float
     p_hat: float
@@ -56,11 +70,26 @@ class Coexistence:
     iterations: int
 
     def to_dict(self) -> dict:
+        """JSON-ready dict of the fields.
+
+        Returns
+        -------
+        dict
+            Every field by name (``phi_hat``, ``p_hat``, ``pole_stretch_unbulged``, ...).
+        """
         return dict(self.__dict__)
 
 
 class MaxwellSolver:
-    """Builds the CasADi equal-free-energy system for one :class:`ZoneCurve` and solves it."""
+    """Builds the CasADi equal-free-energy system for one :class:`ZoneCurve` and solves it.
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        The zone's curve at one voltage.
+    settings : SolverSettings, optional
+        Tolerances and ``maxwell_guess_samples``; default ``SolverSettings()``.
+    """
 
     #: spline pieces kept on each side of the initial guess
     WINDOW = 6
@@ -87,7 +116,23 @@ class MaxwellSolver:
 
     def equal_area(self, P: float) -> float | None:
         """Signed area ``Ψ̂(u_b) − Ψ̂(u_u) − P(V̂(u_b) − V̂(u_u))`` at pressure ``P`` between the first
-        stable branch and the next stable branch; None where ``P`` is outside either."""
+        stable branch and the next stable branch; None where ``P`` is outside either.
+
+        Parameters
+        ----------
+        P : float
+            Normalised pressure ``p̂``.
+
+        Returns
+        -------
+        float or None
+            The signed area; zero at the Maxwell pressure.
+
+        Raises
+        ------
+        ModelRangeError
+            If the curve has fewer than two stable branches (reason ``no_coexistence``).
+        """
         a, b = self._stable_pair()
         c = self.curve
         try:
@@ -109,7 +154,19 @@ class MaxwellSolver:
 
     def initial_guess(self):
         """Bracket the Maxwell pressure on the overlap of the two stable branches (sign change of the area
-        on ``settings.maxwell_guess_samples`` pressures)."""
+        on ``settings.maxwell_guess_samples`` pressures).
+
+        Returns
+        -------
+        tuple of float
+            ``(u_u, u_b)`` on the two stable branches at the middle of the first bracket.
+
+        Raises
+        ------
+        ModelRangeError
+            No second stable branch or no shared pressure (reason ``no_coexistence``), no sign change
+            of the area (``no_coexistence``), or a loop too small to resolve (``critical_point``).
+        """
         samples = self.settings.maxwell_guess_samples
         a, b = self._stable_pair()
         lo, hi = max(a.p_range[0], b.p_range[0]), min(a.p_range[1], b.p_range[1])
@@ -139,7 +196,21 @@ class MaxwellSolver:
         return self.curve.stretch_at_pressure(a, P0), self.curve.stretch_at_pressure(b, P0)
 
     def solve(self) -> Coexistence:
-        """The coexisting pair (CasADi Newton on the exact spline), verified before it is returned."""
+        """The coexisting pair (CasADi Newton on the exact spline), verified before it is returned.
+
+        Returns
+        -------
+        Coexistence
+            The two states at ``p̂(u_u) = p̂(u_b)`` with equal areas.
+
+        Raises
+        ------
+        ModelRangeError
+            As :meth:`initial_guess`; or the two states merge (reason ``critical_point``).
+        SolverError
+            Newton does not converge to ``residual_tol``, leaves the spline pieces around its guess or
+            the curve, or converges onto a branch with ``dp̂/du ≤ 0``.
+        """
         guess = self.initial_guess()
         residual, rootfinder, params, bounds = self._build(guess)
         x = np.array(rootfinder(ca.DM(guess), params)).ravel()
@@ -194,7 +265,8 @@ def _maxwell_functions(K: int, abstol: float):
     pieces, with the pieces as parameters: built once per ``(K, abstol)`` in a process, reused for
     every curve (building them took 23 of 28 ms of a solve).
 
-    Unknowns ``(u_u, u_b)``; residual ``[p̂(u_b) − p̂(u_u), Ψ̂(u_b) − Ψ̂(u_u) − ½(p̂(u_u) + p̂(u_b))(V̂(u_b) − V̂(u_u))]``
+    Unknowns ``(u_u, u_b)``; residual
+    ``[p̂(u_b) − p̂(u_u), Ψ̂(u_b) − Ψ̂(u_u) − ½(p̂(u_u) + p̂(u_b))(V̂(u_b) − V̂(u_u))]``
     (equal pressure; equal potential ``Ψ̂ − p̂V̂`` with the mean pressure, symmetric in the two states).
     """
     key = (K, abstol)
@@ -261,6 +333,16 @@ class PhaseDiagram:
     notes: list
 
     def to_dict(self) -> dict:
+        """JSON-ready dict (NaN as None).
+
+        Returns
+        -------
+        dict
+            ``phi_hat``, ``spinodal_max_p_hat``, ``spinodal_min_p_hat``, ``binodal_p_hat`` (lists),
+            ``coexisting_states`` (their :meth:`Coexistence.to_dict`), ``critical_point`` (a dict of
+            ``phi_hat``, ``p_hat``, ``pole_stretch``, or None) and ``notes``.
+        """
+
         def clean(a):
             return [None if not np.isfinite(x) else float(x) for x in a]
 
@@ -296,6 +378,30 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     the binodal is :func:`maxwell_coexistence` on it; the critical point, where the pressure
     maximum and minimum merge, is found by bisection on ``Φ̂`` between a voltage with a loop and
     one without (to 1e-8 in ``Φ̂``).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        A membrane with electrostatics (or only ``Φ̂ = 0`` in ``phi_values``).
+    phi_values : array_like
+        Normalised voltages ``Φ̂ ≥ 0`` in order (the critical point is bisected between neighbours).
+    pole_stretch_max : float
+        Largest pole stretch of each curve (the grid starts at ``1.002 λpre``).
+    settings : SolverSettings, optional
+        Tolerances and ``phase_diagram_points``; default ``SolverSettings()``.
+
+    Returns
+    -------
+    PhaseDiagram
+        NaN where a voltage has no loop or no coexistence (why in ``notes``); ``critical_point`` from
+        the first change between loop and no loop along ``phi_values``.
+
+    Raises
+    ------
+    SceneError
+        For a negative voltage, or a voltage on a model without electrostatics.
+    SolverError
+        If a Maxwell solve fails numerically (a :class:`ModelRangeError` is recorded in ``notes``).
     """
     settings = settings or SolverSettings()
     phi_values = np.asarray(phi_values, dtype=float)

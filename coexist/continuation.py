@@ -75,6 +75,7 @@ class Point:
 
     @property
     def phi(self) -> float:
+        """The point's voltage ``Φ̂``."""
         return self.eq.phi_hat
 
 
@@ -108,6 +109,7 @@ class Branch:
 
     @property
     def configuration(self) -> Configuration:
+        """The configuration traced (as set up; a point's own equilibrium orders its groups by ``u``)."""
         return self.system.configuration
 
 
@@ -151,6 +153,39 @@ def correct(
     last one evaluated (no extrapolation): its residual is what :class:`Equilibrium` reports.
     ``chord``: once the steps are below ``settings.chord_below``, evaluate the residual alone and reuse the
     last Jacobian (the converged state's own derivatives are then those of the previous iterate).
+
+    Converged (not loose) means a step in ``z`` below ``settings.newton_tol`` *and* pressure residuals
+    below ``settings.residual_tol · (1 + |p̂_gas|)``; ``loose`` uses ``settings.loose_tolerance`` for both.
+    The Jacobian's ``Φ̂`` column is divided by ``w`` (the unknowns are ``z = (u1 … uM, wΦ̂)``).
+
+    Parameters
+    ----------
+    system : GroupSystem
+        The configuration's equations.
+    z0 : array_like, shape (P, M + 1)
+        Initial guesses ``z = (u1 … uM, wΦ̂)``.
+    normals : array_like, shape (P, M + 1)
+        Normal ``n`` of each point's constraint ``n · z = target``.
+    targets : array_like, shape (P,)
+        Right-hand sides of the constraints.
+    w : float
+        Voltage weight of ``z`` (:data:`VOLTAGE_WEIGHT`).
+    max_iter : int, optional
+        Newton iterations (default ``settings.max_newton``).
+    loose : bool, optional
+        Converge to ``settings.loose_tolerance`` only (points along a branch).
+    formal : bool, optional
+        Shoot formally continued states (through a vanishing hoop tension; for locating wrinkling).
+    chord : bool, optional
+        Reuse the last Jacobian once the steps are small.
+
+    Returns
+    -------
+    Corrected
+        ``z`` (the last iterate of every point), ``ok``, a ``reason`` per failed point (``"invalid state:
+        …"``, ``"singular Newton matrix"``, ``"Newton diverges"``, ``"Newton did not converge"``), the
+        converged points' residuals gathered in ``res`` (row ``rows[i]``; −1 for a failed point) and, in
+        ``failed_states``, ``(res, row, status code)`` of each point that failed on an invalid state.
     """
     z = np.array(z0, dtype=float, copy=True)
     P, M1 = z.shape
@@ -247,7 +282,26 @@ def correct(
 
 
 def solve_at_voltage(tracer: Tracer, z_guess, phi: float, loose: bool = False, chord: bool = False) -> Corrected:
-    """Newton's method at a fixed voltage ``Φ̂`` from ``z_guess`` (its voltage entry is replaced)."""
+    """Newton's method at a fixed voltage ``Φ̂`` from ``z_guess`` (its voltage entry is replaced).
+
+    Parameters
+    ----------
+    tracer : Tracer
+        Gives the system, ``M`` and the voltage weight ``w``.
+    z_guess : array_like, shape (M + 1,)
+        First guess of ``z = (u1 … uM, wΦ̂)``.
+    phi : float
+        The voltage ``Φ̂``.
+    loose : bool, optional
+        Converge to ``settings.loose_tolerance`` only.
+    chord : bool, optional
+        Reuse the last Jacobian once the steps are small (see :func:`correct`).
+
+    Returns
+    -------
+    Corrected
+        One point (:func:`correct` with the constraint ``wΦ̂ = w phi``).
+    """
     M = tracer.M
     z = np.array(z_guess, dtype=float, copy=True)
     z[M] = phi * tracer.w
@@ -278,7 +332,25 @@ def _gather(items):
 
 
 def tangents(J, w, orient):
-    """Unit null vectors of the scaled Jacobians ``J`` (``(P, M, M + 1)``), oriented along ``orient``."""
+    """Unit null vectors of the scaled Jacobians ``J`` (``(P, M, M + 1)``), oriented along ``orient``.
+
+    Solves ``[J_s; orient] t = e_{M+1}`` (``J_s``: ``J`` with its ``Φ̂`` column divided by ``w``), falling
+    back to the last right singular vector of ``J_s`` where that system is singular.
+
+    Parameters
+    ----------
+    J : ndarray, shape (P, M, M + 1)
+        Jacobians ``∂r/∂(u1 … uM, Φ̂)``.
+    w : float
+        Voltage weight of ``z``.
+    orient : ndarray, shape (P, M + 1)
+        Directions the tangents are to follow (``t · orient ≥ 0``).
+
+    Returns
+    -------
+    ndarray, shape (P, M + 1)
+        Unit tangents in ``z = (u1 … uM, wΦ̂)``.
+    """
     Js = _scaled_jacobian(J, w)
     P, M, M1 = Js.shape
     A = np.empty((P, M1, M1))
@@ -300,7 +372,25 @@ def tangents(J, w, orient):
 
 # --- the traced branch ----------------------------------------------------------------------------
 def hermite(a_z, a_t, b_z, b_t, tau):
-    """Cubic Hermite point between two branch points (chord parameter ``tau`` in [0, 1])."""
+    """Cubic Hermite point between two branch points (chord parameter ``tau`` in [0, 1]).
+
+    The tangents are scaled by the chord ``L = |b_z − a_z|``; ``tau`` outside [0, 1] extrapolates (the
+    continuation's predictor).
+
+    Parameters
+    ----------
+    a_z, b_z : ndarray, shape (M + 1,)
+        The two points' ``z``.
+    a_t, b_t : ndarray, shape (M + 1,)
+        Their unit tangents, both oriented from ``a`` towards ``b``.
+    tau : float
+        Chord parameter: 0 at ``a``, 1 at ``b``.
+
+    Returns
+    -------
+    ndarray, shape (M + 1,)
+        ``z`` on the cubic.
+    """
     L = float(np.linalg.norm(b_z - a_z))
     t2, t3 = tau * tau, tau * tau * tau
     return (2 * t3 - 3 * t2 + 1) * a_z + (t3 - 2 * t2 + tau) * L * a_t + (-2 * t3 + 3 * t2) * b_z + (t3 - t2) * L * b_t
@@ -353,7 +443,20 @@ class Tracer:
         return self._point(corr, 0, orient, index)
 
     def event_values(self, pt: Point) -> dict:
-        """The smooth functions whose roots are events, at one point."""
+        """The smooth functions whose roots are events, at one point.
+
+        Parameters
+        ----------
+        pt : Point
+            A converged point of this tracer's configuration.
+
+        Returns
+        -------
+        dict of str to float
+            ``"fold"``: the tangent's ``wΦ̂`` component; ``"split:j"``: ``dp̂/du`` of group ``j`` (groups of
+            ``nj ≥ 2`` only); ``"volume_fold:j"``: ``dV̂/du`` of group ``j``; ``"merge:j"``: ``u_{j+1} − uj``;
+            ``"breakdown"``: ``Ê_max − Êb`` of the largest field (when a breakdown is given).
+        """
         M = self.M
         u = pt.z[:M]
         vals = {"fold": pt.tangent[M]}
@@ -368,7 +471,25 @@ class Tracer:
         return vals
 
     def seed(self, z, index=None) -> Point:
-        """Converge a seed at fixed voltage (tightly) and return it as a point."""
+        """Converge a seed at fixed voltage (tightly) and return it as a point.
+
+        Parameters
+        ----------
+        z : array_like, shape (M + 1,)
+            First guess ``(u1 … uM, wΦ̂)``; its voltage is kept.
+        index : sequence of int, optional
+            Each group's zone index (:func:`~coexist.equilibria.zone_index`; default all 0).
+
+        Returns
+        -------
+        Point
+            The converged seed, its tangent oriented towards increasing ``Φ̂``.
+
+        Raises
+        ------
+        SolverError
+            If Newton's method does not converge from ``z`` (the message gives why).
+        """
         z = np.asarray(z, dtype=float)
         M = self.M
         n = np.zeros(M + 1)
@@ -387,6 +508,23 @@ class Tracer:
 
         ``stable_only``: stop each direction at the first event where stability is lost (located
         exactly; it becomes the branch's end), so the branch is one stable segment.
+
+        With ``stable_only`` a direction also stops at a ``merge`` or a ``breakdown``. Every direction stops
+        at a ``range_end`` or at the edge of the voltage window (a ``window`` event), or with a note (no end
+        event) when the corrector fails at ``settings.min_step`` or after ``settings.max_points`` points.
+
+        Parameters
+        ----------
+        seed : Point
+            A converged point (:meth:`seed`).
+        stable_only : bool, optional
+            Trace one stable segment only (default False: the whole branch in the window).
+
+        Returns
+        -------
+        Branch
+            Points in order of arclength (the seed at ``s = 0``), the events between them, the ends at
+            low and high ``s`` (an :class:`Event` or None) and the notes.
         """
         self.stable_only = stable_only
         if self.phi_hi <= self.phi_lo:  # a window of one voltage (a scene without voltage): the seed alone
@@ -747,7 +885,32 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
     """Locate ``event`` again with the tighter tracer ``tight`` (same configuration, a smaller ``rtol``)
     and return the change of its voltage: the measured error of the event at ``tracer``'s tolerance.
     ``event.error`` becomes twice that change plus the location bracket and :func:`error_floor`, and
-    ``event.measured`` True."""
+    ``event.measured`` True.
+
+    A ``merge`` is solved again as the coarser configuration's symmetric branch point; any other event
+    is bracketed by two tight states at ``±δ`` (``δ`` = 1e-5, 1e-4, 1e-3 in turn) along its tangent and
+    located by one secant step.
+
+    Parameters
+    ----------
+    event : Event
+        The event, as located by ``tracer``; updated in place.
+    tracer : Tracer
+        The tracer that located it (its ``rtol`` sets the error floor).
+    tight : Tracer
+        The same configuration at the tighter tolerance.
+
+    Returns
+    -------
+    float
+        The change of the event's voltage ``Φ̂``. When the event cannot be located again (no tangent, or
+        no sign change at any ``δ``), ``event.error`` is returned instead and ``event`` is left unchanged.
+
+    Raises
+    ------
+    SolverError
+        If a ``merge``'s symmetric branch point does not converge.
+    """
     M = tracer.M
     if event.kind == "merge":
         j = event.group or 0
@@ -801,7 +964,20 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
 
 def error_floor(phi: float, rtol: float) -> float:
     """The smallest error a located voltage is given: ``10 rtol |Φ̂|`` (its states and their convergence
-    are no better than the tolerance, whatever the re-location says)."""
+    are no better than the tolerance, whatever the re-location says).
+
+    Parameters
+    ----------
+    phi : float
+        The located voltage ``Φ̂``.
+    rtol : float
+        The shooting's relative tolerance.
+
+    Returns
+    -------
+    float
+        ``10 rtol |Φ̂|``.
+    """
     return 10 * rtol * abs(phi)
 
 
@@ -818,6 +994,30 @@ def symmetric_branch_point(system: GroupSystem, j: int, u_guess, phi_guess, max_
     row's (``d²p̂/du²``, ``∂²p̂/∂u∂Φ̂``) is a central difference of the exact first derivatives (its error
     only slows the convergence, not the solution). Returns the state (``eq``), ``u``, ``phi`` and the
     last Newton step in ``Φ̂`` as ``error``.
+
+    Parameters
+    ----------
+    system : GroupSystem
+        The coarser configuration, in which group ``j`` holds the zones that split.
+    j : int
+        The group (``nj ≥ 2``).
+    u_guess : array_like, shape (M,)
+        First guess of the groups' ``u``.
+    phi_guess : float
+        First guess of ``Φ̂``.
+    max_iter : int, optional
+        Newton iterations (default 30).
+
+    Returns
+    -------
+    dict
+        ``eq`` (:class:`~coexist.equilibria.Equilibrium`), ``u`` (ndarray, shape (M,)), ``phi`` (float) and
+        ``error`` (float, ``|last Newton step in Φ̂|``).
+
+    Raises
+    ------
+    SolverError
+        If a state on the way is invalid, or Newton's method does not converge in ``max_iter`` steps.
     """
     M = system.groups
     u = np.array(u_guess, dtype=float)
@@ -880,6 +1080,7 @@ class StableSegment:
 
     @property
     def configuration(self) -> Configuration:
+        """The configuration of the segment's states (groups ordered by pole stretch)."""
         return self.points[0].eq.configuration
 
     @property
@@ -891,10 +1092,33 @@ class StableSegment:
         return configuration_label(self.configuration, self.branches)
 
     def end(self, direction: int):
-        """The event reached when the voltage moves in ``direction`` (+1 up, −1 down), or None."""
+        """The event reached when the voltage moves in ``direction`` (+1 up, −1 down), or None.
+
+        Parameters
+        ----------
+        direction : int
+            ``+1`` (voltage up) or ``−1`` (down).
+
+        Returns
+        -------
+        Event or None
+            The event that ends the segment on that side (None where the trace stopped without one).
+        """
         return self.high if direction > 0 else self.low
 
     def end_phi(self, direction: int) -> float:
+        """The voltage ``Φ̂`` at which the segment ends in ``direction``.
+
+        Parameters
+        ----------
+        direction : int
+            ``+1`` (voltage up) or ``−1`` (down).
+
+        Returns
+        -------
+        float
+            The end event's ``Φ̂``; without an event, the largest (smallest) ``Φ̂`` of the segment's points.
+        """
         e = self.end(direction)
         if isinstance(e, Event):
             return e.phi_hat
@@ -902,14 +1126,43 @@ class StableSegment:
 
     @property
     def phi_range(self) -> tuple:
+        """``(Φ̂ low end, Φ̂ high end)`` of the segment."""
         return self.end_phi(-1), self.end_phi(+1)
 
     def contains(self, phi: float, slack: float = 0.0) -> bool:
+        """Whether the voltage ``Φ̂`` lies within the segment's range (widened by ``slack`` on both sides).
+
+        Parameters
+        ----------
+        phi : float
+            The voltage ``Φ̂``.
+        slack : float, optional
+            Widening of the range (default 0).
+
+        Returns
+        -------
+        bool
+            ``lo − slack ≤ Φ̂ ≤ hi + slack``.
+        """
         lo, hi = self.phi_range
         return lo - slack <= phi <= hi + slack
 
     def predict(self, phi: float) -> np.ndarray:
-        """A first guess of ``z`` at voltage ``Φ̂`` (cubic Hermite between the two points around it)."""
+        """A first guess of ``z`` at voltage ``Φ̂`` (cubic Hermite between the two points around it).
+
+        The chord parameter at which the Hermite cubic reaches ``Φ̂`` is found by Newton's method (8
+        iterations at most); beyond the end points the end piece is extrapolated.
+
+        Parameters
+        ----------
+        phi : float
+            The voltage ``Φ̂``.
+
+        Returns
+        -------
+        ndarray, shape (M + 1,)
+            ``z = (u1 … uM, wΦ̂)``, its voltage entry exactly ``w phi``.
+        """
         phis = self._phi[self._order]
         pts = [self.points[i] for i in self._order]
         if phi <= phis[0]:
@@ -938,7 +1191,24 @@ class StableSegment:
         return z
 
     def states(self, phis) -> list:
-        """Converged equilibria at the voltages ``phis`` (one batched Newton at fixed voltage)."""
+        """Converged equilibria at the voltages ``phis`` (one batched Newton at fixed voltage).
+
+        Parameters
+        ----------
+        phis : float or array_like, shape (K,)
+            Voltages ``Φ̂`` within the segment.
+
+        Returns
+        -------
+        list of Equilibrium
+            One per voltage, tightly converged from :meth:`predict` (with chord steps), carrying the
+            segment's zone index.
+
+        Raises
+        ------
+        SolverError
+            If a state does not converge.
+        """
         phis = np.atleast_1d(np.asarray(phis, dtype=float))
         if phis.size == 0:
             return []
@@ -960,7 +1230,21 @@ class StableSegment:
 
     def matches(self, eq: Equilibrium, tol: float = 1e-6) -> bool:
         """Is ``eq`` (a stable equilibrium) the state of this segment at its voltage? The segment's state
-        there is converged (loosely) from its interpolation and compared with ``eq``."""
+        there is converged (loosely) from its interpolation and compared with ``eq``.
+
+        Parameters
+        ----------
+        eq : Equilibrium
+            The state.
+        tol : float, optional
+            Largest difference in ``u`` of the sorted groups (at least ``10 · loose_tolerance``; default 1e-6).
+
+        Returns
+        -------
+        bool
+            True when the configurations agree, ``Φ̂`` lies in the segment's range and the groups' ``u``
+            agree within the tolerance.
+        """
         if eq.configuration.counts != self.configuration.counts or not self.contains(eq.phi_hat, 1e-12):
             return False
         M = self.tracer.M
@@ -999,6 +1283,18 @@ class EquilibriumMap:
         self._tracers: dict = {}
 
     def tracer(self, counts) -> Tracer:
+        """The tracer of the configuration ``counts`` (made once, then kept).
+
+        Parameters
+        ----------
+        counts : sequence of int
+            Group sizes ``(n1 … nM)``.
+
+        Returns
+        -------
+        Tracer
+            Over the map's voltage window, with its breakdown.
+        """
         counts = tuple(int(c) for c in counts)
         if counts not in self._tracers:
             system = GroupSystem(self.model, self.gas, Configuration(counts), self.settings)
@@ -1006,13 +1302,44 @@ class EquilibriumMap:
         return self._tracers[counts]
 
     def find(self, eq: Equilibrium) -> StableSegment | None:
+        """The segment already traced that holds ``eq`` (:meth:`StableSegment.matches`), or None.
+
+        Parameters
+        ----------
+        eq : Equilibrium
+            A stable equilibrium.
+
+        Returns
+        -------
+        StableSegment or None
+            The first matching segment.
+        """
         for seg in self.segments:
             if seg.matches(eq):
                 return seg
         return None
 
     def segment_of(self, eq: Equilibrium, index=None) -> StableSegment:
-        """The stable segment through the stable equilibrium ``eq`` (traced if new)."""
+        """The stable segment through the stable equilibrium ``eq`` (traced if new).
+
+        Parameters
+        ----------
+        eq : Equilibrium
+            A stable equilibrium of the map's zones and gas.
+        index : sequence of int, optional
+            Each group's zone index, in ``eq``'s group order (default all 0).
+
+        Returns
+        -------
+        StableSegment
+            The known segment that matches ``eq``, or a new one, seeded at ``eq`` and traced with
+            ``stable_only`` (then added to :attr:`segments`).
+
+        Raises
+        ------
+        SolverError
+            If the seed does not converge, or the converged seed is not stable.
+        """
         seg = self.find(eq)
         if seg is not None:
             return seg
@@ -1027,7 +1354,18 @@ class EquilibriumMap:
         return seg
 
     def branches_of(self, eq: Equilibrium) -> tuple:
-        """Per group of ``eq`` (ordered by pole stretch), the piece of the zone curve it is on."""
+        """Per group of ``eq`` (ordered by pole stretch), the piece of the zone curve it is on.
+
+        Parameters
+        ----------
+        eq : Equilibrium
+            The state.
+
+        Returns
+        -------
+        tuple of int
+            :func:`~coexist.equilibria.pressure_branch` of each group (0: first rising branch).
+        """
         from .equilibria import pressure_branch
 
         pre = self.model.prestretch

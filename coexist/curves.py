@@ -45,6 +45,13 @@ class LimitPoint:
     psi_hat: float
 
     def to_dict(self) -> dict:
+        """JSON-ready dict of the fields.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``pole_stretch``, ``p_hat``, ``v_hat``, ``phi_hat``, ``q_hat``, ``psi_hat``.
+        """
         return dict(self.__dict__)
 
 
@@ -61,8 +68,11 @@ class Curve:
     states : MembraneStates
         The valid states, in order of increasing pole stretch (all with status OK).
     limit_points : list of LimitPoint
+        The refined extrema (pressure and volume, or voltage and charge), by pole stretch.
     starts_because, stopped_because : str or None
         Why the curve starts later or ends earlier than the requested pole-stretch range.
+    rtol : float
+        Relative tolerance of the integration the curve was shot with.
     """
 
     family: str
@@ -82,7 +92,15 @@ class Curve:
         """JSON-ready dict. A ``pressure_volume`` curve carries its fixed ``phi_hat`` and the arrays
         ``p_hat``, ``v_hat``, ``q_hat``, ``psi_hat``; a ``voltage_charge`` curve its fixed ``p_hat``
         and the array ``phi_hat`` instead of ``p_hat`` (whose largest deviation from the fixed value
-        is ``p_hat_residual_max``)."""
+        is ``p_hat_residual_max``).
+
+        Returns
+        -------
+        dict
+            Also ``family``, ``pole_stretch``, ``apex_height``, ``max_field_hat``, ``min_tension_hat``,
+            ``limit_points`` (their :meth:`LimitPoint.to_dict`), ``relative_tolerance`` and, when set,
+            ``starts_because`` / ``stopped_because``; arrays as lists of floats.
+        """
         s = self.states
         out = {
             "family": self.family,
@@ -231,16 +249,28 @@ def pressure_volume_curve(
     Parameters
     ----------
     model : MembraneModel
+        The membrane.
     phi_hat : float
         ``Φ̂ = (Φ/H)√(ε/μ)``.
     pole_stretch : array_like, optional
-        Increasing pole stretches; default ``settings.curve_points`` (200) from ``1.01 λpre`` to ``4``.
+        Increasing pole stretches; default ``settings.curve_points`` (200) from ``1.01 λpre`` to ``4``
+        (to ``1.5 λpre`` if that is larger).
     settings : SolverSettings, optional
+        Tolerances and sample counts; default ``SolverSettings()``.
 
     Returns
     -------
     Curve
         With the pressure maxima/minima (and volume folds) refined to the solver tolerance.
+
+    Raises
+    ------
+    SceneError
+        Fewer than 3 pole stretches, not increasing or not above ``λpre``; an invalid voltage.
+    ModelRangeError
+        No valid state anywhere on the grid (the reason of the first).
+    SolverError
+        No valid state near a limit point while refining it.
 
     Examples
     --------
@@ -285,6 +315,31 @@ def voltage_at_pressure(
     which the pole tension vanishes. Pole stretches with ``p̂(λ0, 0) < p̂`` carry no voltage that
     reaches the pressure and are flagged ``no_equilibrium``; voltages at which the state fails
     (wrinkling at the clamp, ...) shrink the bracket from above.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        A membrane with electrostatics.
+    pole_stretch : array_like
+        Pole stretches ``λ0 > λpre``.
+    p_hat : float
+        The normalised pressure ``p̂ > 0`` to carry.
+    settings : SolverSettings, optional
+        Shooting tolerances; the root is converged to ``inner_ftol · p̂`` and accepted within
+        ``10 residual_tol · p̂``.
+    iterations : int
+        Largest number of regula falsi iterations.
+
+    Returns
+    -------
+    MembraneStates
+        One entry per pole stretch, ``phi_hat`` the voltage found; entries without one have status
+        ``NO_VOLTAGE`` (or the failure of their zero-voltage state) and NaN quantities.
+
+    Raises
+    ------
+    SceneError
+        If the model has no electrostatics, or for invalid pole stretches.
     """
     from .shooting import NO_VOLTAGE
 
@@ -357,6 +412,33 @@ def voltage_charge_curve(
     Traced by the pole stretch; at each ``λ0`` the voltage is the root of ``p̂(λ0, Φ̂) = p̂``
     (:func:`voltage_at_pressure`). The voltage maximum (snap-through voltage under pressure
     control) is refined to the solver tolerance.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        A membrane with electrostatics.
+    p_hat : float
+        The fixed normalised pressure ``p̂ = pA/(μH) > 0``.
+    pole_stretch : array_like, optional
+        Increasing pole stretches; default ``settings.charge_curve_points`` (120) from ``1.01 λpre``
+        to ``max(4, 1.5 λpre)``.
+    settings : SolverSettings, optional
+        Tolerances and sample counts; default ``SolverSettings()``.
+
+    Returns
+    -------
+    Curve
+        Family ``voltage_charge``, with the voltage and charge extrema refined to the solver tolerance.
+
+    Raises
+    ------
+    SceneError
+        ``p̂`` not positive, a model without electrostatics, or fewer than 3 pole stretches, not
+        increasing or not above ``λpre``.
+    ModelRangeError
+        No pole stretch of the grid carries ``p̂`` (the reason of the first).
+    SolverError
+        No valid state near a limit point while refining it.
     """
     settings = settings or SolverSettings()
     if not (np.isfinite(p_hat) and p_hat > 0):
@@ -376,7 +458,18 @@ def voltage_charge_curve(
 def curves_csv(curves) -> str:
     """CSV text, one row per state of every curve: its family, the name and value held fixed, and the
     state quantities (:data:`STATE_FIELDS`; the field and the smallest tension as ``max_field_hat``,
-    ``min_tension_hat``). Values are written with ``repr`` (every digit)."""
+    ``min_tension_hat``). Values are written with ``repr`` (every digit).
+
+    Parameters
+    ----------
+    curves : iterable of Curve
+        Curves of either family.
+
+    Returns
+    -------
+    str
+        The CSV text, with a header row.
+    """
     import csv
     import io
 

@@ -43,6 +43,24 @@ def first_invariant(l1, l2):
     ``I1 − 3 = [(x1 + x2)² + x1 x2 (x1 + x2 − 1)] / J``, which is ``x1² + x1x2 + x2²`` to leading
     order: a barely inflated membrane (``I1 − 3 ~ δ²``) keeps its digits, where the textbook form
     loses them to the cancellation of its ``O(δ)`` terms.
+
+    Parameters
+    ----------
+    l1, l2 : float, ndarray or casadi.SX
+        Meridional and hoop stretches ``λ1``, ``λ2`` (arrays broadcast).
+
+    Returns
+    -------
+    float, ndarray or casadi.SX
+        ``I = I1 − 3``, of the type of the inputs.
+
+    Examples
+    --------
+    A membrane stretched by ``δ = 1e-9``: ``I ≈ 3 (2δ)²``, which the textbook form loses entirely.
+
+    >>> l = 1 + 1e-9
+    >>> f"{first_invariant(l, l):.6e}", 2 * l**2 + l**-4 - 3
+    ('1.200000e-17', 0.0)
     """
     x1 = (l1 - 1) * (l1 + 1)
     x2 = (l2 - 1) * (l2 + 1)
@@ -58,18 +76,50 @@ def first_invariant_derivatives(l1, l2):
     Written out (rather than left to automatic differentiation), and halved so that the factor 2
     meets the energy's derivative as a constant, because the generated code is then about a third
     shorter; ``tests/test_model.py`` checks them against CasADi's derivatives.
+
+    Parameters
+    ----------
+    l1, l2 : float, ndarray or casadi.SX
+        Meridional and hoop stretches ``λ1``, ``λ2``.
+
+    Returns
+    -------
+    tuple of 4
+        ``(I_1/2, I_2/2, I_11/2, I_12/2)``, each of the type of the inputs.
     """
     a = 1 / (l1 * l1 * l2 * l2)
     return l1 - a / l1, l2 - a / l2, 1 + 3 * a / (l1 * l1), 2 * a / (l1 * l2)
 
 
 def area_invariant_derivatives(l1, l2):
-    """Half the derivatives of ``K = λ1²λ2²``: ``(λ1λ2², λ1²λ2, λ2², 2λ1λ2)``."""
+    """Half the derivatives of ``K = λ1²λ2²``: ``(λ1λ2², λ1²λ2, λ2², 2λ1λ2)``.
+
+    Parameters
+    ----------
+    l1, l2 : float, ndarray or casadi.SX
+        Meridional and hoop stretches ``λ1``, ``λ2``.
+
+    Returns
+    -------
+    tuple of 4
+        ``(∂K/∂λ1, ∂K/∂λ2, ∂²K/∂λ1², ∂²K/∂λ1∂λ2) / 2``, each of the type of the inputs.
+    """
     return l1 * l2 * l2, l1 * l1 * l2, l2 * l2, 2 * l1 * l2
 
 
 def area_invariant(l1, l2):
-    """``K = λ1² λ2²``, the squared areal stretch (the field scales with ``√K``)."""
+    """``K = λ1² λ2²``, the squared areal stretch (the field scales with ``√K``).
+
+    Parameters
+    ----------
+    l1, l2 : float, ndarray or casadi.SX
+        Meridional and hoop stretches ``λ1``, ``λ2``.
+
+    Returns
+    -------
+    float, ndarray or casadi.SX
+        ``K``, of the type of the inputs.
+    """
     return l1**2 * l2**2
 
 
@@ -81,13 +131,49 @@ class Elasticity(Protocol):
     name: str
 
     @property
-    def locking_stretch(self) -> float | None: ...
+    def locking_stretch(self) -> float | None:
+        """Equibiaxial stretch at which the chains lock, or None if they never do."""
+        ...
 
-    def energy_of_invariant(self, i1: Any) -> Any: ...
+    def energy_of_invariant(self, i1: Any) -> Any:
+        """Strain energy ``Ws/μ`` per reference volume as a function of ``I = I1 − 3``.
 
-    def locking_margin(self, l1: Any, l2: Any) -> Any: ...
+        Parameters
+        ----------
+        i1 : casadi.SX
+            The first invariant less 3, ``I = λ1² + λ2² + λ1⁻²λ2⁻² − 3``.
 
-    def describe(self) -> dict: ...
+        Returns
+        -------
+        casadi.SX
+            ``Ws/μ``.
+        """
+        ...
+
+    def locking_margin(self, l1: Any, l2: Any) -> Any:
+        """Distance from locking: positive while the chains are extensible, zero where they lock.
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX or ndarray
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+
+        Returns
+        -------
+        casadi.SX or ndarray
+            The margin (a positive constant for a material that never locks).
+        """
+        ...
+
+    def describe(self) -> dict:
+        """Plain-dict description of the material.
+
+        Returns
+        -------
+        dict
+            ``material`` (its name) and its parameters.
+        """
+        ...
 
 
 class Electrostatics(Protocol):
@@ -97,11 +183,56 @@ class Electrostatics(Protocol):
     name: str
     enabled: bool
 
-    def energy_of_invariant(self, k: Any, phi: Any) -> Any: ...
+    def energy_of_invariant(self, k: Any, phi: Any) -> Any:
+        """Electrostatic part of ``W*`` (at fixed voltage, over ``μ``) as a function of ``K = λ1²λ2²``.
 
-    def charge_density(self, l1: Any, l2: Any, phi: Any) -> Any: ...
+        Parameters
+        ----------
+        k : casadi.SX
+            ``K = λ1² λ2²``.
+        phi : casadi.SX or float
+            Normalised voltage ``Φ̂ = (Φ/H)√(ε/μ)``.
 
-    def field(self, l1: Any, l2: Any, phi: Any) -> Any: ...
+        Returns
+        -------
+        casadi.SX
+            The energy density over ``μ``.
+        """
+        ...
+
+    def charge_density(self, l1: Any, l2: Any, phi: Any) -> Any:
+        """Nominal charge per reference area, normalised (``Q̂ = ∫ q̂ 2π R̂ dR̂``).
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+        phi : casadi.SX or float
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        casadi.SX
+            ``q̂``.
+        """
+        ...
+
+    def field(self, l1: Any, l2: Any, phi: Any) -> Any:
+        """True electric field normalised as ``Ê = E √(ε/μ)``.
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+        phi : casadi.SX or float
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        casadi.SX
+            ``Ê``.
+        """
+        ...
 
 
 @dataclass(frozen=True)
@@ -111,11 +242,33 @@ class NeoHookean:
     name = "neo-hookean"
 
     def energy_of_invariant(self, i1):
-        """``Ws/μ`` as a function of ``I = I1 − 3``."""
+        """``Ws/μ`` as a function of ``I = I1 − 3``: ``Ws/μ = I/2``.
+
+        Parameters
+        ----------
+        i1 : casadi.SX or float
+            ``I = I1 − 3``.
+
+        Returns
+        -------
+        casadi.SX or float
+            ``I/2``.
+        """
         return 0.5 * i1
 
     def locking_margin(self, l1, l2):
-        """Always positive: a neo-Hookean membrane never locks."""
+        """Always positive: a neo-Hookean membrane never locks.
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX
+            Meridional and hoop stretches (unused).
+
+        Returns
+        -------
+        casadi.SX
+            The constant 1.
+        """
         import casadi as ca
 
         return ca.SX(1.0)
@@ -126,6 +279,13 @@ class NeoHookean:
         return None
 
     def describe(self) -> dict:
+        """Plain-dict description.
+
+        Returns
+        -------
+        dict
+            ``{"material": "neo-hookean"}``.
+        """
         return {"material": self.name}
 
 
@@ -148,13 +308,37 @@ class Gent:
             raise SceneError(f"Jlim must be a positive number, got {self.jlim!r}", "jlim")
 
     def energy_of_invariant(self, i1):
-        """``Ws/μ`` as a function of ``I = I1 − 3``."""
+        """``Ws/μ`` as a function of ``I = I1 − 3``: ``Ws/μ = −(Jlim/2) ln(1 − I/Jlim)``.
+
+        Evaluated with ``log1p``, so it tends to ``I/2`` exactly as ``Jlim → ∞``.
+
+        Parameters
+        ----------
+        i1 : casadi.SX or float
+            ``I = I1 − 3``; below ``Jlim``.
+
+        Returns
+        -------
+        casadi.SX or float
+            ``Ws/μ``.
+        """
         import casadi as ca
 
         return -0.5 * self.jlim * ca.log1p(-i1 / self.jlim)  # log1p: exact as Jlim → ∞
 
     def locking_margin(self, l1, l2):
-        """``1 − (I1 − 3)/Jlim``: the chains lock where it reaches zero."""
+        """``1 − (I1 − 3)/Jlim``: the chains lock where it reaches zero.
+
+        Parameters
+        ----------
+        l1, l2 : float, ndarray or casadi.SX
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+
+        Returns
+        -------
+        float, ndarray or casadi.SX
+            The margin, of the type of the inputs.
+        """
         return 1 - first_invariant(l1, l2) / self.jlim
 
     @property
@@ -164,6 +348,13 @@ class Gent:
         return math.sqrt((self.jlim + 3) / 2)
 
     def describe(self) -> dict:
+        """Plain-dict description.
+
+        Returns
+        -------
+        dict
+            ``{"material": "gent", "jlim": Jlim}``.
+        """
         return {"material": self.name, "jlim": self.jlim}
 
 
@@ -180,13 +371,54 @@ class IdealDielectric:
     enabled = True
 
     def energy_of_invariant(self, k, phi):
-        """``−Φ̂² K / 2`` with ``K = λ1² λ2²``."""
+        """``−Φ̂² K / 2`` with ``K = λ1² λ2²``.
+
+        Parameters
+        ----------
+        k : casadi.SX or float
+            ``K = λ1² λ2²``.
+        phi : casadi.SX or float
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        casadi.SX or float
+            ``−Φ̂² K / 2``.
+        """
         return -0.5 * phi**2 * k
 
     def charge_density(self, l1, l2, phi):
+        """Nominal charge density ``q̂ = Φ̂ λ1² λ2²``.
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX or float
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+        phi : casadi.SX or float
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        casadi.SX or float
+            ``q̂``.
+        """
         return phi * l1**2 * l2**2
 
     def field(self, l1, l2, phi):
+        """True field ``Ê = Φ̂ λ1 λ2`` (the thickness is ``H/(λ1λ2)``).
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX or float
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+        phi : casadi.SX or float
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        casadi.SX or float
+            ``Ê``.
+        """
         return phi * l1 * l2
 
 
@@ -198,12 +430,54 @@ class NoElectrostatics:
     enabled = False
 
     def energy_of_invariant(self, k, phi):
+        """The constant zero: no electrostatic energy.
+
+        Parameters
+        ----------
+        k : casadi.SX
+            ``K = λ1² λ2²`` (unused).
+        phi : casadi.SX or float
+            Normalised voltage (unused).
+
+        Returns
+        -------
+        casadi.SX
+            ``0``.
+        """
         return _symbolic_zero()
 
     def charge_density(self, l1, l2, phi):
+        """The constant zero: no charge.
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX
+            Stretches (unused).
+        phi : casadi.SX or float
+            Normalised voltage (unused).
+
+        Returns
+        -------
+        casadi.SX
+            ``0``.
+        """
         return _symbolic_zero()
 
     def field(self, l1, l2, phi):
+        """The constant zero: no field.
+
+        Parameters
+        ----------
+        l1, l2 : casadi.SX
+            Stretches (unused).
+        phi : casadi.SX or float
+            Normalised voltage (unused).
+
+        Returns
+        -------
+        casadi.SX
+            ``0``.
+        """
         return _symbolic_zero()
 
 
@@ -213,11 +487,50 @@ class PressureSource(Protocol):
 
     name: str
 
-    def pressure(self, total_volume: Any) -> Any: ...
+    def pressure(self, total_volume: Any) -> Any:
+        """Gauge pressure ``p̂`` the zones are held at.
 
-    def stiffness(self, total_volume: Any) -> Any: ...
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂``, the zones' total volume over ``A³``.
 
-    def free_energy(self, total_volume: Any) -> Any: ...
+        Returns
+        -------
+        float or ndarray
+            ``p̂ = pA/(μH)``, shaped like ``total_volume``.
+        """
+        ...
+
+    def stiffness(self, total_volume: Any) -> Any:
+        """``c = −dp̂/dΣV̂``, the coupling term of the Hessian ``diag(ai) + c 1 1ᵀ`` of ``G``.
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂``.
+
+        Returns
+        -------
+        float or ndarray
+            ``c``, shaped like ``total_volume``.
+        """
+        ...
+
+    def free_energy(self, total_volume: Any) -> Any:
+        """The source's part of the potential ``G = ΣΨ̂ + (this)``, normalised by ``μHA²``.
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂``.
+
+        Returns
+        -------
+        float or ndarray
+            Its free energy, up to a constant.
+        """
+        ...
 
 
 @dataclass(frozen=True)
@@ -247,20 +560,82 @@ class GasChamber:
 
     @classmethod
     def closed_at(cls, chamber_volume, atmospheric_pressure, closing_pressure, zone_volumes_total):
-        """The gas that fills chamber and zones at gauge pressure ``p̂`` when the valves close."""
+        """The gas that fills chamber and zones at gauge pressure ``p̂`` when the valves close:
+        ``n̂ = (V̂c + ΣV̂)(p̂atm + p̂)``.
+
+        Parameters
+        ----------
+        chamber_volume : float
+            ``V̂c = Vc/A³``.
+        atmospheric_pressure : float
+            ``p̂atm = Patm A/(μH)``.
+        closing_pressure : float
+            Gauge pressure ``p̂`` of chamber and zones when the valves close.
+        zone_volumes_total : float
+            ``ΣV̂`` of the zones at that moment.
+
+        Returns
+        -------
+        GasChamber
+            The chamber with its fixed gas amount ``n̂``.
+
+        Raises
+        ------
+        SceneError
+            If ``V̂c``, ``p̂atm`` or the resulting ``n̂`` is not a positive finite number.
+
+        Examples
+        --------
+        >>> gas = GasChamber.closed_at(1.0, 1.0, closing_pressure=0.5, zone_volumes_total=0.2)
+        >>> float(gas.pressure(0.2)), float(gas.stiffness(0.2))
+        (0.5, 1.25)
+        """
         n = (chamber_volume + zone_volumes_total) * (atmospheric_pressure + closing_pressure)
         return cls(float(chamber_volume), float(atmospheric_pressure), float(n))
 
     def pressure(self, total_volume):
-        """Gauge pressure ``p̂ = n̂/(V̂c + ΣV̂) − p̂atm``."""
+        """Gauge pressure ``p̂ = n̂/(V̂c + ΣV̂) − p̂atm``.
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂``, the zones' total volume over ``A³``.
+
+        Returns
+        -------
+        float or ndarray
+            ``p̂``, shaped like ``total_volume``.
+        """
         return self.gas_amount / (self.chamber_volume + total_volume) - self.atmospheric_pressure
 
     def stiffness(self, total_volume):
-        """``c = −dp̂/dΣV̂ = n̂/(V̂c + ΣV̂)²`` (the gas resists a change of the total volume)."""
+        """``c = −dp̂/dΣV̂ = n̂/(V̂c + ΣV̂)²`` (the gas resists a change of the total volume).
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂``.
+
+        Returns
+        -------
+        float or ndarray
+            ``c > 0``, shaped like ``total_volume``.
+        """
         return self.gas_amount / (self.chamber_volume + total_volume) ** 2
 
     def free_energy(self, total_volume):
-        """``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂``."""
+        """``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂``.
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂``.
+
+        Returns
+        -------
+        float or ndarray
+            The gas's part of ``G``, shaped like ``total_volume``.
+        """
         return -self.gas_amount * np.log(self.chamber_volume + total_volume) + self.atmospheric_pressure * total_volume
 
 
@@ -276,12 +651,48 @@ class PressureReservoir:
             raise SceneError(f"must be a finite number, got {self.pressure_hat!r}", "pressure_hat")
 
     def pressure(self, total_volume):
+        """``p̂``, whatever the volume.
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂`` (only its shape is used).
+
+        Returns
+        -------
+        ndarray
+            ``p̂``, broadcast to the shape of ``total_volume``.
+        """
         return self.pressure_hat + 0.0 * np.asarray(total_volume)
 
     def stiffness(self, total_volume):
+        """``c = −dp̂/dΣV̂ = 0``: a reservoir does not resist a change of volume.
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂`` (only its shape is used).
+
+        Returns
+        -------
+        ndarray
+            Zeros shaped like ``total_volume``.
+        """
         return 0.0 * np.asarray(total_volume)
 
     def free_energy(self, total_volume):
+        """``−p̂ ΣV̂`` (so that ``G = ΣΨ̂ − p̂ΣV̂``).
+
+        Parameters
+        ----------
+        total_volume : float or ndarray
+            ``ΣV̂``.
+
+        Returns
+        -------
+        float or ndarray
+            ``−p̂ ΣV̂``.
+        """
         return -self.pressure_hat * total_volume
 
 
@@ -303,12 +714,40 @@ class Breakdown:
             raise SceneError(f"must be a positive number, got {self.field_hat!r}", "breakdown_field")
 
     def margin(self, max_field: float) -> float:
-        """``Ê_max − Êb``: the event function (the path ends where it reaches zero from below)."""
+        """``Ê_max − Êb``: the event function (the path ends where it reaches zero from below).
+
+        Parameters
+        ----------
+        max_field : float
+            Largest true field ``Ê_max`` in a zone.
+
+        Returns
+        -------
+        float
+            ``Ê_max − Êb``; negative below breakdown.
+        """
         return float(max_field) - self.field_hat
 
 
 def material_from_name(name: str, jlim: float | None = None):
-    """The elasticity effect for a material name (``neo-hookean`` or ``gent``)."""
+    """The elasticity effect for a material name (``neo-hookean`` or ``gent``).
+
+    Parameters
+    ----------
+    name : str
+        ``neo-hookean`` (also ``neohookean``, ``nh``) or ``gent``; case and ``_``/``-`` do not matter.
+    jlim : float, optional
+        ``Jlim`` of the Gent material (required for it, ignored otherwise).
+
+    Returns
+    -------
+    NeoHookean or Gent
+
+    Raises
+    ------
+    SceneError
+        For an unknown name, or for ``gent`` without a positive finite ``jlim``.
+    """
     key = name.strip().lower().replace("_", "-")
     if key in ("neo-hookean", "neohookean", "nh"):
         return NeoHookean()

@@ -65,10 +65,12 @@ class Configuration:
 
     @property
     def zones(self) -> int:
+        """``N = Σ nj``, the number of zones."""
         return sum(self.counts)
 
     @property
     def groups(self) -> int:
+        """``M``, the number of groups (distinct states)."""
         return len(self.counts)
 
     @property
@@ -78,6 +80,7 @@ class Configuration:
 
     @property
     def label(self) -> str:
+        """Name: ``"homogeneous"``, ``"k of N bulged"`` (two groups) or ``"n1 + n2 + … zones in M states"``."""
         if self.groups == 1:
             return "homogeneous"
         if self.groups == 2:
@@ -85,11 +88,36 @@ class Configuration:
         return f"{' + '.join(map(str, self.counts))} zones in {self.groups} states"
 
     def reversed(self) -> Configuration:
+        """The same groups in the opposite order: ``(N − k, k)`` becomes ``(k, N − k)``.
+
+        Returns
+        -------
+        Configuration
+            ``Configuration(counts[::-1])``.
+        """
         return Configuration(tuple(reversed(self.counts)))
 
 
 def two_group(zones: int, bulged: int) -> Configuration:
-    """``(N − k, k)``: ``k`` bulged zones among ``N`` (``k = 0``: homogeneous)."""
+    """``(N − k, k)``: ``k`` bulged zones among ``N`` (``k = 0``: homogeneous).
+
+    Parameters
+    ----------
+    zones : int
+        ``N ≥ 1``.
+    bulged : int
+        ``k`` in ``0 … N − 1``.
+
+    Returns
+    -------
+    Configuration
+        ``(N,)`` for ``k = 0``, else ``(N − k, k)``.
+
+    Raises
+    ------
+    SceneError
+        If ``zones`` is not a positive integer or ``bulged`` lies outside ``0 … N − 1``.
+    """
     if not (isinstance(zones, (int, np.integer)) and zones >= 1):
         raise SceneError(f"zone count must be a positive integer, got {zones!r}", "zones")
     if not (0 <= bulged < zones) and not (bulged == 0):
@@ -127,6 +155,32 @@ def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: boo
     """Shoot the states of every group at every point in one vectorised call (with derivatives).
 
     ``u`` has shape ``(P, M)`` and ``phi`` shape ``(P,)``.
+
+    Each group is one clamped zone at pole stretch ``λ0 = λpre + u²``, shot directly
+    (:func:`coexist.shooting.solve_states`); the ``u``-derivatives are ``d/du = 2u d/dλ0``. The energy
+    depends on ``Φ̂²`` only, so a negative ``Φ̂`` is shot at ``|Φ̂|`` with ``Q̂`` and the ``Φ̂``-derivatives
+    changing sign.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The zone's model.
+    u : array_like, shape (P, M)
+        ``u = √(λ0 − λpre)`` of each group at each point (a 1-d array is one point).
+    phi : float or array_like, shape (P,)
+        Normalised voltage ``Φ̂`` of each point.
+    settings : SolverSettings
+        Solver settings.
+    formal : bool, optional
+        Continue through a non-positive hoop tension (see :func:`coexist.shooting.solve_states`).
+    derivatives : bool, optional
+        Integrate the variational equations (default True); False leaves every derivative NaN.
+
+    Returns
+    -------
+    GroupStates
+        Arrays of shape ``(P, M)`` (``phi``: ``(P,)``); ``status`` is the shooting's code, ``-1`` where
+        ``u ≤ 0`` or ``u`` or ``Φ̂`` is not finite (:func:`failure_reason`).
     """
     u = np.atleast_2d(np.asarray(u, dtype=float))
     P, M = u.shape
@@ -171,7 +225,20 @@ def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: boo
 
 
 def failure_reason(status: int) -> tuple[str, str]:
-    """``(tag, sentence)`` of a state's status code (``-1``: outside the physical range)."""
+    """``(tag, sentence)`` of a state's status code (``-1``: outside the physical range).
+
+    Parameters
+    ----------
+    status : int
+        A code of :attr:`GroupStates.status`.
+
+    Returns
+    -------
+    tag : str
+        Short machine-readable reason (``"out_of_range"`` for ``-1``, else the shooting's tag).
+    sentence : str
+        The reason in words.
+    """
     if status == -1:
         return "out_of_range", "the pole stretch left the physical range (λ0 ≤ λpre)"
     return reason_tag(status), reason_text(status)
@@ -213,11 +280,34 @@ class GroupSystem:
 
     @property
     def groups(self) -> int:
+        """``M``, the number of groups of the configuration."""
         return self.configuration.groups
 
     def residual(self, u, phi, formal: bool = False, derivatives: bool = True) -> Residual:
         """Residuals and Jacobian at points ``(u, Φ̂)``; ``u`` of shape ``(P, M)`` (``formal``: see
-        :func:`coexist.shooting.solve_states`; ``derivatives=False``: the residuals alone, the Jacobian NaN)."""
+        :func:`coexist.shooting.solve_states`; ``derivatives=False``: the residuals alone, the Jacobian NaN).
+
+        ``r0 = p̂(u1) − p̂_gas(Σ nj V̂(uj))`` and ``rj = [p̂(u_{j+1}) − p̂(uj)] / (u_{j+1} − uj)``; where two
+        groups lie closer than ``settings.merge_tolerance`` in ``u``, ``rj`` is their mean ``dp̂/du`` and
+        its Jacobian row is zero.
+
+        Parameters
+        ----------
+        u : array_like, shape (P, M)
+            ``u = √(λ0 − λpre)`` of each group at each point.
+        phi : float or array_like, shape (P,)
+            Normalised voltage ``Φ̂`` of each point.
+        formal : bool, optional
+            Shoot formally continued states (for locating the onset of wrinkling).
+        derivatives : bool, optional
+            Compute the Jacobian (default True).
+
+        Returns
+        -------
+        Residual
+            ``r`` of shape ``(P, M)``, ``J`` of shape ``(P, M, M + 1)`` (columns ``u1 … uM, Φ̂``), the
+            shot states, and ``ΣV̂``, ``p̂_gas`` and the gas stiffness ``c`` per point.
+        """
         st = shoot_groups(self.model, u, phi, self.settings, formal, derivatives)
         return self._residual(st)
 
@@ -253,6 +343,25 @@ def hessian_eigenvalues(counts, dp_dv, stiffness) -> list[tuple[float, int, str]
 
     ``mode`` is ``"within group j"`` for ``aj`` (zones of group ``j`` moving against each other; only when
     ``nj ≥ 2``) or ``"groups"`` for the eigenvalues of ``B = diag(aj) + c √(nj nl)``.
+
+    Parameters
+    ----------
+    counts : sequence of int, length M
+        Group sizes ``nj``.
+    dp_dv : sequence of float, length M
+        ``aj = dp̂/dV̂`` of one zone of each group along its curve.
+    stiffness : float
+        The gas stiffness ``c = n̂/(V̂c + ΣV̂)²`` (0 for a pressure reservoir).
+
+    Returns
+    -------
+    list of (float, int, str)
+        ``(value, multiplicity, mode)``, ascending in value; the multiplicities add up to ``N``.
+
+    Examples
+    --------
+    >>> [(round(v, 12), m, mode) for v, m, mode in hessian_eigenvalues((2, 1), (1.0, -0.5), 0.0)]
+    [(-0.5, 1, 'groups'), (1.0, 1, 'within group 0'), (1.0, 1, 'groups')]
     """
     counts = np.asarray(counts, dtype=float)
     a = np.asarray(dp_dv, dtype=float)
@@ -268,7 +377,22 @@ def hessian_eigenvalues(counts, dp_dv, stiffness) -> list[tuple[float, int, str]
 
 
 def group_block(counts, dp_dv, stiffness):
-    """``B = diag(aj) + c √(nj nl)``: the Hessian restricted to whole-group motions."""
+    """``B = diag(aj) + c √(nj nl)``: the Hessian restricted to whole-group motions.
+
+    Parameters
+    ----------
+    counts : sequence of int, length M
+        Group sizes ``nj``.
+    dp_dv : sequence of float, length M
+        ``aj = dp̂/dV̂`` of one zone of each group.
+    stiffness : float
+        The gas stiffness ``c`` (0 for a pressure reservoir).
+
+    Returns
+    -------
+    ndarray, shape (M, M)
+        ``B``, symmetric.
+    """
     s = np.sqrt(np.asarray(counts, dtype=float))
     return np.diag(np.asarray(dp_dv, dtype=float)) + float(stiffness) * np.outer(s, s)
 
@@ -285,6 +409,26 @@ def fold_index(slopes, u: float, samples: int = 64, depth: int = 4) -> int:
     interval would not show as a sign change), and the folds are located all at once
     (:func:`coexist.numerics.roots.bracketed_root`). ``tests/test_zone_stability_fe.py`` checks the count
     against the negative eigenvalues of a finite-element energy Hessian at fixed volume.
+
+    Only the run of valid (finite) slopes that ends at ``u`` is searched.
+
+    Parameters
+    ----------
+    slopes : callable
+        ``slopes(u_array) -> (dV̂/du, dp̂/du)``, arrays of the shape of ``u_array``; NaN where no valid
+        state exists.
+    u : float
+        The zone's ``u = √(λ0 − λpre)``.
+    samples : int, optional
+        Points of the first grid on ``(0, u]`` (default 64).
+    depth : int, optional
+        Rounds of halving the intervals with an end where ``|dV̂/du|`` is below 5 % of its largest value
+        (default 4).
+
+    Returns
+    -------
+    int
+        The fold index (0: stable at fixed volume), never negative; 0 for ``u ≤ 0``.
     """
     u = float(u)
     if u <= 0:
@@ -326,7 +470,26 @@ def pressure_branch(model, u, phi, settings: SolverSettings) -> int:
     """Which monotone piece of its zone curve a zone at ``(u, Φ̂)`` is on: the number of pressure extrema
     (roots of ``dp̂/du``) between the flat state and ``u`` — 0 on the first rising branch, 1 past the
     pressure maximum (falling), 2 past the following minimum (re-stiffened), and so on. Counted on
-    ``settings.stability_samples`` directly shot states with exact derivatives."""
+    ``settings.stability_samples`` directly shot states with exact derivatives.
+
+    Only the run of valid states that ends at ``u`` is counted.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The zone's model.
+    u : float
+        ``u = √(λ0 − λpre)`` of the zone.
+    phi : float
+        Normalised voltage ``Φ̂``.
+    settings : SolverSettings
+        Solver settings (``stability_samples``).
+
+    Returns
+    -------
+    int
+        Sign changes of ``dp̂/du`` on the grid between the flat state and ``u``.
+    """
     u = float(u)
     grid = np.linspace(0.0, u, settings.stability_samples + 1)[1:]
     s = solve_states(model, model.prestretch + grid**2, phi, settings, derivatives=True)
@@ -340,7 +503,20 @@ def pressure_branch(model, u, phi, settings: SolverSettings) -> int:
 def configuration_label(configuration: Configuration, branches=None) -> str:
     """The configuration's name; a homogeneous state whose zones are past their pressure maximum
     (``branches[0] ≥ 1``, :func:`pressure_branch`) is "homogeneous, all bulged" (e.g. under pressure
-    control, beside the unbulged homogeneous state)."""
+    control, beside the unbulged homogeneous state).
+
+    Parameters
+    ----------
+    configuration : Configuration
+        The configuration.
+    branches : sequence of int, optional
+        :func:`pressure_branch` of each group; only ``branches[0]`` of a homogeneous state is used.
+
+    Returns
+    -------
+    str
+        :attr:`Configuration.label`, with ``", all bulged"`` appended in that case.
+    """
     base = configuration.label
     if branches is not None and configuration.groups == 1 and branches[0] >= 1:
         return f"{base}, all bulged"
@@ -349,7 +525,29 @@ def configuration_label(configuration: Configuration, branches=None) -> str:
 
 def zone_index(model, u, phi, settings: SolverSettings) -> int:
     """Unstable axisymmetric modes at fixed volume of one zone at ``(u, Φ̂)``, on directly shot states with
-    exact derivatives (:func:`fold_index`)."""
+    exact derivatives (:func:`fold_index`).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The zone's model.
+    u : float
+        ``u = √(λ0 − λpre)`` of the zone.
+    phi : float
+        Normalised voltage ``Φ̂ ≥ 0``.
+    settings : SolverSettings
+        Solver settings (``stability_samples``, ``fold_refinements``).
+
+    Returns
+    -------
+    int
+        The zone's index (0: stable at its own volume); 0 for ``u ≤ 0``.
+
+    Raises
+    ------
+    SolverError
+        If the state at ``(u, Φ̂)`` itself is not valid (the message gives the shooting's reason).
+    """
     u = float(u)
     if u <= 0:
         return 0
@@ -371,7 +569,25 @@ def zone_index(model, u, phi, settings: SolverSettings) -> int:
 
 def zone_index_on_curve(curve, u, settings: SolverSettings | None = None) -> int:
     """:func:`fold_index` on an interpolated zone curve (:class:`~coexist.zone_curves.ZoneCurve`, in ``u``): a first
-    guess of a zone's index where exact states are not at hand (the jumps' gradient flow)."""
+    guess of a zone's index where exact states are not at hand (the jumps' gradient flow).
+
+    Below the curve's first grid point the zone counts as rising (no fold); ``u`` beyond its last point
+    is clipped to it.
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        One zone's curve at one voltage, with ``grid`` and the splines ``dv``, ``dp`` in ``u``.
+    u : float
+        ``u = √(λ0 − λpre)`` of the zone.
+    settings : SolverSettings, optional
+        Solver settings (``stability_samples``, ``fold_refinements``; default :class:`SolverSettings`).
+
+    Returns
+    -------
+    int
+        The zone's index estimated on the splines.
+    """
     settings = settings or SolverSettings()
     lo = float(curve.grid[0])
 
@@ -428,6 +644,7 @@ class Equilibrium:
 
     @property
     def zones(self) -> int:
+        """``N``, the number of zones."""
         return self.configuration.zones
 
     @property
@@ -437,10 +654,12 @@ class Equilibrium:
 
     @property
     def label(self) -> str:
+        """The configuration's name (:attr:`Configuration.label`)."""
         return self.configuration.label
 
     @property
     def min_eigenvalue(self) -> float:
+        """The smallest eigenvalue of the Hessian of ``Ĝ`` over the zone volumes."""
         return float(self.eigenvalues[0][0])
 
     @property
@@ -455,29 +674,44 @@ class Equilibrium:
 
     @property
     def zone_pole_stretches(self) -> list:
+        """Pole stretch ``λ0`` of every zone, least inflated first."""
         return [lam for lam, n in zip(self.pole_stretch, self.configuration.counts) for _ in range(n)]
 
     @property
     def total_charge(self) -> float:
+        """``Σ nj Q̂j``, the charge on all zones."""
         return float(sum(n * q for n, q in zip(self.configuration.counts, self.q_hat)))
 
     @property
     def v_unbulged(self) -> float:
+        """``V̂`` of the least inflated group."""
         return self.v_hat[0]
 
     @property
     def v_bulged(self) -> float | None:
+        """``V̂`` of the most inflated group; None when homogeneous."""
         return self.v_hat[-1] if self.configuration.groups > 1 else None
 
     @property
     def pole_stretch_unbulged(self) -> float:
+        """``λ0`` of the least inflated group."""
         return self.pole_stretch[0]
 
     @property
     def pole_stretch_bulged(self) -> float | None:
+        """``λ0`` of the most inflated group; None when homogeneous."""
         return self.pole_stretch[-1] if self.configuration.groups > 1 else None
 
     def to_dict(self) -> dict:
+        """A plain summary of the state (for JSON output).
+
+        Returns
+        -------
+        dict
+            ``configuration`` (the label), ``group_sizes``, ``phi_hat``, ``p_hat``, ``pole_stretch`` and
+            ``v_hat`` (per group), ``free_energy_hat`` (``Ĝ``), ``stable``, ``min_eigenvalue``, ``zone_index``
+            and ``residual``.
+        """
         return {
             "configuration": self.label,
             "group_sizes": list(self.configuration.counts),
@@ -495,7 +729,27 @@ class Equilibrium:
 
 def merged(configuration: Configuration, u, tol: float | None = None) -> tuple[Configuration, np.ndarray]:
     """Groups closer than ``tol`` (default: ``SolverSettings().merge_tolerance``) in ``u`` joined into one
-    (the configuration a state really is in), and the groups' ``u`` in order."""
+    (the configuration a state really is in), and the groups' ``u`` in order.
+
+    The groups are sorted by ``u``; a group within ``tol · max(1, |u|)`` of the group before it joins
+    it, at the count-weighted mean ``u``.
+
+    Parameters
+    ----------
+    configuration : Configuration
+        Group sizes, one per entry of ``u`` (in any order).
+    u : array_like, shape (M,)
+        ``u`` of each group.
+    tol : float, optional
+        Merge tolerance in ``u``.
+
+    Returns
+    -------
+    configuration : Configuration
+        The merged configuration, groups ordered by ``u``.
+    u : ndarray, shape (M',)
+        ``u`` of its groups.
+    """
     tol = SolverSettings().merge_tolerance if tol is None else tol
     u = np.asarray(u, dtype=float)
     order = np.argsort(u, kind="stable")
@@ -514,7 +768,28 @@ def merged(configuration: Configuration, u, tol: float | None = None) -> tuple[C
 
 
 def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> Equilibrium:
-    """The :class:`Equilibrium` at point ``i`` of a residual evaluation (groups ordered by ``u``)."""
+    """The :class:`Equilibrium` at point ``i`` of a residual evaluation (groups ordered by ``u``).
+
+    ``dp̂/dV̂ = (dp̂/du)/(dV̂/du)`` per group, ``Ĝ = Σ nj Ψ̂j + G_gas(Σ nj V̂j)``, the Hessian's eigenvalues
+    by :func:`hessian_eigenvalues`; ``p̂`` is the gas pressure. No solve is done here: the point is taken
+    as converged.
+
+    Parameters
+    ----------
+    system : GroupSystem
+        The system that was evaluated.
+    res : Residual
+        Its evaluation (with derivatives).
+    i : int
+        The point (row) of ``res``.
+    index : sequence of int, optional
+        Each group's :func:`zone_index`, in the system's group order (default all 0).
+
+    Returns
+    -------
+    Equilibrium
+        With ``residual`` the largest ``|r|`` at the point.
+    """
     st = res.states
     order = np.argsort(st.u[i], kind="stable")
     counts = tuple(system.configuration.counts[j] for j in order)

@@ -29,7 +29,21 @@ class Shared:
 
     @classmethod
     def of(cls, scene: Scene, settings: SolverSettings | None = None) -> Shared:
-        """Build the model of ``scene`` and solve its snap-through once."""
+        """Build the model of ``scene`` and solve its snap-through once.
+
+        Parameters
+        ----------
+        scene : Scene
+            The scene whose material, prestretch and electrostatics give the model (its radius is not used).
+        settings : SolverSettings, optional
+            Solver settings of every trial (default :class:`~coexist.settings.SolverSettings`).
+
+        Returns
+        -------
+        Shared
+            The model, ``snap = (p̂max, λ0 at it)`` of one zone at zero voltage
+            (:func:`~coexist.simulation.snap_through`), and the settings.
+        """
         settings = settings or SolverSettings()
         model = scene.model()
         return cls(model, snap_through(model, settings, pole_stretch_max(scene, settings)), settings)
@@ -43,6 +57,33 @@ def transition_voltage(
     ``kind = "spinodal"``: where the homogeneous state is lost (what a slow ramp shows);
     ``"equal_free_energy"``: where one bulged zone first has the total free energy of none.
     ``measure``: measure the error by re-locating at ``rtol/100`` (else the location bracket).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene, with its chamber (or controlled pressure) and voltage path.
+    kind : {"spinodal", "equal_free_energy"}, optional
+        Which transition (default ``"spinodal"``).
+    shared : Shared, optional
+        Model and snap-through shared between trials (default: built from ``scene``).
+    measure : bool, optional
+        True: keep ``shared.settings`` (the error is measured if its ``error_estimates`` is on); False
+        (default): the error is the location bracket only.
+
+    Returns
+    -------
+    voltage : float
+        The transition voltage ``Φ = Φ̂ H √(μ/ε)`` in V.
+    error : float
+        Its estimated error in V.
+
+    Raises
+    ------
+    SceneError
+        If ``kind`` is unknown, or the zones cannot hold the closing pressure
+        (:meth:`~coexist.simulation.Simulation.from_scene`).
+    ModelRangeError
+        If there is no such transition in the scene's voltage window (``reason="no_transition"``).
     """
     if kind not in ("spinodal", "equal_free_energy"):
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
@@ -63,6 +104,36 @@ def fit_zone_radius(
     stable start, or no transition below the scene's top voltage) is left out, never scored. The Illinois
     method (:func:`~coexist.numerics.roots.bracketed_root`) then solves between the first two
     neighbouring radii whose transitions lie on either side of the target (to 1e-9 mm).
+
+    With ``A_max = p̂max μH / p_close`` the radius at which the closing pressure is the snap-through, the
+    trial radii crowd geometrically towards ``A_max``; without a bracket, up to three rounds resample
+    around the radii where the transition starts to exist.
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (with ``[chamber]`` and ``[voltage]``); its own ``zone_radius`` is replaced by each trial.
+    target_voltage : float
+        The observed transition voltage, in V.
+    kind : {"spinodal", "equal_free_energy"}, optional
+        Which transition to fit (default ``"spinodal"``), as :func:`transition_voltage`.
+    shared : Shared, optional
+        Model and snap-through shared between trials (default: built from ``scene``).
+    bracket_mm : (float, float), optional
+        Smallest and largest trial radius in mm (default ``(0.5 A_max, (1 − 1e-6) A_max)``).
+
+    Returns
+    -------
+    float
+        The fitted zone radius ``A`` in m.
+
+    Raises
+    ------
+    SceneError
+        If the scene has no ``[chamber]`` or no ``[voltage]``.
+    ModelRangeError
+        If no radius in the bracket puts the transition at ``target_voltage`` (``reason="no_fit"``; the
+        message gives the range of transitions the radii reach).
     """
     if scene.chamber is None or scene.voltage is None:
         raise SceneError("fitting needs a scene with [chamber] and [voltage]", "[chamber]")
@@ -132,6 +203,28 @@ def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | No
 
     Inputs: zone radius (the fitted one), shear modulus, closing pressure, chamber volume. The shear
     modulus changes the voltage scale and the gas, not the normalised model, so one model serves all.
+
+    Parameters
+    ----------
+    scene : Scene
+        The baseline scene, with a ``[chamber]``.
+    relative_change : float, optional
+        Relative change of each input (default 0.01).
+    shared : Shared, optional
+        Model and snap-through shared between trials (default: built from ``scene``).
+
+    Returns
+    -------
+    list of dict
+        The baseline row (``parameter="baseline"``, ``value=None``), then for each of ``zone_radius_mm``,
+        ``shear_modulus_kPa``, ``closing_pressure_mbar``, ``chamber_volume_ml`` a row at ``value·(1 −
+        relative_change)`` and one at ``value·(1 + relative_change)``. Each row has the ``spinodal`` and
+        ``equal_free_energy`` voltages in kV, None (with a ``{kind}_note``) where a transition failed.
+
+    Raises
+    ------
+    SceneError
+        If the scene has no ``[chamber]`` (after the baseline row is computed).
     """
     shared = shared or Shared.of(scene)
     rows: list[dict] = []

@@ -54,6 +54,18 @@ class MembraneModel:
     prestretch : float
         Equibiaxial prestretch ``λpre ≥ 1`` of the clamped membrane; the rim condition is
         ``λ2(1) = λpre``, lengths stay normalised by the unstretched radius ``A``.
+
+    Raises
+    ------
+    SceneError
+        If ``prestretch`` is not a finite number ``≥ 1``.
+
+    Notes
+    -----
+    The numeric methods are numpy code generated from the CasADi expressions: they take floats or
+    arrays (broadcast against each other) and return one value per output, a float for float inputs
+    and an array of the broadcast shape otherwise (a constant output, such as an effect switched off,
+    is broadcast too).
     """
 
     elasticity: Elasticity = field(default_factory=NeoHookean)
@@ -81,10 +93,18 @@ class MembraneModel:
 
     @property
     def has_voltage(self) -> bool:
+        """Whether the electrostatics effect is on (a model without it accepts only ``Φ̂ = 0``)."""
         return bool(self.electrostatics.enabled)
 
     def describe(self) -> dict:
-        """Plain-dict description (material, Jlim, prestretch, effects)."""
+        """Plain-dict description (material, Jlim, prestretch, effects).
+
+        Returns
+        -------
+        dict
+            The elasticity's :meth:`~coexist.effects.Elasticity.describe` with ``prestretch`` and
+            ``effects`` (:attr:`effects`) added.
+        """
         out = dict(self.elasticity.describe())
         out["prestretch"] = self.prestretch
         out["effects"] = self.effects
@@ -98,20 +118,85 @@ class MembraneModel:
 
     # --- numeric functions (numpy, vectorised) -------------------------------------------------
     def free_energy(self, l1, l2, phi=0.0):
-        """``W*(λ1, λ2; Φ̂)``, the free energy density at fixed voltage over ``μ``."""
+        """``W*(λ1, λ2; Φ̂) = Ws/μ − Φ̂² λ1² λ2² / 2``, the free energy density at fixed voltage over ``μ``.
+
+        Parameters
+        ----------
+        l1, l2 : float or ndarray
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+        phi : float or ndarray
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        float or ndarray
+            ``W*`` per unit reference volume over ``μ``, broadcast shape of the inputs.
+        """
         return self._built["energy"](l1, l2, phi)[0]
 
     def tensions(self, l1, l2, phi=0.0):
-        """``(T̂1, T̂2, ∂T̂1/∂λ1, ∂T̂1/∂λ2, locking margin, Ê, ∂T̂2/∂λ2)`` at given stretches and voltage."""
+        """``(T̂1, T̂2, ∂T̂1/∂λ1, ∂T̂1/∂λ2, locking margin, Ê, ∂T̂2/∂λ2)`` at given stretches and voltage.
+
+        ``T̂1 = ∂W*/∂λ1``, ``T̂2 = ∂W*/∂λ2`` are the nominal tensions over ``μH``.
+
+        Parameters
+        ----------
+        l1, l2 : float or ndarray
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+        phi : float or ndarray
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        tuple of 7 float or ndarray
+            The quantities above, each of the broadcast shape of the inputs; the locking margin is
+            ``1 − (I1 − 3)/Jlim`` (Gent) or 1, the true field ``Ê = Φ̂ λ1 λ2``.
+        """
         return self._built["aux"](l1, l2, phi)
 
     def rhs(self, R, l1, l2, theta, p, phi):
         """Right-hand side ``(λ1', λ2', θ', V̂'/π, Q̂'/2π, Ψ̂'/2π, ẑ')`` of the membrane equations
-        (the quadratures without their constant factors, :data:`QUADRATURE_FACTORS`)."""
+        (the quadratures without their constant factors, :data:`QUADRATURE_FACTORS`).
+
+        ``λ1' = (T̂2 cos θ − T̂1 − R̂ ∂T̂1/∂λ2 λ2') / (R̂ ∂T̂1/∂λ1)``, ``λ2' = (λ1 cos θ − λ2)/R̂``,
+        ``θ' = (p̂ λ1 λ2 R̂ − T̂2 sin θ) / (R̂ T̂1)``, with ``' = d/dR̂``.
+
+        Parameters
+        ----------
+        R : float or ndarray
+            Reference radius ``R̂ = R/A`` (``> 0``: the equations are singular at the pole).
+        l1, l2 : float or ndarray
+            Meridional and hoop stretches ``λ1``, ``λ2``.
+        theta : float or ndarray
+            Angle ``θ`` of the meridian from the horizontal.
+        p : float or ndarray
+            Normalised pressure ``p̂`` (the trial pressure ``p̂t`` when shooting).
+        phi : float or ndarray
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        tuple of 7 float or ndarray
+            The derivatives above, each of the broadcast shape of the inputs.
+        """
         return self._built["rhs"](R, l1, l2, theta, p, phi)
 
     def rhs_into(self, R, l1, l2, theta, p, phi, out):
-        """:meth:`rhs` written into the first seven rows of ``out`` (the integrator's hot path)."""
+        """:meth:`rhs` written into the first seven rows of ``out`` (the integrator's hot path).
+
+        Parameters
+        ----------
+        R, l1, l2, theta, p, phi : float or ndarray
+            As for :meth:`rhs`.
+        out : ndarray
+            At least 7 rows, each broadcastable from the inputs; rows 0–6 are overwritten, the others
+            left alone.
+
+        Returns
+        -------
+        ndarray
+            ``out`` itself.
+        """
         return self._built["rhs_into"](R, l1, l2, theta, p, phi, out)
 
     def rhs_sensitivities_into(self, R, l1, l2, theta, p, phi, s_l0, s_phi, out):
@@ -120,6 +205,22 @@ class MembraneModel:
         ``s_l0`` and ``s_phi`` are the sensitivities ``∂(λ1, λ2, θ)/∂λ0`` and ``∂(λ1, λ2, θ)/∂Φ̂`` of the
         trajectory (three rows each); rows 7–11 of ``out`` receive ``d/dR̂ ∂(λ1, λ2, θ, V̂/π, Q̂/2π)/∂λ0``
         and rows 12–16 the same for ``Φ̂``: ``S' = (∂f/∂y) S`` and ``S' = (∂f/∂y) S + ∂f/∂Φ̂``.
+
+        Parameters
+        ----------
+        R, l1, l2, theta, p, phi : float or ndarray
+            As for :meth:`rhs`.
+        s_l0 : sequence of 3 ndarray
+            ``∂(λ1, λ2, θ)/∂λ0`` at fixed ``R̂``.
+        s_phi : sequence of 3 ndarray
+            ``∂(λ1, λ2, θ)/∂Φ̂`` at fixed ``R̂``.
+        out : ndarray
+            At least 17 rows; rows 0–16 are overwritten, the others left alone.
+
+        Returns
+        -------
+        ndarray
+            ``out`` itself.
         """
         return self._built["rhs_sens_into"](R, l1, l2, theta, p, phi, *s_l0, *s_phi, out)
 
@@ -128,6 +229,25 @@ class MembraneModel:
 
         Returns 17 arrays: the seven integrated rows at ``R̂0`` for trial pressure ``p̂t``
         (``λ1, λ2, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ``), then ``∂/∂λ0`` and ``∂/∂Φ̂`` of the first five.
+
+        The series: ``θ = cR̂``, ``λ1 = λ0 + aR̂²``, ``λ2 = λ0 + bR̂²`` with ``c = p̂t λ0² / (2 T̂0)``,
+        ``b = −c² (T̂0 + (3α − β) λ0) / (16 α)``, ``a = λ0 c²/2 + 3b`` (:meth:`pole` gives ``T̂0, α, β``).
+
+        Parameters
+        ----------
+        l0 : float or ndarray
+            Pole stretch ``λ0``.
+        p_trial : float or ndarray
+            Trial pressure ``p̂t``.
+        phi : float or ndarray
+            Normalised voltage ``Φ̂``.
+        R0 : float or ndarray
+            Radius ``R̂0`` at which the series hands over to the integrator.
+
+        Returns
+        -------
+        tuple of 17 float or ndarray
+            The rows above, each of the broadcast shape of the inputs.
         """
         return self._built["series"](l0, p_trial, phi, R0)
 
@@ -137,7 +257,23 @@ class MembraneModel:
         return self._built["casadi"]
 
     def pole(self, l0, phi=0.0):
-        """Pole quantities ``(T0, α, β, W0, q0)``: tension, its stretch derivatives, energy, charge density."""
+        """Pole quantities ``(T0, α, β, W0, q0)``: tension, its stretch derivatives, energy, charge density.
+
+        All at the equibiaxial pole state ``λ1 = λ2 = λ0``: ``T̂0 = T̂1``, ``α = ∂T̂1/∂λ1``,
+        ``β = ∂T̂1/∂λ2``, ``W*`` and ``q̂``.
+
+        Parameters
+        ----------
+        l0 : float or ndarray
+            Pole stretch ``λ0``.
+        phi : float or ndarray
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        tuple of 5 float or ndarray
+            ``(T̂0, α, β, W0*, q̂0)``, each of the broadcast shape of the inputs.
+        """
         return self._built["pole"](l0, phi)
 
 
@@ -267,7 +403,29 @@ def _build(model: MembraneModel) -> dict:
 def build_model(
     material: str = "neo-hookean", jlim: float | None = None, voltage: bool = True, prestretch: float = 1.0
 ) -> MembraneModel:
-    """Convenience constructor from plain values (what the command line uses)."""
+    """Convenience constructor from plain values (what the command line uses).
+
+    Parameters
+    ----------
+    material : str
+        ``neo-hookean`` or ``gent`` (:func:`~coexist.effects.material_from_name`).
+    jlim : float, optional
+        ``Jlim`` of the Gent material (required for ``gent``).
+    voltage : bool
+        With electrostatics (:class:`~coexist.effects.IdealDielectric`) or without
+        (:class:`~coexist.effects.NoElectrostatics`).
+    prestretch : float
+        Equibiaxial prestretch ``λpre ≥ 1``.
+
+    Returns
+    -------
+    MembraneModel
+
+    Raises
+    ------
+    SceneError
+        For an unknown material, a Gent material without a positive ``jlim``, or ``prestretch < 1``.
+    """
     from .effects import material_from_name
 
     return MembraneModel(

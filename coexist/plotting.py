@@ -6,7 +6,13 @@ from pathlib import Path
 
 
 def pyplot():
-    """matplotlib's pyplot on the non-interactive Agg backend (imported on first use)."""
+    """matplotlib's pyplot on the non-interactive Agg backend (imported on first use).
+
+    Returns
+    -------
+    module
+        :mod:`matplotlib.pyplot`.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -50,7 +56,24 @@ def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
 
 def save_figure(fig, path, title=None, title_size=10) -> Path:
     """Lay out ``fig`` and write it to ``path`` atomically: drawn into a temporary file in the same folder,
-    then renamed over ``path``, so a failure leaves no half-written figure (and no old one destroyed)."""
+    then renamed over ``path``, so a failure leaves no half-written figure (and no old one destroyed).
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure; it is closed afterwards, also on failure.
+    path : str or pathlib.Path
+        The file to write (its folder must exist); the suffix selects the format. Drawn at 130 dpi.
+    title : str, optional
+        Title over the whole figure.
+    title_size : float
+        Its font size in points.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     import os
     import tempfile
 
@@ -73,7 +96,24 @@ def save_figure(fig, path, title=None, title_size=10) -> Path:
 
 
 def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None):
-    """The ``p̂–V̂`` family (left) and the ``Φ̂–Q̂`` family (right), limit points marked."""
+    """The ``p̂–V̂`` family (left) and the ``Φ̂–Q̂`` family (right), limit points marked.
+
+    Parameters
+    ----------
+    pv_curves : list of Curve
+        ``p̂–V̂`` curves (:func:`~coexist.curves.pressure_volume_curve`), one per ``Φ̂``.
+    vq_curves : list of Curve
+        ``Φ̂–Q̂`` curves (:func:`~coexist.curves.voltage_charge_curve`), one per ``p̂``; empty: no right panel.
+    path : str or pathlib.Path
+        The file to write (:func:`save_figure`).
+    title : str, optional
+        Title over the figure.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     plt = pyplot()
     panels = 2 if vq_curves else 1
     fig, axes = plt.subplots(1, panels, figsize=(5.2 * panels, 4.2), squeeze=False)
@@ -103,7 +143,24 @@ def plot_curves(pv_curves, vq_curves, path: str | Path, title: str | None = None
 
 def plot_ramp_volumes(report, path, title=None, branches=()):
     """Zone volumes against voltage: the branches of the configurations the ramp visits (stable solid,
-    unstable dashed; traced on the exact equations), the ramp path with its jumps, transitions marked."""
+    unstable dashed; traced on the exact equations), the ramp path with its jumps, transitions marked.
+
+    Parameters
+    ----------
+    report : RampReport
+        The ramp (:meth:`~coexist.simulation.Simulation.ramp`); volumes in ml, voltages in kV.
+    path : str or pathlib.Path
+        The file to write (:func:`save_figure`).
+    title : str, optional
+        Title of the axes.
+    branches : iterable of Branch
+        Branches drawn behind the path (:meth:`~coexist.simulation.Simulation.branches`).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     plt = pyplot()
     import numpy as np
 
@@ -177,7 +234,24 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
 
 
 def plot_coexisting_states(curve, state, scale_title, path):
-    """The paper's Fig. 7(c): the p̂–V̂ curve at the transition voltage, coexisting states marked."""
+    """The paper's Fig. 7(c): the p̂–V̂ curve at the transition voltage, coexisting states marked.
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        One zone's curve at the state's voltage.
+    state : Equilibrium
+        The zones' state; its unbulged (and, if any, bulged) zones are marked at its pressure ``p̂``.
+    scale_title : str
+        Title of the axes (e.g. the voltage and pressure in physical units).
+    path : str or pathlib.Path
+        The file to write (:func:`save_figure`).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     plt = pyplot()
     import numpy as np
 
@@ -199,7 +273,22 @@ def plot_coexisting_states(curve, state, scale_title, path):
 
 
 def plot_phase_diagram(diagram, path, title=None):
-    """Binodal, spinodals and critical point in the (Φ̂, p̂) plane."""
+    """Binodal, spinodals and critical point in the (Φ̂, p̂) plane.
+
+    Parameters
+    ----------
+    diagram : PhaseDiagram
+        One zone's phase diagram (:func:`~coexist.coexistence.phase_diagram`).
+    path : str or pathlib.Path
+        The file to write (:func:`save_figure`).
+    title : str, optional
+        Title of the axes.
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     plt = pyplot()
 
     import numpy as np

@@ -44,6 +44,7 @@ class RampStep:
 
     @property
     def max_field(self) -> float | None:
+        """Largest true field ``Ê = Φ̂ λ1 λ2`` over the state's groups; None without a state."""
         return None if self.state is None else max(self.state.max_field)
 
 
@@ -75,6 +76,7 @@ class Transition:
 
     @property
     def phi_hat_bracket(self) -> tuple:
+        """``(Φ̂ − error, Φ̂ + error)``: the interval the transition voltage lies in."""
         return (self.phi_hat - self.phi_hat_error, self.phi_hat + self.phi_hat_error)
 
 
@@ -118,6 +120,38 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     ``(counts, u, status, snaps)``; status ``"converged"``, ``"volume_fold"`` (a zone reaches its
     largest volume and no other stable shape holds it), ``"range_end"`` (a zone leaves the curve's
     valid range) or ``"stalled"``.
+
+    In ``u`` the flow reads ``duj/dt = −(p̂(uj) − p̂_gas)/(dV̂/du)(uj)`` (the slope floored at 1e-6 of its
+    largest value on the curve), integrated by LSODA until every zone's pressure is within 1e-8 of the
+    pressure scale of the gas pressure.
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        One zone's curve at the jump's voltage (splines ``p``, ``v``, ``dv`` in ``u`` on ``grid``).
+    gas : GasChamber or PressureReservoir
+        What holds the pressure.
+    counts : sequence of int
+        Group sizes ``nj``.
+    u0 : array_like, shape (M,)
+        Start: each group's ``u = √(λ0 − λpre)`` (the lost state, pushed along its unstable mode).
+    t_max : float, optional
+        Longest flow time (default 1e8; reaching it without settling is ``"stalled"``).
+    max_snaps : int, optional
+        Snaps at fixed volume allowed before the flow gives up as ``"stalled"`` (default 8).
+    settings : SolverSettings, optional
+        For the fold index of the snap targets (:func:`~coexist.equilibria.zone_index_on_curve`).
+
+    Returns
+    -------
+    counts : list of int
+        Group sizes at the end (a snap splits one zone off its group).
+    u : ndarray, shape (M',)
+        Each group's ``u`` at the end.
+    status : str
+        ``"converged"``, ``"volume_fold"``, ``"range_end"`` or ``"stalled"``.
+    snaps : list of (float, float)
+        ``(u before, u after)`` of every snap at fixed volume.
     """
     from scipy.integrate import solve_ivp
 
@@ -260,7 +294,34 @@ class Ramp:
 
     def jump(self, seg: StableSegment, end: Event, direction: int) -> Landing:
         """Where the zones go when the state of ``seg`` is lost at ``end`` while the voltage moves in
-        ``direction``."""
+        ``direction``.
+
+        At a ``fold``, ``split`` or ``merge`` the lost state is pushed along its unstable mode and the
+        :func:`gradient_flow` is run on a zone curve just past the event (``Φ̂ + direction · ε max(|Φ̂|,
+        0.01)``, ``ε`` = 1e-5, 1e-4, 1e-3 in turn until a landing is found); where it settles is solved
+        exactly, checked stable and its segment traced. A ``range_end`` or ``breakdown`` has no landing.
+
+        Parameters
+        ----------
+        seg : StableSegment
+            The segment whose state is lost.
+        end : Event
+            The event that ends it.
+        direction : int
+            ``+1`` (voltage up) or ``−1`` (down).
+
+        Returns
+        -------
+        Landing
+            The stable state reached (at the voltage just past the event) and its segment, with the mode
+            of the push; or no state, with the reason (``range_end``, ``breakdown``, or the flow reaching a
+            volume fold or the end of the zone's range).
+
+        Raises
+        ------
+        SolverError
+            If no ``ε`` gives a stable landing (the message gives the last reason).
+        """
         if end.kind == "range_end":
             return Landing(None, None, f"{seg.label} leaves the model's range: {end.note}")
         if end.kind == "breakdown":
@@ -336,7 +397,32 @@ class Ramp:
 
     # ---------------------------------------------------------------------------------------------
     def run(self, phi_path, start: StableSegment, progress=None) -> RampResult:
-        """Walk ``phi_path`` (starting from 0 V on ``start``); returns the steps and transitions."""
+        """Walk ``phi_path`` (starting from 0 V on ``start``); returns the steps and transitions.
+
+        Parameters
+        ----------
+        phi_path : sequence of float
+            The voltages ``Φ̂`` of the path, visited in order (a continuous ramp from 0 through them).
+        start : StableSegment
+            The segment of the state at ``Φ̂ = 0`` (the closing state).
+        progress : callable, optional
+            Called with the index of each path voltage once it is reached.
+
+        Returns
+        -------
+        RampResult
+            One :class:`RampStep` per path voltage (every state converged exactly), the transitions in
+            the order met, the equal-free-energy voltages of the segments visited (:func:`equal_free_energy`),
+            the segments and notes.
+
+        Raises
+        ------
+        ModelRangeError
+            If ``phi_path`` is empty.
+        SolverError
+            If a jump finds no landing, a printed state does not converge, or an equal-free-energy
+            voltage does not converge.
+        """
         phi_path = [float(p) for p in phi_path]
         if not phi_path:
             raise ModelRangeError("empty voltage path", "out_of_range")
@@ -558,6 +644,24 @@ def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
     For every pair of segments that overlap in voltage, sign changes of ``ΔĜ`` (cubic Hermite in ``Φ̂``
     from the points, using ``dĜ/dΦ̂ = −Σ nj Q̂j``) bracket the crossings; each is then solved by Newton's
     method on ``ΔĜ(Φ̂)`` with both states converged exactly at every iterate (slope ``−ΔQ̂``).
+
+    Parameters
+    ----------
+    segments : list of StableSegment
+        The segments to compare, pair by pair (each with at least two points to take part).
+    tol_rel : float, optional
+        Not used: the tolerance is ``settings.crossing_tol`` (:func:`equal_free_energy_voltage`).
+
+    Returns
+    -------
+    list of Transition
+        One ``equal_free_energy`` transition per crossing, sorted by ``Φ̂``: from the configuration lower
+        in ``Ĝ`` below the crossing to the one lower above it, its error the last Newton step.
+
+    Raises
+    ------
+    SolverError
+        If a crossing does not converge (names both configurations).
     """
     out = []
     for ia, A in enumerate(segments):
@@ -591,6 +695,19 @@ def equal_free_energy_voltage(
 
     It stops where the Newton step is below ``settings.crossing_tol(Φ̂)`` (``100 rtol Φ̂``) or stops
     shrinking (the states' own noise).
+
+    Parameters
+    ----------
+    state_a, state_b : callable
+        ``Φ̂ -> Equilibrium``: each configuration's converged state at a voltage.
+    phi0 : float
+        First guess of ``Φ̂``; the step tolerance is ``settings.crossing_tol(phi0)``.
+    lo, hi : float
+        Bracket of ``Φ̂`` that safeguards the iteration.
+    settings : SolverSettings
+        Solver settings.
+    sign_at_lo : float, optional
+        Sign of ``ΔĜ`` at ``lo`` (lets the bracket shrink with every iterate).
 
     Returns
     -------

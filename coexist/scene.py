@@ -124,6 +124,14 @@ class Scene:
         ``source`` is the file path or the built-in scene name.
     fitted : dict
         Free-form notes of fitted parameters, carried through unchanged.
+
+    Examples
+    --------
+    >>> scene = load_scene("tricircle")
+    >>> scene.zone_count, scene.material
+    (3, 'gent')
+    >>> round(scene.p_hat(20e2), 4)  # the closing pressure, 20 mbar, as p̂ = p A/(μH)
+    1.9037
     """
 
     shear_modulus: float = DEFAULTS["shear_modulus"]
@@ -181,27 +189,93 @@ class Scene:
 
     # --- physical <-> normalised -----------------------------------------------------------------
     def p_hat(self, p):
-        """``p̂ = p A/(μH)`` of a gauge pressure ``p`` in Pa (scalar or array)."""
+        """``p̂ = p A/(μH)`` of a gauge pressure ``p`` in Pa (scalar or array).
+
+        Parameters
+        ----------
+        p : float or array_like
+            Gauge pressure in Pa.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``p̂`` (a float for a scalar, an array of the same shape otherwise).
+        """
         return _scaled(p, 1 / self.pressure_scale)
 
     def pressure(self, p_hat):
-        """Gauge pressure in Pa of a normalised pressure, ``p = p̂ μH/A``."""
+        """Gauge pressure in Pa of a normalised pressure, ``p = p̂ μH/A``.
+
+        Parameters
+        ----------
+        p_hat : float or array_like
+            Normalised gauge pressure ``p̂``.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``p`` in Pa (a float for a scalar, an array of the same shape otherwise).
+        """
         return _scaled(p_hat, self.pressure_scale)
 
     def v_hat(self, volume):
-        """``V̂ = V/A³`` of a volume in m³."""
+        """``V̂ = V/A³`` of a volume in m³.
+
+        Parameters
+        ----------
+        volume : float or array_like
+            Volume ``V`` in m³.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``V̂`` (a float for a scalar, an array of the same shape otherwise).
+        """
         return _scaled(volume, 1 / self.volume_scale)
 
     def volume(self, v_hat):
-        """Volume in m³ of a normalised volume, ``V = V̂ A³``."""
+        """Volume in m³ of a normalised volume, ``V = V̂ A³``.
+
+        Parameters
+        ----------
+        v_hat : float or array_like
+            Normalised volume ``V̂``.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``V`` in m³ (a float for a scalar, an array of the same shape otherwise).
+        """
         return _scaled(v_hat, self.volume_scale)
 
     def phi_hat(self, volts):
-        """``Φ̂ = (Φ/H) √(ε/μ)`` of a voltage in V."""
+        """``Φ̂ = (Φ/H) √(ε/μ)`` of a voltage in V.
+
+        Parameters
+        ----------
+        volts : float or array_like
+            Voltage ``Φ`` in V.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``Φ̂`` (a float for a scalar, an array of the same shape otherwise).
+        """
         return _scaled(volts, 1 / self.voltage_scale)
 
     def voltage_of(self, phi_hat):
-        """Voltage in V of a normalised voltage, ``Φ = Φ̂ H √(μ/ε)``."""
+        """Voltage in V of a normalised voltage, ``Φ = Φ̂ H √(μ/ε)``.
+
+        Parameters
+        ----------
+        phi_hat : float or array_like
+            Normalised voltage ``Φ̂``.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``Φ`` in V (a float for a scalar, an array of the same shape otherwise).
+        """
         return _scaled(phi_hat, self.voltage_scale)
 
     @property
@@ -225,7 +299,18 @@ class Scene:
         return None if self.chamber is None else self.p_hat(self.chamber.atmospheric_pressure)
 
     def dimensionless_groups(self) -> dict:
-        """The scales (units in the key names) and the scene's normalised parameters."""
+        """The scales (units in the key names) and the scene's normalised parameters.
+
+        Returns
+        -------
+        dict
+            ``pressure_scale_Pa`` (``μH/A``), ``volume_scale_m3`` (``A³``), ``voltage_scale_V``
+            (``H√(μ/ε)``), ``charge_scale_C`` (``A²√(εμ)``), ``energy_scale_J`` (``μHA²``),
+            ``field_scale_V_per_m`` (``√(μ/ε)``), ``thickness_over_radius`` (``H/A``); with a chamber also
+            ``chamber_volume_hat``, ``atmospheric_pressure_hat`` and ``closing_pressure_hat``; under pressure
+            control ``controlled_pressure_hat``; with a voltage path ``voltage_hat_max`` (``Φ̂`` of its
+            peak); with a breakdown field ``breakdown_field_hat`` (``Êb = Eb √(ε/μ)``).
+        """
         groups: dict[str, float | None] = {
             "pressure_scale_Pa": self.pressure_scale,
             "volume_scale_m3": self.volume_scale,
@@ -255,6 +340,12 @@ class Scene:
         p_hat_max : float
             The largest normalised pressure one zone can hold at zero voltage (the snap-through
             pressure of the zone's ``p̂–V̂`` curve, e.g. 1.879 for neo-Hookean without prestretch).
+
+        Raises
+        ------
+        SceneError
+            If the scene has a chamber and its closing pressure, normalised, is not below ``p_hat_max``
+            (names the closing-pressure field). Without a chamber nothing is checked.
         """
         if self.chamber is None:
             return
@@ -273,6 +364,13 @@ class Scene:
         """Names of the effects this scene calls for; nothing else is simulated.
 
         The first entries name the same effects as :attr:`coexist.model.MembraneModel.effects`.
+
+        Returns
+        -------
+        list of str
+            ``elasticity:<material>``, then ``electrostatics:ideal-dielectric`` with a voltage,
+            ``prestretch`` when ``λpre ≠ 1``, ``gas:isothermal-ideal-gas`` with a chamber (else
+            ``pressure-control``), and ``breakdown-check`` when a breakdown field is given.
         """
         names = [f"elasticity:{self.material}"]
         if self.voltage is not None:
@@ -287,7 +385,13 @@ class Scene:
         return names
 
     def elasticity(self):
-        """The scene's elasticity effect (:func:`coexist.effects.material_from_name`)."""
+        """The scene's elasticity effect (:func:`coexist.effects.material_from_name`).
+
+        Returns
+        -------
+        NeoHookean or Gent
+            The :mod:`coexist.effects` elasticity of :attr:`material` (with :attr:`jlim` for Gent).
+        """
         from .effects import material_from_name
 
         return material_from_name(self.material, self.jlim)
@@ -297,11 +401,24 @@ class Scene:
 
         Built once per material, voltage on/off and prestretch in a process (:func:`coexist.model.build_model`,
         cached): scenes that differ in geometry, chamber or voltage path share one model.
+
+        Returns
+        -------
+        MembraneModel
+            The normalised one-zone model; electrostatics only when the scene has a ``[voltage]``.
         """
         return _shared_model(self.material, self.jlim, self.voltage is not None, float(self.prestretch))
 
     def to_dict(self) -> dict:
-        """JSON-ready description: SI values with units in the key names, effects, groups, notes."""
+        """JSON-ready description: SI values with units in the key names, effects, groups, notes.
+
+        Returns
+        -------
+        dict
+            Keys ``name``, ``description``, ``source``, ``membrane``, ``zones``, ``chamber`` and ``voltage``
+            (``None`` when absent), ``effects`` (:meth:`effects`), ``dimensionless_groups``
+            (:meth:`dimensionless_groups`) and ``fitted`` (dates as ISO strings, non-finite floats as strings).
+        """
         membrane = {
             "material": self.material,
             "shear_modulus_Pa": self.shear_modulus,
@@ -376,7 +493,13 @@ def _json_safe(value):
 
 # --- loading ---------------------------------------------------------------------------------------
 def builtin_scenes() -> dict[str, str]:
-    """Built-in scene names with a one-line description each."""
+    """Built-in scene names with a one-line description each.
+
+    Returns
+    -------
+    dict of str to str
+        Scene name (sorted) to the first line of its ``description`` (``""`` if it has none).
+    """
     out = {}
     for name in _builtin_names():
         doc = tomllib.loads(builtin_scene_text(name))
@@ -386,7 +509,23 @@ def builtin_scenes() -> dict[str, str]:
 
 
 def builtin_scene_text(name: str) -> str:
-    """The TOML text of a built-in scene."""
+    """The TOML text of a built-in scene.
+
+    Parameters
+    ----------
+    name : str
+        Built-in scene name (see :func:`builtin_scenes`).
+
+    Returns
+    -------
+    str
+        The scene file's text.
+
+    Raises
+    ------
+    SceneError
+        If there is no built-in scene of that name (the closest name is suggested).
+    """
     names = _builtin_names()
     if name not in names:
         raise SceneError(
@@ -401,6 +540,28 @@ def load_scene(name_or_path: str | Path | None = None) -> Scene:
 
     A string ending in ``.toml`` or holding a path separator is a path; otherwise a built-in name,
     falling back to a file of that name if one exists.
+
+    Parameters
+    ----------
+    name_or_path : str or pathlib.Path or None
+        Built-in scene name, or path of a UTF-8 TOML scene file; ``None``: :data:`DEFAULT_SCENE`.
+
+    Returns
+    -------
+    Scene
+        The validated scene; its ``source`` is the path or the built-in name.
+
+    Raises
+    ------
+    SceneError
+        If the name is not a built-in scene, the file is missing, unreadable or not UTF-8, or the scene is
+        invalid (:func:`parse_scene`).
+
+    Examples
+    --------
+    >>> scene = load_scene()  # the default: the paper's experiment
+    >>> scene.name, round(scene.zone_radius * 1e3, 4)  # zone radius in mm
+    ('tricircle', 21.4165)
     """
     if name_or_path is None:
         name_or_path = DEFAULT_SCENE
@@ -423,7 +584,26 @@ def load_scene(name_or_path: str | Path | None = None) -> Scene:
 
 
 def parse_scene(text: str, source: str = "<string>") -> Scene:
-    """Parse and validate the TOML text of a scene; every problem is a :class:`SceneError`."""
+    """Parse and validate the TOML text of a scene; every problem is a :class:`SceneError`.
+
+    Parameters
+    ----------
+    text : str
+        TOML text of the scene (sections and keys: :mod:`coexist.scene_format`).
+    source : str
+        Where the text came from, used in messages and as ``Scene.source``; its stem is the scene's
+        name when the text gives none.
+
+    Returns
+    -------
+    Scene
+        The validated scene in SI units (the voltage path read-only).
+
+    Raises
+    ------
+    SceneError
+        For invalid TOML, or the first invalid section, key or value (naming the field).
+    """
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

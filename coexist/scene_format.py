@@ -121,7 +121,21 @@ def _key_names(section: str) -> list[str]:
 
 
 def did_you_mean(word: str, options) -> str:
-    """``"; did you mean 'x'?"`` for the closest option (same spelling in another case first), or ``""``."""
+    """``"; did you mean 'x'?"`` for the closest option (same spelling in another case first), or ``""``.
+
+    Parameters
+    ----------
+    word : str
+        The unknown word as written.
+    options : iterable of str
+        The valid words.
+
+    Returns
+    -------
+    str
+        The hint to append to an error message, or ``""`` when no option is close
+        (:func:`difflib.get_close_matches`, default cutoff).
+    """
     options = list(options)
     same_case = {o.lower(): o for o in options}
     match = [same_case[word.lower()]] if word.lower() in same_case else difflib.get_close_matches(word, options, 1)
@@ -234,6 +248,27 @@ def read_document(doc: dict, source: str) -> dict:
     """Check a parsed TOML scene and return the keyword arguments of :class:`~coexist.scene.Scene`.
 
     ``chamber`` and ``voltage`` are plain dicts (or ``None``); values are in SI units.
+
+    Parameters
+    ----------
+    doc : dict
+        The parsed TOML document (``tomllib.loads``).
+    source : str
+        Where it came from; its stem is the scene's ``name`` when the document gives none.
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :class:`~coexist.scene.Scene`, defaults filled in; ``voltage`` holds the
+        path's ``values`` in V (:func:`ramp_path` for a ramp), ``fitted`` a deep copy of ``[fitted]``.
+
+    Raises
+    ------
+    SceneError
+        For the first problem found, naming the field: e.g. an unknown section or key (the closest name
+        suggested), a ``[solver]`` section, a missing unit or required key, a value of the wrong type, sign
+        or range, or an inconsistent combination (a membrane not thinner than its zone radius, a prestretch
+        that locks the Gent chains, both a chamber and a controlled pressure, a ramp going down).
     """
     for key in doc:
         if key == "solver":
@@ -376,6 +411,16 @@ def ramp_path(start: float, stop: float, step: float) -> np.ndarray:
 
     The last step up is shortened to land on ``stop`` when ``stop − start`` is not a whole number of
     steps (to within 1e-9 of a step).
+
+    Parameters
+    ----------
+    start, stop, step : float
+        First and highest value and the step (any consistent unit; ``step > 0``, ``stop ≥ start``).
+
+    Returns
+    -------
+    numpy.ndarray
+        The path up and back down, shape ``(2m + 1,)`` with ``m + 1`` values from ``start`` to ``stop``.
     """
     steps = (stop - start) / step
     n = round(steps) if abs(steps - round(steps)) < 1e-9 * max(1.0, steps) else math.floor(steps)

@@ -187,7 +187,18 @@ class SolverSettings:
 
     def crossing_tol(self, phi_hat: float) -> float:
         """Newton step in ``Φ̂`` at which an equal-free-energy voltage has converged: ``100 rtol max(|Φ̂|, 1e-3)``
-        (the free energies carry ``rtol``, their difference is divided by the difference of charges)."""
+        (the free energies carry ``rtol``, their difference is divided by the difference of charges).
+
+        Parameters
+        ----------
+        phi_hat : float
+            The voltage ``Φ̂`` being solved for.
+
+        Returns
+        -------
+        float
+            The step tolerance in ``Φ̂``.
+        """
         return 100 * self.rtol * max(abs(phi_hat), 1e-3)
 
     @property
@@ -197,12 +208,45 @@ class SolverSettings:
         return 1e-3 * self.rtol
 
     def with_rtol(self, rtol: float) -> SolverSettings:
-        """A copy with another relative tolerance (every derived tolerance follows it)."""
+        """A copy with another relative tolerance (every derived tolerance follows it).
+
+        Parameters
+        ----------
+        rtol : float
+            The new relative tolerance, in ``[1e-14, 1e-2]``.
+
+        Returns
+        -------
+        SolverSettings
+            The copy; every other field unchanged.
+
+        Raises
+        ------
+        SceneError
+            If ``rtol`` lies outside ``[1e-14, 1e-2]``.
+        """
         return replace(self, rtol=float(rtol))
 
     @classmethod
     def from_accuracy(cls, accuracy: str | float | None) -> SolverSettings:
         """Settings for a named accuracy level (``draft``, ``default``, ``high``) or a tolerance.
+
+        Parameters
+        ----------
+        accuracy : str or float or None
+            A level of :data:`ACCURACY_LEVELS` (case and surrounding blanks ignored), a relative tolerance
+            (a number or its text, e.g. ``"1e-8"``), or ``None`` for the defaults.
+
+        Returns
+        -------
+        SolverSettings
+            Default settings with ``rtol`` set accordingly.
+
+        Raises
+        ------
+        SceneError
+            If the text is neither a level nor a tolerance in ``[1e-14, 1e-2]`` (field ``accuracy``), or a
+            number lies outside ``[1e-14, 1e-2]`` (field ``rtol``).
 
         Examples
         --------

@@ -132,13 +132,45 @@ def _hermite_min(ops, xa, ya, da, xb, yb, db):
 
 def hermite_minimum(xa, ya, da, xb, yb, db):
     """:func:`_hermite_min` on numpy arrays (vectorised): refines a tension's minimum between two
-    integration nodes (error O(h⁴))."""
+    integration nodes (error O(h⁴)).
+
+    Parameters
+    ----------
+    xa, xb : array_like
+        The two nodes (``R̂``), ``xa < xb``.
+    ya, yb : array_like
+        Values at the nodes (e.g. ``T̂1``).
+    da, db : array_like
+        Slopes ``dy/dx`` at the nodes (e.g. ``dT̂1/dR̂``).
+
+    Returns
+    -------
+    ndarray
+        Smallest value of the cubic Hermite interpolant on ``[xa, xb]``, of the broadcast shape of
+        the inputs (never above ``min(ya, yb)``).
+    """
     with np.errstate(all="ignore"):
         return _hermite_min(_NumpyOps, *(np.asarray(v, dtype=float) for v in (xa, ya, da, xb, yb, db)))
 
 
 def first_valid_run(ok) -> slice:
-    """The first contiguous run of True in ``ok`` (which must hold at least one True)."""
+    """The first contiguous run of True in ``ok`` (which must hold at least one True).
+
+    Parameters
+    ----------
+    ok : array_like of bool, 1-D
+        Validity of each state along a grid.
+
+    Returns
+    -------
+    slice
+        ``slice(first, stop)`` of the run (an empty slice if ``ok`` holds no True).
+
+    Examples
+    --------
+    >>> first_valid_run([False, True, True, False, True])
+    slice(1, 3, None)
+    """
     ok = np.asarray(ok, dtype=bool)
     first = int(np.argmax(ok))
     rest = np.flatnonzero(~ok[first:])
@@ -146,10 +178,34 @@ def first_valid_run(ok) -> slice:
 
 
 def reason_tag(code: int) -> str:
+    """Short machine-readable tag of a status code (e.g. ``"wrinkling"``), as in :data:`REASONS`.
+
+    Parameters
+    ----------
+    code : int
+        ``OK`` or a failure code of :data:`REASONS`.
+
+    Returns
+    -------
+    str
+        The tag; it is the ``reason`` of the :class:`ModelRangeError` raised for that failure.
+    """
     return REASONS[int(code)][0]
 
 
 def reason_text(code: int) -> str:
+    """One-sentence explanation of a status code, as in :data:`REASONS`.
+
+    Parameters
+    ----------
+    code : int
+        ``OK`` or a failure code of :data:`REASONS`.
+
+    Returns
+    -------
+    str
+        The sentence.
+    """
     return REASONS[int(code)][1]
 
 
@@ -170,12 +226,40 @@ class StateDerivatives:
 
     @staticmethod
     def of(states: MembraneStates) -> StateDerivatives:
-        """The derivatives of ``states``, which must have been shot with ``derivatives=True``."""
+        """The derivatives of ``states``, which must have been shot with ``derivatives=True``.
+
+        Parameters
+        ----------
+        states : MembraneStates
+            States from :func:`solve_states`.
+
+        Returns
+        -------
+        StateDerivatives
+            ``states.derivatives``.
+
+        Raises
+        ------
+        ValueError
+            If the states were shot without derivatives.
+        """
         if states.derivatives is None:
             raise ValueError("these states were shot without derivatives (solve_states(..., derivatives=True))")
         return states.derivatives
 
     def take(self, index) -> StateDerivatives:
+        """The derivatives of a subset of the states.
+
+        Parameters
+        ----------
+        index : int, slice or array_like
+            Any numpy index into the state axis (a slice, integer or boolean array).
+
+        Returns
+        -------
+        StateDerivatives
+            Every field indexed with ``index``.
+        """
         return StateDerivatives(**{k: v[index] for k, v in self.__dict__.items()})
 
 
@@ -230,10 +314,23 @@ class MembraneStates:
 
     @property
     def ok(self) -> np.ndarray:
+        """Boolean array: True where ``status`` is ``OK`` (only those entries hold a state)."""
         return self.status == OK
 
     def require_ok(self) -> MembraneStates:
-        """Raise :class:`ModelRangeError` naming the first failed input, else return self."""
+        """Raise :class:`ModelRangeError` naming the first failed input, else return self.
+
+        Returns
+        -------
+        MembraneStates
+            ``self``, when every state is ``OK``.
+
+        Raises
+        ------
+        ModelRangeError
+            At the first failed state, with its pole stretch, voltage and reason
+            (:func:`reason_text`; ``reason`` is :func:`reason_tag`).
+        """
         bad = np.flatnonzero(~self.ok)
         if bad.size:
             i = bad[0]
@@ -263,6 +360,23 @@ def trial_pressure(model: MembraneModel, l0, phi):
     """Spherical-cap estimate of ``p̂`` at pole stretch ``λ0``: ``p̂ ≈ 2 T̂1(λ0, λ0) α / λ0²``.
 
     Only used to scale the trial integration so that it reaches the clamp near ``R̂ = 1``.
+
+    ``α`` is the half-angle of a spherical cap whose arc is ``λ0/λpre`` times its chord:
+    ``sin α / α = λpre/λ0``.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane (its pole tension ``T̂1(λ0, λ0)`` and prestretch ``λpre``).
+    l0 : ndarray
+        Pole stretches ``λ0 > λpre``.
+    phi : float or ndarray
+        Normalised voltages ``Φ̂``, broadcast against ``l0``.
+
+    Returns
+    -------
+    ndarray
+        The trial pressures ``p̂t``.
     """
     T0 = model.pole(l0, phi)[0]
     stretch = l0 / model.prestretch
@@ -439,6 +553,25 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     the cubic Hermite estimate of a tension's minimum between the last two nodes comes below
     :data:`REFINE_MINIMUM_BELOW`, the step that holds it (the caller locates that minimum exactly).
     A finished trajectory (status ≠ 0) passes through unchanged.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane whose equations are integrated.
+    kind : {"radius", "radius_sens"}
+        The right-hand side: the membrane equations in ``R̂``, or the same with the variational
+        equations (see ``_Integrators``).
+    rows : int
+        Rows of the integrated state: 9 for ``radius``, 19 for ``radius_sens``.
+    K : int
+        Attempts per call (:data:`ATTEMPTS_PER_CALL`).
+
+    Returns
+    -------
+    casadi.Function
+        Maps one packed state, a column of ``len(_HEAD) + 4 rows`` (the scalars of ``_HEAD``: time,
+        step, status, smallest tension, ...; then ``y``, its derivative ``f``, ``atol`` and the ``y`` of
+        the step holding a tension's minimum), to the packed state after ``K`` attempts.
     """
     import casadi as ca
 
@@ -603,11 +736,13 @@ def solve_states(
     Parameters
     ----------
     model : MembraneModel
+        The membrane (effects and prestretch).
     pole_stretch : array_like
         Pole stretches ``λ0 > λpre``.
     phi_hat : float or array_like
         Normalised voltages ``Φ̂ ≥ 0``, broadcast against ``pole_stretch``.
     settings : SolverSettings, optional
+        Tolerances and limits of the integration; default ``SolverSettings()``.
     shape : bool
         Also return the meridian ``(R̂, r̂, ẑ)`` of every state (costs extra output steps).
     derivatives : bool
@@ -624,6 +759,12 @@ def solve_states(
     -------
     MembraneStates
         Failed states are flagged by ``status``; nothing in a flagged entry is to be trusted.
+
+    Raises
+    ------
+    SceneError
+        If a pole stretch is not finite or not above ``λpre``, a voltage is negative or not finite,
+        or a voltage is not zero for a model without electrostatics.
     """
     settings = settings or SolverSettings()
     l0, phi = np.broadcast_arrays(

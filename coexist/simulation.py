@@ -29,14 +29,42 @@ from .shooting import StateDerivatives, solve_states
 
 
 def pole_stretch_max(scene: Scene, settings: SolverSettings | None = None) -> float:
-    """Upper end of the zone curves of ``scene`` (:func:`stretch_range_end` of its material)."""
+    """Upper end of the zone curves of ``scene`` (:func:`stretch_range_end` of its material).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene; its material and prestretch are used.
+    settings : SolverSettings, optional
+        Supplies ``locking_margin`` and ``stretch_max_factor`` (default: :class:`SolverSettings`).
+
+    Returns
+    -------
+    float
+        The largest pole stretch ``λ0`` a zone is followed to.
+    """
     return stretch_range_end(scene.elasticity(), scene.prestretch, settings)
 
 
 def stretch_range_end(elasticity, prestretch: float, settings: SolverSettings | None = None) -> float:
     """Upper end of the pole stretches a zone is followed to: ``locking_margin`` times the material's
     equibiaxial locking stretch (:attr:`~coexist.effects.Gent.locking_stretch`), or ``stretch_max_factor``
-    times the prestretch for a material that does not lock (:class:`~coexist.settings.SolverSettings`)."""
+    times the prestretch for a material that does not lock (:class:`~coexist.settings.SolverSettings`).
+
+    Parameters
+    ----------
+    elasticity : NeoHookean or Gent
+        The elasticity effect (:mod:`coexist.effects`); only its ``locking_stretch`` is used.
+    prestretch : float
+        Equibiaxial prestretch ``λpre``.
+    settings : SolverSettings, optional
+        Default: :class:`SolverSettings`.
+
+    Returns
+    -------
+    float
+        The largest pole stretch ``λ0``.
+    """
     settings = settings or SolverSettings()
     lock = elasticity.locking_stretch
     if lock is not None:
@@ -46,7 +74,22 @@ def stretch_range_end(elasticity, prestretch: float, settings: SolverSettings | 
 
 def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float, float]:
     """``(p̂max, λ0)`` of one zone's first pressure maximum at zero voltage (solved exactly), or the
-    largest pressure of the computed range and its pole stretch if the curve has no maximum."""
+    largest pressure of the computed range and its pole stretch if the curve has no maximum.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The zone's model, evaluated at ``Φ̂ = 0``.
+    settings : SolverSettings
+        Tolerances; ``snap_grid_points`` pole stretches bracket the maximum first.
+    lam_max : float
+        Upper end of the pole-stretch grid (:func:`stretch_range_end`).
+
+    Returns
+    -------
+    tuple of float
+        ``(p̂max, λ0)``: the normalised pressure and the pole stretch at which it is reached.
+    """
     from .curves import pressure_volume_curve
 
     pre = model.prestretch
@@ -60,7 +103,20 @@ def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float
 
 
 def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) -> float:
-    """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``)."""
+    """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene; its material and prestretch are used, without electrostatics.
+    settings : SolverSettings, optional
+        Default: :class:`SolverSettings`.
+
+    Returns
+    -------
+    float
+        ``p̂max = pmax A/(μH)`` (:func:`snap_through` up to :func:`pole_stretch_max`).
+    """
     from .effects import NoElectrostatics
     from .model import MembraneModel
 
@@ -72,7 +128,31 @@ def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) 
 
 def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: float, lam_hi: float) -> float:
     """The pole stretch in ``(lam_lo, lam_hi)`` (a rising piece of the zero-voltage curve) at which one zone
-    holds ``p̂``: Newton's method on exact states with exact derivatives, safeguarded by the bracket."""
+    holds ``p̂``: Newton's method on exact states with exact derivatives, safeguarded by the bracket.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The zone's model, evaluated at ``Φ̂ = 0``.
+    p_hat : float
+        The normalised gauge pressure ``p̂`` to hold.
+    settings : SolverSettings
+        Tolerances of the shooting.
+    lam_lo, lam_hi : float
+        The bracket in pole stretch ``λ0``; ``p̂`` must lie between the pressures there.
+
+    Returns
+    -------
+    float
+        The pole stretch ``λ0``.
+
+    Raises
+    ------
+    SceneError
+        If the state at ``lam_lo`` is invalid or holds more than ``p̂`` (field ``pressure``).
+    SolverError
+        If a state inside the bracket is invalid or Newton's method does not converge.
+    """
     lo, hi = float(lam_lo), float(lam_hi)
     s_lo = solve_states(model, [lo], 0.0, settings)
     if not (s_lo.ok[0] and s_lo.p_hat[0] <= p_hat):
@@ -99,6 +179,25 @@ class Simulation:
 
     Build it with :meth:`from_scene`. ``phi_window`` is the voltage range the map is traced over (the
     scene's path, or a wider one for a fit); ``settings`` are the numerical choices of every solver.
+
+    Attributes
+    ----------
+    scene : Scene
+    settings : SolverSettings
+    model : MembraneModel
+        The one-zone model with the scene's effects.
+    gas : GasChamber or PressureReservoir
+        What holds the pressure: the chamber's gas closed at the closing pressure, or the controlled pressure.
+    closing_stretch : float
+        Pole stretch ``λ0`` of every zone when the valves close (0 V).
+    p_hat_max : float
+        Snap-through pressure ``p̂max`` of one zone at 0 V.
+    lam_max : float
+        Upper end of the zone curves' pole stretches (:func:`pole_stretch_max`).
+    phi_window : tuple of float
+        ``(Φ̂lo, Φ̂hi)``, the voltage range of the map.
+    emap : EquilibriumMap
+        The stable segments found so far, traced on demand.
     """
 
     scene: Scene
@@ -121,11 +220,39 @@ class Simulation:
         ``model`` and ``snap = (p̂max, λ0 at it)`` may be passed in when many scenes share one material
         (a fit); ``phi_window`` widens the voltage range the map is traced over.
 
+        Parameters
+        ----------
+        scene : Scene
+            The experiment; it needs a chamber or a controlled pressure.
+        settings : SolverSettings, optional
+            Default: :class:`SolverSettings`.
+        model : MembraneModel, optional
+            Default: ``scene.model()``.
+        phi_window : tuple of float, optional
+            ``(Φ̂lo, Φ̂hi)``; default ``(0, Φ̂ of the path's peak)``, ``(0, 0)`` without a voltage path.
+        snap : tuple of float, optional
+            ``(p̂max, λ0)`` of the zero-voltage pressure maximum; default: :func:`snap_through`.
+
+        Returns
+        -------
+        Simulation
+            Ready to ramp; nothing is traced yet.
+
         Raises
         ------
         SceneError
             If the zones cannot hold the closing (or controlled) pressure, or the scene has neither a
-            chamber nor a controlled pressure (names the field).
+            chamber nor a controlled pressure (names the field). Also if that pressure is below the
+            smallest computed state's.
+        SolverError
+            If the state at the closing pressure does not converge.
+
+        Examples
+        --------
+        >>> from coexist import load_scene
+        >>> sim = Simulation.from_scene(load_scene("tricircle"))
+        >>> round(sim.p_hat_max, 4), round(sim.closing_stretch, 4)  # p̂max at 0 V, λ0 at 20 mbar
+        (1.9727, 1.866)
         """
         settings = settings or SolverSettings()
         model = model if model is not None else scene.model()
@@ -191,7 +318,29 @@ class Simulation:
         return self._start
 
     def ramp(self, progress=None) -> RampReport:
-        """The scene's voltage path, followed from the closing state (:class:`~coexist.ramp.Ramp`)."""
+        """The scene's voltage path, followed from the closing state (:class:`~coexist.ramp.Ramp`).
+
+        With ``settings.error_estimates`` every transition's error is measured (:meth:`measure_errors`).
+
+        Parameters
+        ----------
+        progress : callable, optional
+            Called with the index of each voltage of the path once it is done.
+
+        Returns
+        -------
+        RampReport
+            The steps, transitions and equal-free-energy voltages, in physical units.
+
+        Raises
+        ------
+        SceneError
+            If the scene has no ``[voltage]``.
+        ModelRangeError
+            If the state the valves closed in is not stable.
+        SolverError
+            If an equal-free-energy voltage does not converge.
+        """
         if self.scene.voltage is None:
             raise SceneError("this scene has no [voltage]: nothing to ramp", "[voltage]")
         result = Ramp(self.emap, self.lam_max).run(self.scene.voltage_hat_path, self.start, progress)
@@ -201,7 +350,18 @@ class Simulation:
 
     def branches(self, segments) -> list:
         """The whole branch of each segment's configuration through it (stable and unstable pieces, through
-        folds, over the window): what a figure draws around the ramp. Tracing only; nothing reported."""
+        folds, over the window): what a figure draws around the ramp. Tracing only; nothing reported.
+
+        Parameters
+        ----------
+        segments : iterable of StableSegment
+            E.g. ``report.result.segments`` of a ramp.
+
+        Returns
+        -------
+        list of Branch
+            One :class:`~coexist.continuation.Branch` per segment whose trace succeeds (failures are skipped).
+        """
         out = []
         for seg in segments:
             mid = seg.points[len(seg.points) // 2]
@@ -214,7 +374,20 @@ class Simulation:
 
     def measure_errors(self, transitions) -> None:
         """Re-locate every transition at a tighter tolerance (``rtol/100``, at least 1e-13): its error is
-        the change (plus its location bracket). In place."""
+        the change (plus its location bracket). In place.
+
+        Parameters
+        ----------
+        transitions : list of Transition
+            Their ``phi_hat_error`` and ``measured`` are updated. Equal-free-energy voltages are solved again
+            with both states at the tighter tolerance; others are re-located from their continuation event
+            (an event is measured once; transitions without one, and failed re-locations, keep their error).
+
+        Raises
+        ------
+        SolverError
+            If an equal-free-energy voltage does not converge at the tighter tolerance.
+        """
         tight_map = self._tight_map()
         done = {}
         for t in transitions:
@@ -250,7 +423,13 @@ class Simulation:
             pass
 
     def measure_segment_ends(self, segments) -> None:
-        """Measure the error of every event that ends one of ``segments`` (in place)."""
+        """Measure the error of every event that ends one of ``segments`` (in place).
+
+        Parameters
+        ----------
+        segments : iterable of StableSegment
+            Their end events get ``error`` and ``measured`` updated (:func:`~coexist.continuation.relocate`).
+        """
         tight_map = self._tight_map()
         for seg in segments:
             for ev in (seg.low, seg.high):
@@ -262,7 +441,15 @@ class Simulation:
         """Seed the map with every stable equilibrium found at ``voltages`` voltages (default: the settings'
         ``discovery_voltages``) across the window
         (first guesses on zone curves shot at each voltage, then converged exactly; each new one is
-        traced). Configurations: homogeneous and ``(N − k, k)`` for ``k`` in ``bulged``."""
+        traced). Configurations: homogeneous and ``(N − k, k)`` for ``k`` in ``bulged``.
+
+        Parameters
+        ----------
+        bulged : iterable of int, optional
+            Numbers ``k`` of bulged zones; default ``1..N−1``.
+        voltages : int, optional
+            Number of voltages, evenly spaced over :attr:`phi_window` (one if the window is a single voltage).
+        """
         from .candidates import candidate_equilibria
         from .zone_curves import ZoneCurve
 
@@ -294,7 +481,20 @@ class Simulation:
                     continue
 
     def equilibria_at(self, phi: float = 0.0, bulged=None) -> list[Equilibrium]:
-        """Every equilibrium (stable or not) at one voltage on the scene's gas (:func:`equilibria_on_gas`)."""
+        """Every equilibrium (stable or not) at one voltage on the scene's gas (:func:`equilibria_on_gas`).
+
+        Parameters
+        ----------
+        phi : float
+            The normalised voltage ``Φ̂``.
+        bulged : iterable of int, optional
+            Numbers ``k`` of bulged zones; default ``1..N−1``.
+
+        Returns
+        -------
+        list of Equilibrium
+            Sorted by the number of bulged zones, then by free energy ``Ĝ``.
+        """
         return equilibria_on_gas(
             self.model, self.gas, self.scene.zone_count, phi, self.settings, self.lam_max, bulged, self.emap
         )
@@ -302,7 +502,28 @@ class Simulation:
     def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
         """For each ``k`` in ``bulged`` (default ``1..N−1``): the stable segments of ``k`` bulged zones
         (ranges with their exact ends) and the voltages where they have the free energy of the
-        homogeneous state, with the coexisting states there."""
+        homogeneous state, with the coexisting states there.
+
+        Every segment a slow ramp over :attr:`phi_window` (up and back, unless the window is one voltage)
+        reaches is traced first, then :meth:`discover` seeds the others.
+
+        Parameters
+        ----------
+        bulged : iterable of int, optional
+            Numbers ``k`` of bulged zones; default ``1..N−1``.
+
+        Returns
+        -------
+        list of CoexistenceEntry
+            One per ``k``, in increasing order.
+
+        Raises
+        ------
+        ModelRangeError
+            If the state the valves closed in is not stable.
+        SolverError
+            If an equal-free-energy voltage does not converge.
+        """
         N = self.scene.zone_count
         ks = list(range(1, N)) if bulged is None else sorted(set(int(k) for k in bulged))
         # every segment a slow ramp can reach (up to the top of the window and back) ...
@@ -341,7 +562,27 @@ class Simulation:
     def first_transition(self, kind: str = "spinodal") -> Transition:
         """The first change on the way up from the closing state: where the homogeneous state is lost
         (``spinodal``: its first stability loss) or where one bulged zone first has its free energy
-        (``equal_free_energy``)."""
+        (``equal_free_energy``).
+
+        Parameters
+        ----------
+        kind : {"spinodal", "equal_free_energy"}
+            Which transition.
+
+        Returns
+        -------
+        Transition
+            Its voltage ``Φ̂`` and error (measured when ``settings.error_estimates``).
+
+        Raises
+        ------
+        ModelRangeError
+            If there is none in :attr:`phi_window` (reason ``no_transition``): the homogeneous state stays
+            stable up to the window's end, a range end or breakdown, or no one-bulged state reaches its free
+            energy; or if the state the valves closed in is not stable.
+        SceneError
+            If ``kind`` is unknown.
+        """
         start = self.start
         end = start.end(+1)
         if kind == "spinodal":
@@ -415,6 +656,30 @@ def equilibria_on_gas(
     each is converged on the exact equations, its Hessian's eigenvalues are in closed form and each
     zone's own index is counted on the curve. States that converge onto a coarser configuration are
     dropped (that configuration is found on its own), as are duplicates.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The one-zone model.
+    gas : GasChamber or PressureReservoir
+        What holds the pressure (:class:`~coexist.effects.PressureSource`).
+    zones : int
+        Number ``N`` of identical zones.
+    phi : float
+        The normalised voltage ``Φ̂``.
+    settings : SolverSettings
+        Tolerances and sample counts.
+    lam_max : float
+        Upper end of the zone curve's pole stretches.
+    bulged : iterable of int, optional
+        Numbers ``k`` of bulged zones; default ``1..N−1``.
+    emap : EquilibriumMap, optional
+        The map whose tracers converge the candidates; default a new one over ``(Φ̂, Φ̂)``.
+
+    Returns
+    -------
+    list of Equilibrium
+        Sorted by the number of bulged zones, then by free energy ``Ĝ``.
     """
     from .candidates import candidate_equilibria
     from .zone_curves import ZoneCurve
@@ -439,7 +704,22 @@ def equilibria_on_gas(
 def converge_candidate(emap: EquilibriumMap, cand, curve) -> Equilibrium | None:
     """The exact equilibrium a first guess (:class:`~coexist.candidates.Candidate`) converges to at its
     voltage, with each zone's index counted on ``curve``; None if Newton fails or the groups collapse onto
-    a coarser configuration (that one is found on its own)."""
+    a coarser configuration (that one is found on its own).
+
+    Parameters
+    ----------
+    emap : EquilibriumMap
+        Supplies the tracer of the candidate's configuration and the settings.
+    cand : Candidate
+        Group sizes, ``u = √(λ0 − λpre)`` per group and ``Φ̂``.
+    curve : ZoneCurve
+        The zone curve at the candidate's voltage, on which each zone's index is counted.
+
+    Returns
+    -------
+    Equilibrium or None
+        The converged equilibrium, or None.
+    """
     from .continuation import solve_at_voltage
     from .equilibria import make_equilibrium
 
@@ -478,7 +758,19 @@ def _tight_crossing(t: Transition, A: StableSegment, B: StableSegment, tight_map
 @dataclass
 class CoexistenceEntry:
     """What is known of the configuration with ``k`` bulged zones: its stable segments and its
-    equal-free-energy voltages against the homogeneous state."""
+    equal-free-energy voltages against the homogeneous state.
+
+    Attributes
+    ----------
+    k : int
+        Number of bulged zones.
+    segments : list of StableSegment
+        Its stable segments, by increasing voltage.
+    crossings : list of Transition
+        Its equal-free-energy voltages against the homogeneous state.
+    note : str or None
+        Why there is no stable segment in the window; None when there is one.
+    """
 
     k: int
     segments: list
@@ -488,7 +780,21 @@ class CoexistenceEntry:
 
 @dataclass
 class RampReport:
-    """A ramp in physical units, ready for tables, JSON and figures."""
+    """A ramp in physical units, ready for tables, JSON and figures.
+
+    Attributes
+    ----------
+    scene : Scene
+    settings : SolverSettings
+    result : RampResult
+        The ramp in normalised units.
+    gas : GasChamber or PressureReservoir
+        What held the pressure.
+    effects : list of str
+        The scene's effects (:meth:`Scene.effects`).
+    fitted : dict
+        The scene's notes of fitted parameters.
+    """
 
     scene: Scene
     settings: SolverSettings
@@ -498,15 +804,64 @@ class RampReport:
     fitted: dict = field(default_factory=dict)
 
     def voltage_kV(self, phi_hat):
+        """Voltage in kV of a normalised voltage, ``Φ = Φ̂ H √(μ/ε)``.
+
+        Parameters
+        ----------
+        phi_hat : float or array_like
+            Normalised voltage ``Φ̂`` (or an error of one).
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``Φ`` in kV.
+        """
         return self.scene.voltage_of(phi_hat) / 1e3
 
     def pressure_mbar(self, p_hat):
+        """Gauge pressure in mbar of a normalised pressure, ``p = p̂ μH/A``.
+
+        Parameters
+        ----------
+        p_hat : float or array_like
+            Normalised gauge pressure ``p̂``.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``p`` in mbar.
+        """
         return self.scene.pressure(p_hat) / 100
 
     def volume_ml(self, v_hat):
+        """Volume in ml of a normalised volume, ``V = V̂ A³``.
+
+        Parameters
+        ----------
+        v_hat : float or array_like
+            Normalised volume ``V̂``.
+
+        Returns
+        -------
+        float or numpy.ndarray
+            ``V`` in ml.
+        """
         return self.scene.volume(v_hat) * 1e6
 
     def transition_dict(self, t: Transition) -> dict:
+        """One transition, JSON-ready, in kV.
+
+        Parameters
+        ----------
+        t : Transition
+            A transition or an equal-free-energy voltage of :attr:`result`.
+
+        Returns
+        -------
+        dict
+            ``voltage_kV``, ``voltage_error_kV``, ``error_measured``, ``from``, ``to``, ``kind``, ``event``,
+            ``direction``, ``reason`` and, when the transition has one, ``mode``.
+        """
         return {
             "voltage_kV": float(self.voltage_kV(t.phi_hat)),
             "voltage_error_kV": float(self.voltage_kV(t.phi_hat_error)),
@@ -521,6 +876,20 @@ class RampReport:
         }
 
     def state_dict(self, st: Equilibrium | None) -> dict:
+        """One state of the zones, JSON-ready, in mbar and ml.
+
+        Parameters
+        ----------
+        st : Equilibrium or None
+            The state, or None where the path has none.
+
+        Returns
+        -------
+        dict
+            ``pressure_mbar``, ``zone_volumes_ml`` and ``pole_stretches`` (per zone, least inflated first),
+            ``configuration``, ``bulged_zones``, ``stable`` and ``residual_p_hat``; without a state the values
+            are None, ``"none"`` and False, and there is no ``residual_p_hat``.
+        """
         if st is None:
             return {
                 "pressure_mbar": None,
@@ -541,6 +910,17 @@ class RampReport:
         }
 
     def to_dict(self) -> dict:
+        """The whole report, JSON-ready.
+
+        Returns
+        -------
+        dict
+            ``scene`` (:meth:`Scene.to_dict`), ``effects``, ``fitted_parameters``, ``relative_tolerance``,
+            ``gas_amount_hat`` (``n̂``, None under pressure control), ``steps`` (per voltage: ``voltage_kV``,
+            ``direction``, the :meth:`state_dict` fields, the segment's ``configuration`` label, with a
+            breakdown field ``max_field_MV_per_m``, and any ``note``), ``transitions`` (the transitions, then
+            the equal-free-energy voltages, each a :meth:`transition_dict`) and ``notes``.
+        """
         steps = []
         check_field = self.scene.breakdown_field is not None
         for s in self.result.steps:
@@ -569,5 +949,25 @@ class RampReport:
 
 
 def simulate_ramp(scene: Scene, settings: SolverSettings | None = None, progress=None) -> RampReport:
-    """Run the scene's voltage path through the whole pipeline (a convenience for ``Simulation``)."""
+    """Run the scene's voltage path through the whole pipeline (a convenience for ``Simulation``).
+
+    Parameters
+    ----------
+    scene : Scene
+        The experiment; it needs a ``[voltage]`` and a chamber or a controlled pressure.
+    settings : SolverSettings, optional
+        Default: :class:`SolverSettings`.
+    progress : callable, optional
+        Called with the index of each voltage of the path once it is done.
+
+    Returns
+    -------
+    RampReport
+        ``Simulation.from_scene(scene, settings).ramp(progress)``.
+
+    Raises
+    ------
+    SceneError
+        As :meth:`Simulation.from_scene` and :meth:`Simulation.ramp`.
+    """
     return Simulation.from_scene(scene, settings).ramp(progress)

@@ -30,6 +30,17 @@ class Branch:
 
     ``rising`` means ``dp̂/dV̂ > 0`` (stable under pressure control); ``usable`` is False past a
     volume fold, where a zone is unstable even when its volume is held.
+
+    Attributes
+    ----------
+    index : int
+        Position along the curve (0 at the flat end).
+    start, stop : float
+        Ends of the piece in ``u = √(λ0 − λpre)`` (grid ends, pressure extrema or volume folds).
+    rising, usable : bool
+        As above.
+    p_range : tuple of float
+        ``(smallest, largest)`` ``p̂`` on the piece (its values at the ends).
     """
 
     index: int
@@ -55,8 +66,16 @@ class ZoneCurve:
     p_hat, v_hat, psi_hat, q_hat : ndarray
         States on the grid.
     phi_hat : float
+        The fixed normalised voltage ``Φ̂``.
     stopped_because : str, optional
         Why the valid range ends before the requested one.
+    prestretch : float
+        ``λpre`` of the model, the origin of ``u``.
+
+    Raises
+    ------
+    ModelRangeError
+        With fewer than 5 grid points (reason ``no_equilibrium``).
     """
 
     def __init__(self, pole_stretch, p_hat, v_hat, psi_hat, q_hat, phi_hat, stopped_because=None, prestretch=1.0):
@@ -86,16 +105,58 @@ class ZoneCurve:
         return self._q
 
     def to_u(self, pole_stretch):
-        """``u = √(λ0 − λpre)``."""
+        """``u = √(λ0 − λpre)``.
+
+        Parameters
+        ----------
+        pole_stretch : float or array_like
+            Pole stretch ``λ0 ≥ λpre``.
+
+        Returns
+        -------
+        ndarray
+            ``u``, shaped like the input.
+        """
         return np.sqrt(np.asarray(pole_stretch, dtype=float) - self.prestretch)
 
     def to_stretch(self, u):
-        """``λ0 = λpre + u²``."""
+        """``λ0 = λpre + u²``.
+
+        Parameters
+        ----------
+        u : float or array_like
+            The curve parameter ``u``.
+
+        Returns
+        -------
+        ndarray
+            Pole stretch ``λ0``, shaped like the input.
+        """
         return self.prestretch + np.asarray(u, dtype=float) ** 2
 
     @classmethod
     def from_states(cls, states, phi_hat, prestretch=1.0):
-        """The first contiguous valid run of ``states`` (a :class:`MembraneStates` on a grid)."""
+        """The first contiguous valid run of ``states`` (a :class:`MembraneStates` on a grid).
+
+        Parameters
+        ----------
+        states : MembraneStates
+            States at one voltage on an increasing pole-stretch grid.
+        phi_hat : float
+            Their voltage ``Φ̂``.
+        prestretch : float
+            ``λpre`` of the model.
+
+        Returns
+        -------
+        ZoneCurve
+            Splines through the run; ``stopped_because`` names the failure that ends it, if any.
+
+        Raises
+        ------
+        ModelRangeError
+            If no state is valid (reason: that of the first state) or the run has fewer than 5.
+        """
         ok = states.ok
         if not ok.any():
             code = states.status[0]
@@ -119,16 +180,54 @@ class ZoneCurve:
 
     @classmethod
     def compute(cls, model: MembraneModel, phi_hat: float, pole_stretch, settings: SolverSettings | None = None):
-        """Shoot the states on ``pole_stretch`` and build the curve."""
+        """Shoot the states on ``pole_stretch`` and build the curve.
+
+        Parameters
+        ----------
+        model : MembraneModel
+            The membrane.
+        phi_hat : float
+            Normalised voltage ``Φ̂``.
+        pole_stretch : array_like
+            Increasing pole stretches ``λ0 > λpre``.
+        settings : SolverSettings, optional
+            Shooting tolerances.
+
+        Returns
+        -------
+        ZoneCurve
+            As :meth:`from_states`.
+
+        Raises
+        ------
+        SceneError
+            For invalid pole stretches or voltage (:func:`~coexist.shooting.solve_states`).
+        ModelRangeError
+            If fewer than 5 consecutive states are valid.
+        """
         states = solve_states(model, pole_stretch, phi_hat, settings)
         return cls.from_states(states, phi_hat, model.prestretch)
 
     @property
     def span(self):
+        """``(u_first, u_last)``: the ends of the grid."""
         return float(self.grid[0]), float(self.grid[-1])
 
     def dp_dv(self, l0):
-        """``dp̂/dV̂`` along the curve (zone stiffness under pressure control)."""
+        """``dp̂/dV̂`` along the curve (zone stiffness under pressure control).
+
+        ``dp̂/dV̂ = (dp̂/du)/(dV̂/du)``; infinite at a volume fold.
+
+        Parameters
+        ----------
+        l0 : float or ndarray
+            The curve parameter ``u = √(λ0 − λpre)`` (not the pole stretch, despite the name).
+
+        Returns
+        -------
+        float or ndarray
+            ``dp̂/dV̂`` from the splines.
+        """
         return self.dp(l0) / self.dv(l0)
 
     def _critical(self, spline):
@@ -161,12 +260,31 @@ class ZoneCurve:
         return out
 
     def pressure_extrema(self):
-        """Pole stretches of the pressure maxima and minima (spline roots of ``dp̂/dλ0``)."""
+        """Pole stretches of the pressure maxima and minima (spline roots of ``dp̂/dλ0``), as ``u``.
+
+        Returns
+        -------
+        ndarray
+            The interior roots of ``dp̂/du`` in ``u = √(λ0 − λpre)`` (:meth:`to_stretch` converts),
+            sorted; maxima and minima alternate.
+        """
         return self._critical(self.p)
 
     def stretch_at_pressure(self, branch: Branch, p_hat):
         """The ``u`` on ``branch`` where ``p̂(u) = p_hat`` (a float, or an array for an array of pressures): the
         spline inverted by :func:`~coexist.numerics.roots.bracketed_root`, all pressures at once.
+
+        Parameters
+        ----------
+        branch : Branch
+            A monotone piece of this curve (:attr:`branches`).
+        p_hat : float or array_like
+            Normalised pressure(s) ``p̂`` within the branch's ``p_range``.
+
+        Returns
+        -------
+        float or ndarray
+            ``u`` on the branch, to 1e-14.
 
         Raises
         ------
@@ -190,7 +308,21 @@ class ZoneCurve:
 
     def interpolation_error(self, model: MembraneModel, settings: SolverSettings | None = None) -> dict:
         """Largest error of the splines at the grid mid-points against fresh shooting, relative to
-        the largest magnitude of each quantity along the curve."""
+        the largest magnitude of each quantity along the curve.
+
+        Parameters
+        ----------
+        model : MembraneModel
+            The model the curve was shot with.
+        settings : SolverSettings, optional
+            Shooting tolerances for the mid-points.
+
+        Returns
+        -------
+        dict
+            ``{"p_hat", "v_hat", "psi_hat"}`` to the relative error (NaN if no mid-point state is
+            valid; mid-points with a failed state are skipped).
+        """
         mids = 0.5 * (self.grid[1:] + self.grid[:-1])
         s = solve_states(model, self.to_stretch(mids), self.phi_hat, settings)
         ok = s.ok

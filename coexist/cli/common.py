@@ -16,7 +16,30 @@ class InputError(click.UsageError):
 
 
 def parse_floats(text: str, option: str, positive=False, nonnegative=False, count=None) -> list[float]:
-    """``"0,0.1,0.2"`` -> ``[0.0, 0.1, 0.2]``, or an :class:`InputError` naming ``option``."""
+    """``"0,0.1,0.2"`` -> ``[0.0, 0.1, 0.2]``, or an :class:`InputError` naming ``option``.
+
+    Parameters
+    ----------
+    text : str
+        Comma-separated numbers (blanks and empty items ignored).
+    option : str
+        The option's name for messages, e.g. ``"--phi"``.
+    positive, nonnegative : bool
+        Require every value ``> 0`` or ``≥ 0``.
+    count : collection of int, optional
+        The allowed numbers of values.
+
+    Returns
+    -------
+    list of float
+        The values, in order.
+
+    Raises
+    ------
+    InputError
+        If a value is not a finite number, there is none, one breaks a sign rule, or their number is not
+        in ``count``.
+    """
     try:
         values = [float(x) for x in str(text).replace(" ", "").split(",") if x != ""]
     except ValueError:
@@ -35,7 +58,18 @@ def parse_floats(text: str, option: str, positive=False, nonnegative=False, coun
 
 
 def accuracy_option(f):
-    """``--accuracy`` (draft/default/high or a tolerance) and ``--rtol``, shared by all commands."""
+    """``--accuracy`` (draft/default/high or a tolerance) and ``--rtol``, shared by all commands.
+
+    Parameters
+    ----------
+    f : callable
+        The click command function.
+
+    Returns
+    -------
+    callable
+        ``f`` with both options added (keyword arguments ``accuracy`` and ``rtol``).
+    """
     f = click.option(
         "--rtol", type=float, default=None, help="Relative tolerance of the solver (overrides --accuracy), e.g. 1e-8."
     )(f)
@@ -49,6 +83,25 @@ def accuracy_option(f):
 
 
 def settings_from(accuracy, rtol):
+    """The solver settings of ``--accuracy`` / ``--rtol`` (``--rtol`` wins when given).
+
+    Parameters
+    ----------
+    accuracy : str or None
+        A level (``draft``, ``default``, ``high``) or a tolerance (:meth:`SolverSettings.from_accuracy`).
+    rtol : float or None
+        Relative tolerance; overrides ``accuracy``.
+
+    Returns
+    -------
+    SolverSettings
+        Default settings with that relative tolerance.
+
+    Raises
+    ------
+    InputError
+        If the level is unknown or the tolerance lies outside ``[1e-14, 1e-2]`` (names the option).
+    """
     from coexist.errors import SceneError
     from coexist.settings import SolverSettings
 
@@ -59,7 +112,19 @@ def settings_from(accuracy, rtol):
 
 
 def library_errors(func):
-    """Turn library errors into clean exits: bad input -> exit 2, solver/physics failure -> exit 1."""
+    """Turn library errors into clean exits: bad input -> exit 2, solver/physics failure -> exit 1.
+
+    Parameters
+    ----------
+    func : callable
+        The command function.
+
+    Returns
+    -------
+    callable
+        The wrapped function: a :class:`~coexist.errors.SceneError` becomes an :class:`InputError`, any
+        other :class:`~coexist.errors.CoexistError` is printed as ``Error: ...`` on stderr and exits 1.
+    """
 
     @functools.wraps(func)
     def wrapper(*args, **kwargs):
@@ -77,10 +142,39 @@ def library_errors(func):
 
 
 def write_json(data: dict) -> None:
+    """Print ``data`` as JSON on stdout (indented, keys sorted).
+
+    Parameters
+    ----------
+    data : dict
+        JSON-ready data; a non-finite float raises :class:`ValueError` (``allow_nan=False``).
+    """
     click.echo(json.dumps(data, indent=1, sort_keys=True, allow_nan=False))
 
 
 def check_output_path(path: str | None, overwrite: bool, option: str) -> Path | None:
+    """Check an output file option before anything is computed.
+
+    Parameters
+    ----------
+    path : str or None
+        The file given, or None when the option was not given.
+    overwrite : bool
+        Whether an existing file may be replaced (``--overwrite``).
+    option : str
+        The option's name for messages, e.g. ``"-o"``.
+
+    Returns
+    -------
+    pathlib.Path or None
+        The path, or None when none was given.
+
+    Raises
+    ------
+    InputError
+        If the file exists without ``overwrite``, its suffix is not ``.png``, ``.svg``, ``.pdf``, ``.csv`` or
+        ``.json``, or its folder does not exist.
+    """
     if path is None:
         return None
     p = Path(path)
@@ -94,12 +188,34 @@ def check_output_path(path: str | None, overwrite: bool, option: str) -> Path | 
 
 
 def info(message: str) -> None:
-    """Progress and notes go to stderr, data to stdout."""
+    """Progress and notes go to stderr, data to stdout.
+
+    Parameters
+    ----------
+    message : str
+        One line for stderr.
+    """
     click.echo(message, err=True)
 
 
 def load_scene_arg(scene):
-    """A scene by built-in name or path (None: the default scene); bad scenes exit with code 2."""
+    """A scene by built-in name or path (None: the default scene); bad scenes exit with code 2.
+
+    Parameters
+    ----------
+    scene : str or None
+        Built-in scene name or path of a scene file.
+
+    Returns
+    -------
+    Scene
+        The validated scene (:func:`~coexist.scene.load_scene`).
+
+    Raises
+    ------
+    InputError
+        If the scene cannot be loaded (the message names the scene and the field).
+    """
     from coexist.errors import SceneError
     from coexist.scene import load_scene
 
@@ -110,14 +226,49 @@ def load_scene_arg(scene):
 
 
 def stderr_progress(length, label):
-    """A click progress bar on stderr."""
+    """A click progress bar on stderr.
+
+    Parameters
+    ----------
+    length : int
+        Number of updates to completion.
+    label : str
+        Text in front of the bar.
+
+    Returns
+    -------
+    click.termui.ProgressBar
+        To be used as a context manager.
+    """
     import sys
 
     return click.progressbar(length=length, label=label, file=sys.stderr)
 
 
 def material_options(scene, material, jlim, prestretch):
-    """Material, Jlim and prestretch: explicit options first, then the scene's (if given), then defaults."""
+    """Material, Jlim and prestretch: explicit options first, then the scene's (if given), then defaults.
+
+    Parameters
+    ----------
+    scene : str or None
+        Built-in scene name or path; None: no scene.
+    material : str or None
+        ``--material``.
+    jlim : float or None
+        ``--jlim``; taken from the scene only when the material is Gent.
+    prestretch : float or None
+        ``--prestretch``.
+
+    Returns
+    -------
+    tuple
+        ``(material, jlim, prestretch)``; defaults ``"neo-hookean"``, None and 1.0.
+
+    Raises
+    ------
+    InputError
+        If the scene cannot be loaded.
+    """
     if scene is not None:
         sc = load_scene_arg(scene)
         material = material or sc.material

@@ -36,4 +36,5 @@ cli.add_command(accuracy)
 
 
 def main():
+    """Entry point of the ``coexist`` console script: runs :func:`cli` with the program name ``coexist``."""
     cli(prog_name="coexist")

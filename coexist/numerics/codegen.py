@@ -66,6 +66,29 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
 
     Every input and output of ``fun`` must be a scalar (1x1); the generated function takes one
     array (or float) per input, broadcasts them, and returns a tuple with one array per output.
+
+    Parameters
+    ----------
+    fun : casadi.Function
+        The function; an MX function is expanded to SX first, and common subexpressions are eliminated.
+    name : str, optional
+        The name of the generated ``def`` (default ``"generated"``).
+    into : bool, optional
+        Generate ``name(i0, …, out)``, which writes output ``k`` into ``out[k]`` and returns ``out``
+        (default False: return a new tuple; a constant output is broadcast to the inputs' shape).
+
+    Returns
+    -------
+    str
+        The source of one function, one numpy statement per CasADi instruction, constants folded; it
+        refers to numpy as ``_np``.
+
+    Raises
+    ------
+    ValueError
+        If an input or output of ``fun`` is not scalar.
+    NotImplementedError
+        If ``fun`` uses a CasADi operation without a numpy translation.
     """
     if not fun.is_a("SXFunction"):
         fun = fun.expand()
@@ -153,7 +176,34 @@ def _eliminate_common_subexpressions(fun: ca.Function) -> ca.Function:
 
 def numpy_function(fun: ca.Function, into: bool = False):
     """Compile :func:`numpy_source` of ``fun`` into a callable (``into=True``: it takes a last
-    argument ``out`` and fills its rows with the outputs)."""
+    argument ``out`` and fills its rows with the outputs).
+
+    Parameters
+    ----------
+    fun : casadi.Function
+        A function with scalar inputs and outputs (see :func:`numpy_source`).
+    into : bool, optional
+        Generate the variant that writes into a caller's array ``out`` (default False).
+
+    Returns
+    -------
+    callable
+        ``f(i0, i1, …)`` returning a tuple of arrays, one per output of ``fun`` (or ``f(i0, …, out)``
+        returning ``out``), equal to CasADi's evaluation to rounding.
+
+    Raises
+    ------
+    ValueError, NotImplementedError
+        As :func:`numpy_source`.
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> x = ca.SX.sym("x")
+    >>> f = numpy_function(ca.Function("f", [x], [x * x + 1, 2 * x]))
+    >>> [v.tolist() for v in f(np.array([0.0, 0.5]))]
+    [[1.0, 1.25], [0.0, 1.0]]
+    """
     name = "_" + "".join(c if c.isalnum() else "_" for c in fun.name())
     namespace = {"_np": np}
     exec(compile(numpy_source(fun, name, into), f"<coexist generated {fun.name()}>", "exec"), namespace)

@@ -31,7 +31,14 @@ _BROKEN = {"compiler": False}
 
 
 def cache_dir() -> Path:
-    """Where compiled libraries are kept (created on first use)."""
+    """Where compiled libraries are kept (created on first use).
+
+    Returns
+    -------
+    pathlib.Path
+        ``$COEXIST_CACHE_DIR`` if set, else ``$XDG_CACHE_HOME/coexist``, else ``~/.cache/coexist``. Not created
+        here: :func:`compiled` creates it before writing a library.
+    """
     env = os.environ.get("COEXIST_CACHE_DIR")
     if env:
         return Path(env)
@@ -40,6 +47,14 @@ def cache_dir() -> Path:
 
 
 def enabled() -> bool:
+    """Whether compiling (and loading cached libraries) is allowed in this process.
+
+    Returns
+    -------
+    bool
+        False when ``COEXIST_COMPILE`` is ``0``, ``false``, ``no`` or ``off``, or when a compilation failed
+        before in this process; True otherwise.
+    """
     return os.environ.get("COEXIST_COMPILE", "1") not in ("0", "false", "no", "off") and not _BROKEN["compiler"]
 
 
@@ -49,13 +64,42 @@ def _compiler() -> str | None:
 
 
 def library_path(name: str, key: str) -> Path:
-    """Where the library ``name`` with cache key ``key`` lives (whether it exists or not)."""
+    """Where the library ``name`` with cache key ``key`` lives (whether it exists or not).
+
+    Parameters
+    ----------
+    name : str
+        The library's name (the stem of the generated C file).
+    key : str
+        The cache key (see :func:`compiled`).
+
+    Returns
+    -------
+    pathlib.Path
+        ``cache_dir() / "{name}-{key}.so"``.
+    """
     return cache_dir() / f"{name}-{key}.so"
 
 
 def load_cached(name: str, key: str, function_name: str):
     """The library ``name`` under ``key`` if a process has compiled it before, else None (no source is
-    generated: the key stands for it)."""
+    generated: the key stands for it).
+
+    Parameters
+    ----------
+    name : str
+        The library's name.
+    key : str
+        Its cache key, as given to :func:`compiled`.
+    function_name : str
+        The name of the CasADi function inside the library.
+
+    Returns
+    -------
+    casadi.Function or None
+        The loaded external function; None when compiling is off (:func:`enabled`), the library is not
+        in the cache, or loading it fails.
+    """
     import casadi as ca
 
     lib = library_path(name, key)
@@ -72,7 +116,27 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
     """``fun`` (a CasADi ``Function``) compiled to a shared library and loaded, or None when compiling is
     off, no compiler is found, or it fails (:data:`STATUS` says which). ``cached_only``: load it if the
     cache has it, never compile. ``key``: the cache key (default: the SHA-256 of the generated source
-    with the compiler, its flags and CasADi's version)."""
+    with the compiler, its flags and CasADi's version).
+
+    Parameters
+    ----------
+    fun : casadi.Function
+        The function to compile; loaded back under ``fun.name()``.
+    name : str
+        The library's name (C file ``{name}.c``, library ``{name}-{key}.so``).
+    cached_only : bool, optional
+        Load the library if the cache has it, never compile (default False).
+    key : str, optional
+        The cache key; default the first 20 hex digits of the SHA-256 of the generated source, the
+        compiler path, :data:`FLAGS` and CasADi's version. The C source is generated in either case.
+
+    Returns
+    -------
+    casadi.Function or None
+        The compiled function (same inputs, outputs and numbers as ``fun``), or None. A failure to
+        compile or load marks the compiler broken for the rest of the process (:func:`enabled` is then
+        False).
+    """
     import casadi as ca
 
     if not enabled():

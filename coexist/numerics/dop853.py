@@ -86,10 +86,42 @@ class NumpyStepper:
         self.fun = fun
 
     def rhs(self, t, y):
+        """The right-hand side ``fun(t, y)``.
+
+        Parameters
+        ----------
+        t : ndarray, shape (n,)
+            Independent variable of each column.
+        y : ndarray, shape (m, n)
+            States, one column per trajectory.
+
+        Returns
+        -------
+        ndarray, shape (m, n)
+            ``dy/dt``.
+        """
         return self.fun(t, y)
 
     def step(self, t, y, f, h):
-        """One step of size ``h`` per column: ``(y_new, f_new, e5, e3)``."""
+        """One step of size ``h`` per column: ``(y_new, f_new, e5, e3)``.
+
+        Parameters
+        ----------
+        t : ndarray, shape (n,)
+            Start of the step, per column.
+        y : ndarray, shape (m, n)
+            States at ``t``.
+        f : ndarray, shape (m, n)
+            ``fun(t, y)`` (the first stage, reused from the previous step).
+        h : ndarray, shape (n,)
+            Signed step sizes.
+
+        Returns
+        -------
+        y_new, f_new, e5, e3 : ndarray, shape (m, n)
+            The 8th-order solution at ``t + h``, ``fun(t + h, y_new)``, and the stage sums
+            ``Σ E5_s K_s``, ``Σ E3_s K_s`` of the error estimate.
+        """
         K, y_new = _stages(self.fun, t, y, f, h)
         f_new = self.fun(t + h, y_new)
         K[_NS] = f_new
@@ -106,6 +138,21 @@ def casadi_step_function(rhs, rows: int, name: str = "dop853_step"):
     eliminated), evaluated by CasADi's virtual machine in a single call per step: for a few
     trajectories this is some twenty times cheaper than the ~600 small numpy operations of
     :class:`NumpyStepper`, whose cost is then all call overhead.
+
+    Parameters
+    ----------
+    rhs : casadi.Function
+        ``(t, y) -> y'`` with ``t`` scalar and ``y`` of shape ``(rows, 1)``.
+    rows : int
+        Number of state components ``m``.
+    name : str, optional
+        Name of the returned function (default ``"dop853_step"``).
+
+    Returns
+    -------
+    casadi.Function
+        ``(t, h, y) -> out`` with ``out`` of shape ``(4 rows, 1)``: ``y_new``, ``f_new``, ``e5``, ``e3``
+        stacked (as :meth:`NumpyStepper.step`).
     """
     import casadi as ca
 
@@ -142,9 +189,41 @@ class CasadiStepper:
         self._maps: dict = {}
 
     def rhs(self, t, y):
+        """The right-hand side by the numpy callable ``rhs``.
+
+        Parameters
+        ----------
+        t : ndarray, shape (n,)
+            Independent variable of each column.
+        y : ndarray, shape (m, n)
+            States, one column per trajectory.
+
+        Returns
+        -------
+        ndarray, shape (m, n)
+            ``dy/dt``.
+        """
         return self._rhs(t, y)
 
     def step(self, t, y, f, h):
+        """One step of size ``h`` per column, by the step function mapped (serially) over the ``n`` columns.
+
+        Parameters
+        ----------
+        t : float or ndarray, shape (n,)
+            Start of the step, per column.
+        y : ndarray, shape (rows, n)
+            States at ``t``.
+        f : ndarray, shape (rows, n)
+            Unused: the step function evaluates its first stage itself (kept for the stepper interface).
+        h : float or ndarray, shape (n,)
+            Signed step sizes.
+
+        Returns
+        -------
+        y_new, f_new, e5, e3 : ndarray, shape (rows, n)
+            As :meth:`NumpyStepper.step`.
+        """
         n = y.shape[1]
         fun = self._maps.get(n)
         if fun is None:
@@ -158,6 +237,29 @@ def single_step(fun, t, y, h, rtol, atol):
     """One DOP853 step of size ``h`` (per column) from ``(t, y)``, and its error norm (≤ 1: accepted).
 
     ``fun`` is a right-hand side ``fun(t, y)`` or a stepper (:class:`NumpyStepper`, :class:`CasadiStepper`).
+
+    Parameters
+    ----------
+    fun : callable or stepper
+        As in :func:`integrate`.
+    t : ndarray, shape (n,)
+        Start of the step.
+    y : ndarray, shape (m, n)
+        States at ``t``.
+    h : ndarray, shape (n,)
+        Signed step sizes (taken as given, not adapted).
+    rtol : float or ndarray, shape (n,)
+        Relative tolerance.
+    atol : float or ndarray, shape (m, n)
+        Absolute tolerance.
+
+    Returns
+    -------
+    y_new : ndarray, shape (m, n)
+        The states at ``t + h``.
+    err : ndarray, shape (n,)
+        DOP853's blended error norm of each column with the scale ``atol + max(|y|, |y_new|) rtol``;
+        ``inf`` where ``y_new`` is not finite.
     """
     stepper = fun if hasattr(fun, "step") else NumpyStepper(fun)
     y_new, _, e5, e3 = stepper.step(t, y, stepper.rhs(t, y), h)
@@ -167,7 +269,30 @@ def single_step(fun, t, y, h, rtol, atol):
 
 
 def initial_step(fun, t, y, f, direction, rtol, atol):
-    """Hairer's starting step size, per column (as :func:`scipy.integrate._ivp.common.select_initial_step`)."""
+    """Hairer's starting step size, per column (as :func:`scipy.integrate._ivp.common.select_initial_step`).
+
+    Parameters
+    ----------
+    fun : callable
+        The right-hand side ``fun(t, y)`` (not a stepper).
+    t : ndarray, shape (n,)
+        Start of each trajectory.
+    y : ndarray, shape (m, n)
+        States at ``t``.
+    f : ndarray, shape (m, n)
+        ``fun(t, y)``.
+    direction : ndarray, shape (n,)
+        ``+1`` or ``−1``: the direction of integration.
+    rtol : float or ndarray, broadcastable to (m, n)
+        Relative tolerance.
+    atol : float or ndarray, broadcastable to (m, n)
+        Absolute tolerance.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Step magnitudes (positive; the caller applies ``direction``), one extra evaluation of ``fun``.
+    """
     m = y.shape[0]
     scale = atol + np.abs(y) * rtol
     d0 = np.sqrt(np.sum((y / scale) ** 2, axis=0) / m)

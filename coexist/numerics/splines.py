@@ -55,11 +55,29 @@ class FastCubic:
         return ((self._c0[i] * d + self._c1[i]) * d + self._c2[i]) * d + self._c3[i]
 
     def derivative(self) -> FastCubic:
-        """The derivative, a spline of one degree less."""
+        """The derivative, a spline of one degree less.
+
+        Returns
+        -------
+        FastCubic
+            ``s'(u)`` on the same breakpoints (from scipy's ``PPoly.derivative``).
+        """
         return FastCubic(self.ppoly.derivative())
 
     def roots(self, extrapolate: bool = False) -> np.ndarray:
-        """Real roots (scipy's ``PPoly.roots``), inside the grid unless ``extrapolate``."""
+        """Real roots (scipy's ``PPoly.roots``), inside the grid unless ``extrapolate``.
+
+        Parameters
+        ----------
+        extrapolate : bool, optional
+            Also return roots of the end pieces continued beyond the grid (default False).
+
+        Returns
+        -------
+        ndarray, shape (k,)
+            The roots of ``s(u) = 0`` in increasing order; a piece that vanishes identically contributes
+            its left breakpoint followed by ``nan`` (scipy's convention).
+        """
         return self.ppoly.roots(extrapolate=extrapolate)
 
 

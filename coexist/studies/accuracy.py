@@ -93,8 +93,12 @@ class Measurement:
         Relative and absolute error against the reference.
     time : float or None
         Wall time in seconds, best of ``repeats``.
+    repeats : int
+        Runs timed.
     default : bool
         This is the project's default setting.
+    failed : str or None
+        Why the computation failed (the library error's message); None if it did not.
     extra : dict
         Further errors measured with this setting (study 1: ``states_max_error`` over the curve).
     """
@@ -113,6 +117,13 @@ class Measurement:
     extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
+        """JSON-ready copy of the fields.
+
+        Returns
+        -------
+        dict
+            Every field by name; numpy scalars as Python numbers, non-finite floats as None.
+        """
         return _clean(dataclasses.asdict(self))
 
 
@@ -140,10 +151,17 @@ class Study:
 
     @property
     def default(self) -> Measurement | None:
+        """The measurement of the project's default setting, or None if there is none."""
         return next((m for m in self.measurements if m.default), None)
 
     def unique(self) -> list[Measurement]:
-        """Every measured setting once (the default appears in several families)."""
+        """Every measured setting once (the default appears in several families).
+
+        Returns
+        -------
+        list of Measurement
+            In the order first measured; a setting is its ``rtol`` and ``sampling``.
+        """
         seen, out = set(), []
         for m in self.measurements:
             key = (m.rtol, tuple(sorted(m.sampling.items())))
@@ -156,6 +174,11 @@ class Study:
         """The Pareto front of (time, error) over all settings, fastest first.
 
         Errors below the reference's resolution are not resolved and count as equal to it.
+
+        Returns
+        -------
+        list of Measurement
+            The non-dominated settings (:func:`pareto_front`) among those with an error and a time.
         """
         pts = [m for m in self.unique() if m.error is not None and m.time is not None]
         idx = pareto_front([m.time for m in pts], [self._floor(m.error) for m in pts])
@@ -171,6 +194,14 @@ class Study:
         accurate (1 on the front). ``error_excess``: the default's error over the least error of
         any setting at most as slow (1 on the front). ``near_front``: on it, or a setting of at least
         equal accuracy saves less than the timing noise (``time_excess ≤ 1.5``).
+
+        Returns
+        -------
+        dict
+            ``on_front``, ``near_front``, ``time_excess``, ``fastest_as_accurate`` and
+            ``most_accurate_as_fast`` (labels), ``error_excess``, ``dominated_by`` (labels of the settings
+            that dominate the default); if the default failed, ``on_front`` and ``near_front`` are None
+            and ``note`` says so.
         """
         d = self.default
         if d is None or d.error is None:
@@ -195,6 +226,14 @@ class Study:
         }
 
     def to_dict(self) -> dict:
+        """JSON-ready study.
+
+        Returns
+        -------
+        dict
+            The fields (``number`` as ``study``), the ``default`` measurement, the ``pareto_front`` labels
+            and :meth:`default_vs_front`; numpy scalars as Python numbers, non-finite floats as None.
+        """
         d = self.default
         return _clean(
             {
@@ -238,6 +277,16 @@ def pareto_front(times, errors) -> list[int]:
     """Indices of the non-dominated points of ``(time, error)``, fastest first.
 
     A point is dominated when another is no slower and no less accurate, and better in one.
+
+    Parameters
+    ----------
+    times, errors : array_like
+        Time and error of each point, shape ``(n,)``.
+
+    Returns
+    -------
+    list of int
+        Indices into ``times``, by increasing time (and decreasing error).
     """
     t = np.asarray(times, dtype=float)
     e = np.asarray(errors, dtype=float)
@@ -329,6 +378,26 @@ def pressure_max_study(
     Reference: ``rtol = 1e-13``, 400 points; checked against 800 points (600 when ``quick``).
     The ``tolerance`` list holds, per requested ``rtol``, the achieved relative error of ``p̂max`` and
     the largest relative error of ``p̂`` and ``V̂`` over the 200 states of the curve.
+
+    Parameters
+    ----------
+    quick : bool
+        Fewer settings, 2 repeats and a 600-point check.
+    progress : callable, optional
+        Called with each line of progress (a ``str``).
+    repeats : int, optional
+        Runs per setting, the best time kept; default 2 if ``quick``, else 5.
+
+    Returns
+    -------
+    Study
+        The measurements, the reference and its checks and the ``tolerance`` data.
+
+    Raises
+    ------
+    CoexistError
+        If a computation outside the sweep (the warm-up, the reference or its checks) fails; a failure
+        at a measured setting is recorded in its :class:`Measurement` instead.
     """
     from ..curves import pressure_volume_curve
     from ..model import MembraneModel
@@ -435,6 +504,26 @@ def maxwell_pressure_study(
     ``u = linspace(√0.002, √(0.95 √((Jlim + 3)/2) − 1), n)``, pole stretch ``1 + u²``. Families:
     ``rtol`` (at the default ``n = 128``) and ``n`` (at the default ``rtol``). Reference:
     ``rtol = 1e-13``, ``n = 1024``, checked against ``n = 512`` and (unless ``quick``) ``n = 2048``.
+
+    Parameters
+    ----------
+    quick : bool
+        Fewer settings and 1 repeat.
+    progress : callable, optional
+        Called with each line of progress (a ``str``).
+    repeats : int, optional
+        Runs per setting, the best time kept; default 1 if ``quick``, else 3.
+
+    Returns
+    -------
+    Study
+        The measurements, the reference and its checks.
+
+    Raises
+    ------
+    CoexistError
+        If a computation outside the sweep (the warm-up, the reference or its checks) fails; a failure
+        at a measured setting is recorded in its :class:`Measurement` instead.
     """
     from ..coexistence import maxwell_coexistence
     from ..model import build_model
@@ -523,6 +612,29 @@ def transition_voltage_study(
     and the continuation up to the event (:func:`coexist.fit.transition_voltage`). If the scene as
     loaded has no transition (:class:`ModelRangeError`), the study uses it with
     :data:`FALLBACK_SCENE_CHANGES` and notes it.
+
+    Parameters
+    ----------
+    quick : bool
+        Fewer settings and 1 repeat.
+    progress : callable, optional
+        Called with each line of progress (a ``str``).
+    repeats : int, optional
+        Runs per setting, the best time kept; default 1 if ``quick``, else 3.
+    scene_name : str
+        The scene (:func:`~coexist.scene.load_scene`: a built-in name or a path).
+
+    Returns
+    -------
+    Study
+        The measurements, the reference and its checks.
+
+    Raises
+    ------
+    CoexistError
+        If the scene cannot be loaded (:class:`~coexist.errors.SceneError`), or a computation outside the
+        sweep (the default setting's probe, also with the fallback, the reference or its check) fails; a
+        failure at a measured setting is recorded in its :class:`Measurement` instead.
     """
     from ..scene import load_scene
 
@@ -594,7 +706,22 @@ STUDIES = {1: pressure_max_study, 2: maxwell_pressure_study, 3: transition_volta
 
 
 def run_studies(studies=(1, 2, 3), quick: bool = False, progress: Callable[[str], None] | None = None) -> list[Study]:
-    """Run the chosen studies (numbers 1–3) in order."""
+    """Run the chosen studies (numbers 1–3) in order.
+
+    Parameters
+    ----------
+    studies : iterable of int
+        Study numbers, keys of :data:`STUDIES`.
+    quick : bool
+        Fewer settings and repeats (see each study).
+    progress : callable, optional
+        Called with each line of progress (a ``str``).
+
+    Returns
+    -------
+    list of Study
+        In the order asked for.
+    """
     return [STUDIES[int(k)](quick=quick, progress=progress) for k in studies]
 
 
@@ -603,6 +730,21 @@ def report(studies: list[Study], quick: bool = False, load_before=None) -> dict:
 
     ``load_before``: ``os.getloadavg()`` taken before the studies ran (timings on a shared machine
     depend on its load; the load after is added here).
+
+    Parameters
+    ----------
+    studies : list of Study
+        The studies run.
+    quick : bool
+        Whether they ran with ``quick``.
+    load_before : sequence of float, optional
+        The 1, 5 and 15 minute load averages before the run.
+
+    Returns
+    -------
+    dict
+        ``quick``, ``defaults``, ``reference_rtol``, what ``error`` and ``time`` mean, ``machine`` (versions,
+        CPUs, platform, load averages) and ``studies`` (each :meth:`Study.to_dict`); JSON-safe.
     """
     import os
     import platform
@@ -633,7 +775,19 @@ def report(studies: list[Study], quick: bool = False, load_before=None) -> dict:
 
 
 def summary_lines(study: Study) -> list[str]:
-    """A plain-text table of one study."""
+    """A plain-text table of one study.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+
+    Returns
+    -------
+    list of str
+        Title, reference, one row per measurement (the default starred), where the default sits
+        relative to the Pareto front, and the notes.
+    """
     lines = [
         f"study {study.number}: {study.title}",
         f"  reference {study.reference['value']:.15g} {study.unit}".rstrip() + f"  (resolution {study.resolution:.1e})",

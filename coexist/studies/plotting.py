@@ -143,7 +143,23 @@ def _tolerance_panel(ax, study):
 def plot_accuracy(studies, path: str | Path, title: str | None = None):
     """One work-precision panel per study (log error against log time, one line per setting family,
     the default starred, the Pareto front dashed) and, with study 1, the achieved error against the
-    requested tolerance."""
+    requested tolerance.
+
+    Parameters
+    ----------
+    studies : list of Study
+        The studies (:func:`~coexist.studies.accuracy.run_studies`), one panel each, plus one tolerance
+        panel for each study with ``tolerance`` data.
+    path : str or pathlib.Path
+        The file to write (:func:`~coexist.plotting.save_figure`).
+    title : str, optional
+        Title over the figure; default "What accuracy costs in time (work-precision)".
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
     plt = pyplot()
     tol = [s for s in studies if s.tolerance]
     n = len(studies) + len(tol)
