@@ -1,7 +1,7 @@
 """Equal free energy: coexisting bulged and unbulged zones, solved with CasADi.
 
 Two zones at the same pressure ``p̂`` and voltage ``Φ̂`` coexist when they sit on two stable
-branches of the same curve with equal potential (the Maxwell condition, PHYSICS.md)::
+branches of the same curve with equal potential (the Maxwell condition, docs/physics.md)::
 
     p̂(u_b) = p̂(u_u),      Ψ̂(u_b) − Ψ̂(u_u) = p̂ (V̂(u_b) − V̂(u_u))
 
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import casadi as ca
 import numpy as np
 
-from .errors import ModelRangeError, SolverError
+from .errors import ModelRangeError, SceneError, SolverError
 from .numerics.roots import bisect
 from .numerics.splines import casadi_piecewise
 from .settings import SolverSettings
@@ -404,6 +404,11 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
         If a Maxwell solve fails numerically (a :class:`ModelRangeError` is recorded in ``notes``).
     """
     settings = settings or SolverSettings()
+    if not (np.isfinite(pole_stretch_max) and pole_stretch_max > model.prestretch * (1 + 2e-3)):
+        raise SceneError(
+            f"pole_stretch_max must exceed the prestretch by more than 0.2 %, got {pole_stretch_max!r}",
+            "pole_stretch_max",
+        )
     phi_values = np.asarray(phi_values, dtype=float)
     pre = model.prestretch
     u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), settings.phase_diagram_points)

@@ -344,6 +344,8 @@ def voltage_at_pressure(
     from .shooting import NO_VOLTAGE
 
     settings = settings or SolverSettings()
+    if not (np.isfinite(p_hat) and p_hat > 0):
+        raise SceneError(f"p̂ must be a positive number, got {p_hat!r}", "p_hat")
     if not model.has_voltage:
         raise SceneError("a voltage-charge curve needs a model with electrostatics", "voltage")
     l0 = np.atleast_1d(np.asarray(pole_stretch, dtype=float))

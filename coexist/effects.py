@@ -237,7 +237,7 @@ class Electrostatics(Protocol):
 
 @dataclass(frozen=True)
 class NeoHookean:
-    """Neo-Hookean elasticity, ``Ws/μ = (λ1² + λ2² + λ1⁻²λ2⁻² − 3)/2`` (seed eq. 2, PHYSICS.md)."""
+    """Neo-Hookean elasticity, ``Ws/μ = (λ1² + λ2² + λ1⁻²λ2⁻² − 3)/2`` (seed eq. 2, docs/physics.md)."""
 
     name = "neo-hookean"
 
@@ -729,6 +729,28 @@ class Breakdown:
         return float(max_field) - self.field_hat
 
 
+#: the material names the library knows, canonical spelling first
+MATERIALS = ("neo-hookean", "gent")
+_MATERIAL_ALIASES = {"neohookean": "neo-hookean", "nh": "neo-hookean"}
+
+
+def canonical_material(name: str) -> str | None:
+    """The canonical name of a material (:data:`MATERIALS`), or None if it is not one.
+
+    Parameters
+    ----------
+    name : str
+        A material name; case, spaces, ``_`` and ``-`` do not matter, and ``neohookean``/``nh`` are aliases.
+
+    Returns
+    -------
+    str or None
+    """
+    key = str(name).strip().lower().replace("_", "-").replace(" ", "-")
+    key = _MATERIAL_ALIASES.get(key, key)
+    return key if key in MATERIALS else None
+
+
 def material_from_name(name: str, jlim: float | None = None):
     """The elasticity effect for a material name (``neo-hookean`` or ``gent``).
 
@@ -748,8 +770,8 @@ def material_from_name(name: str, jlim: float | None = None):
     SceneError
         For an unknown name, or for ``gent`` without a positive finite ``jlim``.
     """
-    key = name.strip().lower().replace("_", "-")
-    if key in ("neo-hookean", "neohookean", "nh"):
+    key = canonical_material(name)
+    if key == "neo-hookean":
         return NeoHookean()
     if key == "gent":
         if jlim is None:

@@ -623,7 +623,9 @@ class Equilibrium:
     zone_index : tuple
         Per group, unstable axisymmetric modes of one zone at fixed volume.
     residual : float
-        Largest equilibrium residual (pressure units) at the reported state.
+        Largest entry of the residual ``r`` at the reported state: the pressure balance ``p̂1 − p̂_gas`` and
+        the divided differences ``(p̂_{j+1} − p̂_j)/(u_{j+1} − u_j)`` (units of ``dp̂/du``); converged states
+        have it below ``residual_tol (1 + p̂)``.
     """
 
     configuration: Configuration

@@ -7,6 +7,7 @@ its own exact equilibria (:class:`~coexist.simulation.Simulation`).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -137,10 +138,18 @@ def fit_zone_radius(
     """
     if scene.chamber is None or scene.voltage is None:
         raise SceneError("fitting needs a scene with [chamber] and [voltage]", "[chamber]")
+    if not (isinstance(target_voltage, (int, float)) and math.isfinite(target_voltage) and target_voltage > 0):
+        raise SceneError(f"the target voltage must be a positive number of volts, got {target_voltage!r}", "target")
     shared = shared or Shared.of(scene)
     mu_h = scene.shear_modulus * scene.thickness
     a_max = shared.snap[0] * mu_h / scene.chamber.closing_pressure  # closing pressure = snap-through
     lo_mm, hi_mm = bracket_mm or (0.5 * a_max * 1e3, a_max * 1e3 * (1 - 1e-6))
+    if not (0 < lo_mm < hi_mm < a_max * 1e3):
+        raise SceneError(
+            f"the radius bracket must satisfy 0 < low < high < {a_max * 1e3:.6g} mm (the largest radius whose "
+            f"zones hold the closing pressure), got {lo_mm!r}..{hi_mm!r} mm",
+            "bracket_mm",
+        )
 
     def f(a_mm):
         trial = replace(scene, zone_radius=a_mm / 1e3)
@@ -224,8 +233,10 @@ def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | No
     Raises
     ------
     SceneError
-        If the scene has no ``[chamber]`` (after the baseline row is computed).
+        If the scene has no ``[chamber]``.
     """
+    if scene.chamber is None:
+        raise SceneError("the sensitivity table needs a scene with a [chamber]", "[chamber]")
     shared = shared or Shared.of(scene)
     rows: list[dict] = []
 
@@ -241,8 +252,6 @@ def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | No
 
     rows.append({"parameter": "baseline", "value": None, **both(scene)})
     ch = scene.chamber
-    if ch is None:
-        raise SceneError("the sensitivity table needs a scene with a [chamber]", "[chamber]")
     perturb = {
         "zone_radius_mm": (scene.zone_radius * 1e3, lambda x: replace(scene, zone_radius=x / 1e3)),
         "shear_modulus_kPa": (scene.shear_modulus / 1e3, lambda x: replace(scene, shear_modulus=x * 1e3)),

@@ -3,7 +3,7 @@
 Built once, symbolically with CasADi, from the effects it is given (:mod:`coexist.effects`);
 then translated into numpy (:mod:`coexist.numerics.codegen`) for the vectorised integrator.
 
-Equations (PHYSICS.md, normalised with ``μ``, ``H`` and the zone radius ``A``; ``' = d/dR̂``):
+Equations (docs/physics.md, normalised with ``μ``, ``H`` and the zone radius ``A``; ``' = d/dR̂``):
 
 - ``W*(λ1, λ2; Φ̂) = Ws(λ1, λ2)/μ − Φ̂² λ1² λ2² / 2``
 - ``T̂1 = ∂W*/∂λ1``, ``T̂2 = ∂W*/∂λ2`` (nominal tensions over ``μH``)

@@ -27,7 +27,7 @@ import numpy as np
 
 from .continuation import EquilibriumMap, Event, StableSegment
 from .equilibria import Configuration, Equilibrium, merged, zone_index_on_curve
-from .errors import ModelRangeError, SolverError
+from .errors import ModelRangeError, SceneError, SolverError
 from .numerics.roots import bracketed_root, newton
 from .settings import SolverSettings
 
@@ -417,7 +417,7 @@ class Ramp:
 
         Raises
         ------
-        ModelRangeError
+        SceneError
             If ``phi_path`` is empty.
         SolverError
             If a jump finds no landing, a printed state does not converge, or an equal-free-energy
@@ -425,7 +425,7 @@ class Ramp:
         """
         phi_path = [float(p) for p in phi_path]
         if not phi_path:
-            raise ModelRangeError("empty voltage path", "out_of_range")
+            raise SceneError("the voltage path is empty", "voltage")
         seg: StableSegment | None = start
         cur = 0.0
         exited = None  # (segment, event, direction) when the state left the model's range
@@ -638,7 +638,7 @@ def _hermite_at(x, xs, ys, ds):
     )
 
 
-def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
+def equal_free_energy(segments: list) -> list:
     """Voltages where two stable segments have equal total free energy, located on exact states.
 
     For every pair of segments that overlap in voltage, sign changes of ``ΔĜ`` (cubic Hermite in ``Φ̂``
@@ -649,8 +649,6 @@ def equal_free_energy(segments: list, tol_rel: float | None = None) -> list:
     ----------
     segments : list of StableSegment
         The segments to compare, pair by pair (each with at least two points to take part).
-    tol_rel : float, optional
-        Not used: the tolerance is ``settings.crossing_tol`` (:func:`equal_free_energy_voltage`).
 
     Returns
     -------

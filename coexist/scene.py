@@ -13,7 +13,7 @@ path, and how accurately to solve. Every dimensional value carries its unit in i
 
 The sections, keys, unit suffixes and defaults are listed in :mod:`coexist.scene_format`.
 
-Normalisation (seed eqs. 3–4, PHYSICS.md), with ``μ`` the shear modulus, ``H`` the thickness, ``A``
+Normalisation (seed eqs. 3–4, docs/physics.md), with ``μ`` the shear modulus, ``H`` the thickness, ``A``
 the zone radius and ``ε = εr ε0`` the permittivity, all of the unstretched membrane::
 
     p̂ = p A/(μH)     V̂ = V/A³     Φ̂ = (Φ/H) √(ε/μ)     Q̂ = Q/(A² √(εμ))     Ψ̂ = Ψ/(μ H A²)
@@ -151,7 +151,7 @@ class Scene:
     fitted: dict = field(default_factory=dict)
     source: str = "<string>"
 
-    # --- scales (PHYSICS.md, seed eqs. 3-4) ------------------------------------------------------
+    # --- scales (docs/physics.md, seed eqs. 3-4) ------------------------------------------------------
     @property
     def permittivity(self) -> float:
         """``ε = εr ε0`` in F/m."""

@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .effects import MATERIALS, canonical_material
 from .errors import SceneError
 
 MAX_ZONES = 1000
@@ -55,7 +56,6 @@ UNITS = {
     "voltage": {"V": 1.0, "kV": 1e3},
     "field": {"V_per_m": 1.0, "MV_per_m": 1e6},
 }
-MATERIALS = ("neo-hookean", "gent")
 #: Defaults in SI units of the keys a scene may leave out.
 DEFAULTS = {
     "shear_modulus": 45e3,
@@ -358,11 +358,11 @@ def _top_string(doc, key):
 
 def _material(membrane: _Section) -> tuple[str, float | None]:
     given = membrane.get("material", "neo-hookean")
-    material = given.strip().lower().replace("_", "-").replace(" ", "-")
-    material = {"neohookean": "neo-hookean", "nh": "neo-hookean"}.get(material, material)
-    if material not in MATERIALS:
+    material = canonical_material(given)
+    if material is None:
         raise SceneError(
-            f"unknown material {given!r}{did_you_mean(material, MATERIALS)}; use one of {', '.join(MATERIALS)}",
+            f"unknown material {given!r}{did_you_mean(given.strip().lower(), MATERIALS)}; use one of "
+            f"{', '.join(MATERIALS)}",
             membrane.where("material"),
         )
     if material != "gent":

@@ -262,11 +262,12 @@ class SolverSettings:
             if key in ACCURACY_LEVELS:
                 return cls(rtol=ACCURACY_LEVELS[key])
             try:
-                return cls(rtol=float(key))
+                rtol = float(key)
             except ValueError:
                 names = ", ".join(ACCURACY_LEVELS)
                 raise SceneError(
                     f"unknown accuracy {accuracy!r}; use one of {names} or a tolerance like 1e-8",
                     "accuracy",
                 ) from None
+            return cls(rtol=rtol)
         return cls(rtol=float(accuracy))

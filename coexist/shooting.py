@@ -3,7 +3,7 @@
 For a pole stretch ``λ0`` and voltage ``Φ̂`` the membrane equations are integrated from a series
 start at the pole with a *trial* pressure ``p̂t`` until the hoop stretch returns to the clamp
 value ``λ2 = λpre`` at some radius ``R*``. The equations are invariant under ``R → cR``,
-``p → p/c`` (PHYSICS.md), so this is the exact clamped solution of a membrane of radius ``R*``,
+``p → p/c`` (docs/physics.md), so this is the exact clamped solution of a membrane of radius ``R*``,
 and the membrane of unit radius carries
 
 ``p̂ = p̂t R*``,  ``V̂ = V̂t / R*³``,  ``Q̂ = Q̂t / R*²``,  ``Ψ̂ = Ψ̂t / R*²``,  ``ẑ = ẑt / R*``.
@@ -214,7 +214,8 @@ class StateDerivatives:
     """Exact first derivatives of the clamped states, from the variational equations.
 
     ``dp_dl0 = ∂p̂/∂λ0|Φ̂``, ``dv_dl0``, ``dq_dl0`` and ``dp_dphi = ∂p̂/∂Φ̂|λ0``, ``dv_dphi``,
-    ``dq_dphi``; those of ``Ψ̂`` follow from ``dΨ̂ = p̂ dV̂ − Q̂ dΦ̂`` (:meth:`dpsi_dl0`, :meth:`dpsi_dphi`).
+    ``dq_dphi``; those of ``Ψ̂`` follow from ``dΨ̂ = p̂ dV̂ − Q̂ dΦ̂``: ``∂Ψ̂/∂λ0 = p̂ ∂V̂/∂λ0`` and
+    ``∂Ψ̂/∂Φ̂ = p̂ ∂V̂/∂Φ̂ − Q̂``.
     """
 
     dp_dl0: np.ndarray

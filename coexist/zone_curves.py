@@ -213,23 +213,6 @@ class ZoneCurve:
         """``(u_first, u_last)``: the ends of the grid."""
         return float(self.grid[0]), float(self.grid[-1])
 
-    def dp_dv(self, l0):
-        """``dp̂/dV̂`` along the curve (zone stiffness under pressure control).
-
-        ``dp̂/dV̂ = (dp̂/du)/(dV̂/du)``; infinite at a volume fold.
-
-        Parameters
-        ----------
-        l0 : float or ndarray
-            The curve parameter ``u = √(λ0 − λpre)`` (not the pole stretch, despite the name).
-
-        Returns
-        -------
-        float or ndarray
-            ``dp̂/dV̂`` from the splines.
-        """
-        return self.dp(l0) / self.dv(l0)
-
     def _critical(self, spline):
         """Interior roots of a spline's derivative (sorted)."""
         roots = spline.derivative().roots(extrapolate=False)

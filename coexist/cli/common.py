@@ -262,17 +262,25 @@ def material_options(scene, material, jlim, prestretch):
     Returns
     -------
     tuple
-        ``(material, jlim, prestretch)``; defaults ``"neo-hookean"``, None and 1.0.
+        ``(material, jlim, prestretch)``, the material in its canonical spelling; defaults ``"neo-hookean"``,
+        None and 1.0.
 
     Raises
     ------
     InputError
-        If the scene cannot be loaded.
+        If the material is unknown or the scene cannot be loaded.
     """
+    from coexist.effects import MATERIALS, canonical_material
+
+    given = material
+    if material is not None:
+        material = canonical_material(material)
+        if material is None:
+            raise InputError(f"--material: unknown material {given!r}; use one of {', '.join(MATERIALS)}")
     if scene is not None:
         sc = load_scene_arg(scene)
         material = material or sc.material
-        jlim = jlim if jlim is not None else (sc.jlim if (material or "").lower() == "gent" else None)
+        jlim = jlim if jlim is not None else (sc.jlim if material == "gent" else None)
         prestretch = prestretch if prestretch is not None else sc.prestretch
     material = material or "neo-hookean"
     prestretch = 1.0 if prestretch is None else prestretch

@@ -68,7 +68,7 @@ def curves(
 ):
     """Pressure–volume curves at fixed voltage and voltage–charge curves at fixed pressure.
 
-    All quantities are normalised (PHYSICS.md): p̂ = pA/(μH), V̂ = V/A³, Φ̂ = (Φ/H)√(ε/μ),
+    All quantities are normalised (docs/physics.md): p̂ = pA/(μH), V̂ = V/A³, Φ̂ = (Φ/H)√(ε/μ),
     Q̂ = Q/(A²√(εμ)). Limit points (pressure, voltage and volume extrema) are located to the solver
     tolerance and marked.
     """
@@ -87,7 +87,7 @@ def curves(
         raise InputError(f"--pole-stretch: the range must increase, got {pole_stretch!r}")
     if jlim is not None and not jlim > 0:
         raise InputError(f"--jlim: must be positive, got {jlim:g}")
-    if material.strip().lower() != "gent" and jlim is not None:
+    if material != "gent" and jlim is not None:
         raise InputError("--jlim: only the gent material takes jlim")
     try:
         model = build_model(material, jlim=jlim, voltage=True, prestretch=prestretch)

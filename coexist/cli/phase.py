@@ -43,14 +43,14 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     if scene is None and material is None:
         material = "gent"
     material, jlim, prestretch = material_options(scene, material, jlim, None)
-    if material.strip().lower() == "gent" and jlim is None:
+    if material == "gent" and jlim is None:
         jlim = 40.0
     lo, hi = parse_floats(phi_range, "--phi-hat", nonnegative=True, count=(2,))
     if hi <= lo:
         raise InputError(f"--phi-hat: the range must increase, got {phi_range!r}")
-    if material.strip().lower() == "gent" and not jlim > 0:
+    if material == "gent" and not jlim > 0:
         raise InputError(f"--jlim: must be positive, got {jlim:g}")
-    gent = material.strip().lower() == "gent"
+    gent = material == "gent"
     model = build_model(material, jlim=jlim if gent else None, prestretch=prestretch)
     lmax = stretch_range_end(model.elasticity, prestretch, settings)
     plot_path = check_output_path(plot, overwrite, "--plot")

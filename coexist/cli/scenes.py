@@ -45,7 +45,7 @@ def check(scene, as_json, no_solve):
     Besides the fields, one quick solve (the zero-voltage pressure–volume curve, ~0.1 s) checks
     that the zones can hold the closing pressure (it must lie below their snap-through pressure).
 
-    Prints the effects the scene selects and its dimensionless groups (PHYSICS.md):
+    Prints the effects the scene selects and its dimensionless groups (docs/physics.md):
     p̂ = pA/(μH), V̂ = V/A³, Φ̂ = (Φ/H)√(ε/μ), Q̂ = Q/(A²√(εμ)), Ψ̂ = Ψ/(μHA²).
     Units are part of every key name: thickness_mm = 0.5, volume_ml = 300, stop_kV = 5.
     Suffixes: length _m _mm _um; shear modulus _Pa _kPa _MPa; pressure _Pa _kPa _mbar _bar;

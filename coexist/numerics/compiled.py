@@ -106,10 +106,12 @@ def load_cached(name: str, key: str, function_name: str):
     if not enabled() or not lib.exists():
         return None
     try:
-        STATUS["last"] = "cached"
-        return ca.external(function_name, str(lib))
+        fun = ca.external(function_name, str(lib))
     except RuntimeError:
+        STATUS["last"] = f"the cached library {lib.name} does not load"
         return None
+    STATUS["last"] = "cached"
+    return fun
 
 
 def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
@@ -141,17 +143,17 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
 
     if not enabled():
         STATUS["last"] = (
-            "compilation turned off (COEXIST_COMPILE=0)"
-            if os.environ.get("COEXIST_COMPILE")
-            else "the compiler failed before in this process"
+            "the compiler failed before in this process"
+            if _BROKEN["compiler"]
+            else f"compilation turned off (COEXIST_COMPILE={os.environ.get('COEXIST_COMPILE')})"
         )
         return None
     cc = _compiler()
     if cc is None:
         STATUS["last"] = "no C compiler found (cc, gcc or clang)"
         return None
+    work = Path(tempfile.mkdtemp(prefix="coexist-gen-"))
     try:
-        work = Path(tempfile.mkdtemp(prefix="coexist-gen-"))
         cg = ca.CodeGenerator(f"{name}.c", {"with_header": False})
         cg.add(fun)
         src_path = Path(cg.generate(str(work) + os.sep))
@@ -166,7 +168,6 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
             STATUS["last"] = "cached"
         elif cached_only:
             STATUS["last"] = "not in the cache"
-            shutil.rmtree(work, ignore_errors=True)
             return None
         else:
             fd, tmp = tempfile.mkstemp(prefix=f".{name}-", suffix=".so", dir=root)
@@ -180,9 +181,10 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
                 if os.path.exists(tmp):
                     os.unlink(tmp)
             STATUS["last"] = "compiled"
-        shutil.rmtree(work, ignore_errors=True)
         return ca.external(fun.name(), str(lib))
     except (OSError, subprocess.SubprocessError, RuntimeError) as exc:
         _BROKEN["compiler"] = True
         STATUS["last"] = f"compiling failed: {exc}"
         return None
+    finally:
+        shutil.rmtree(work, ignore_errors=True)

@@ -310,10 +310,6 @@ def _timed(fn, repeats):
     return out, best
 
 
-def _fmt(x):
-    return f"{x:.0e}" if isinstance(x, float) else str(x)
-
-
 def _label(family, rtol, sampling):
     if family == "rtol":
         return f"rtol={rtol:.0e}"
