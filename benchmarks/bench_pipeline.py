@@ -8,7 +8,7 @@ run that compiles the CasADi attempt function if this machine has none cached ye
    voltages, 434 of them with a state: above 4.33 kV the bulged zone wrinkles):
    ``Simulation.from_scene(scene).ramp()`` (model build, snap-through, closing state and gas
    included), best of 5. Breakdown, best of 5 each: the same with
-   ``settings.error_estimates=False``, then ``Simulation.measure_errors`` on that run's transitions
+   ``SolverSettings(error_estimates=False)``, then ``Simulation.measure_errors`` on that run's transitions
    timed alone (what ``error_estimates`` adds: every transition re-located at ``rtol/100``; too small
    to show as a difference of two whole runs), and ``Simulation.from_scene`` alone.
 2. **Baseline** (:class:`ScipyBaseline`), what a skilled scipy user would write for the same run on the
@@ -50,7 +50,6 @@ about 2.5 minutes (1.5 with ``--quick``).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import platform
 import re
@@ -64,6 +63,7 @@ import scipy
 from scipy.optimize import root
 
 from coexist.scene import builtin_scene_text, load_scene, parse_scene
+from coexist.settings import SolverSettings
 from coexist.shooting import solve_states
 from coexist.simulation import Simulation
 
@@ -142,7 +142,7 @@ class ScipyBaseline:
     def __init__(self, scene, landing_guess):
         self.scene = scene
         sim = Simulation.from_scene(scene)
-        self.model, self.gas, self.settings = sim.model, sim.gas, scene.settings
+        self.model, self.gas, self.settings = sim.model, sim.gas, sim.settings
         self.closing_stretch = sim.closing_stretch
         self.N = scene.zone_count
         if self.N != 3:
@@ -325,11 +325,11 @@ def bench_default(repeats: int) -> dict:
     compute(scene)
     log(f"default ramp, best of {repeats} ...")
     best, times, report = best_of(lambda: compute(scene), repeats)
-    no_err = dataclasses.replace(scene, settings=dataclasses.replace(scene.settings, error_estimates=False))
+    no_err = SolverSettings(error_estimates=False)
     times_ne, times_err = [], []
     for _ in range(repeats):
         t0 = time.perf_counter()
-        sim = Simulation.from_scene(no_err)
+        sim = Simulation.from_scene(scene, no_err)
         r = sim.ramp()
         t1 = time.perf_counter()
         sim.measure_errors(r.result.transitions + r.result.equal_free_energy)  # what error_estimates adds
