@@ -124,6 +124,12 @@ class Scene:
         ``source`` is the file path or the built-in scene name.
     fitted : dict
         Free-form notes of fitted parameters, carried through unchanged.
+    defaulted : tuple of str
+        The fields the scene file left out and that took their documented default (``[membrane].prestretch``,
+        ``[chamber].atmospheric_pressure``, ``[voltage].start``, ``[voltage].step``); ``coexist check``
+        marks them.
+    controlled_pressure_field : str
+        The controlled pressure's key as written in the file (for messages), e.g. ``[zones].pressure_kPa``.
 
     Examples
     --------
@@ -134,15 +140,15 @@ class Scene:
     1.9037
     """
 
-    shear_modulus: float = DEFAULTS["shear_modulus"]
-    relative_permittivity: float = DEFAULTS["relative_permittivity"]
-    thickness: float = DEFAULTS["thickness"]
-    zone_radius: float = DEFAULTS["zone_radius"]
-    prestretch: float = DEFAULTS["prestretch"]
-    material: str = "neo-hookean"
+    shear_modulus: float
+    relative_permittivity: float
+    thickness: float
+    zone_radius: float
+    material: str
+    zone_count: int
     jlim: float | None = None
+    prestretch: float = DEFAULTS["prestretch"]
     breakdown_field: float | None = None
-    zone_count: int = int(DEFAULTS["count"])
     controlled_pressure: float | None = None
     chamber: Chamber | None = None
     voltage: VoltagePath | None = None
@@ -150,6 +156,8 @@ class Scene:
     description: str = ""
     fitted: dict = field(default_factory=dict)
     source: str = "<string>"
+    defaulted: tuple = ()
+    controlled_pressure_field: str = field(default="[zones].pressure_mbar", repr=False, compare=False)
 
     # --- scales (docs/physics.md, seed eqs. 3-4) ------------------------------------------------------
     @property
@@ -409,6 +417,43 @@ class Scene:
         """
         return _shared_model(self.material, self.jlim, self.voltage is not None, float(self.prestretch))
 
+    def values(self) -> list[tuple[str, str, str]]:
+        """Every physical value of the scene as ``(field, value with unit, source)``, source ``"file"`` or
+        ``"default"`` (a documented default the scene file left out, :attr:`defaulted`).
+
+        Returns
+        -------
+        list of tuple of str
+            E.g. ``("[membrane].thickness", "0.5 mm", "file")``; absent optional fields are left out.
+        """
+        c, v = self.chamber, self.voltage
+        rows = [
+            ("[membrane].material", self.material),
+            ("[membrane].jlim", None if self.jlim is None else f"{self.jlim:g}"),
+            ("[membrane].shear_modulus", f"{self.shear_modulus / 1e3:g} kPa"),
+            ("[membrane].relative_permittivity", f"{self.relative_permittivity:g}"),
+            ("[membrane].thickness", f"{self.thickness * 1e3:g} mm"),
+            ("[membrane].zone_radius", f"{self.zone_radius * 1e3:g} mm"),
+            ("[membrane].prestretch", f"{self.prestretch:g}"),
+            (
+                "[membrane].breakdown_field",
+                None if self.breakdown_field is None else f"{self.breakdown_field / 1e6:g} MV/m",
+            ),
+            ("[zones].count", f"{self.zone_count}"),
+            (
+                "[zones].pressure",
+                None if self.controlled_pressure is None else f"{self.controlled_pressure / 100:g} mbar",
+            ),
+            ("[chamber].volume", None if c is None else f"{c.volume * 1e6:g} ml"),
+            ("[chamber].closing_pressure", None if c is None else f"{c.closing_pressure / 100:g} mbar"),
+            ("[chamber].atmospheric_pressure", None if c is None else f"{c.atmospheric_pressure / 1e3:g} kPa"),
+        ]
+        if v is not None and v.kind == "ramp":
+            rows += [(f"[voltage].{k}", f"{getattr(v, k) / 1e3:g} kV") for k in ("start", "stop", "step")]
+        elif v is not None:
+            rows.append(("[voltage].values", f"{len(v.values)} values up to {v.peak / 1e3:g} kV"))
+        return [(k, val, "default" if k in self.defaulted else "file") for k, val in rows if val is not None]
+
     def to_dict(self) -> dict:
         """JSON-ready description: SI values with units in the key names, effects, groups, notes.
 
@@ -462,6 +507,7 @@ class Scene:
             "effects": self.effects(),
             "dimensionless_groups": self.dimensionless_groups(),
             "fitted": _json_safe(self.fitted),
+            "defaulted": list(self.defaulted),
         }
 
 
@@ -608,6 +654,8 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"invalid TOML in {source}: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"invalid TOML in {source}: nested too deeply") from None
     fields = read_document(doc, source)
     if fields["chamber"] is not None:
         fields["chamber"] = Chamber(**fields["chamber"])

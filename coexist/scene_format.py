@@ -8,11 +8,10 @@ its key name (``thickness_mm = 0.5``, never ``thickness = 0.5``).
 Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suffix):
 
 ============  ===========================================================================================
-[membrane]    ``material`` ("neo-hookean"; or "gent"), ``jlim`` (gent only, [97]),
-              ``shear_modulus_*`` [45 kPa], ``relative_permittivity`` [4.7], ``thickness_*`` [0.5 mm],
-              ``zone_radius_*`` [10 mm], ``prestretch`` [1, no prestretch], ``breakdown_field_*``
-              [absent: no breakdown check]
-[zones]       ``count`` [1], a whole number 1..1000: identical zones sharing one gas and one voltage;
+[membrane]    ``material`` ("neo-hookean" or "gent"), ``jlim`` (gent only), ``shear_modulus_*``,
+              ``relative_permittivity``, ``thickness_*``, ``zone_radius_*`` (all required);
+              ``prestretch`` [1, no prestretch], ``breakdown_field_*`` [absent: no breakdown check]
+[zones]       ``count`` (required), a whole number 1..1000: identical zones sharing one gas and one voltage;
               ``pressure_*``: the gauge pressure held directly when there is no [chamber]
 [chamber]     ``volume_*`` (required), ``closing_pressure_*`` (required, gauge),
               ``atmospheric_pressure_*`` [101.325 kPa]; absent: the pressure is controlled directly
@@ -56,15 +55,12 @@ UNITS = {
     "voltage": {"V": 1.0, "kV": 1e3},
     "field": {"V_per_m": 1.0, "MV_per_m": 1e6},
 }
-#: Defaults in SI units of the keys a scene may leave out.
+#: Defaults in SI units of the keys a scene may leave out: only those with a standard value. The physical
+#: properties of the membrane (shear modulus, thickness, zone radius, the permittivity when there is a
+#: voltage, Jlim of a Gent material) and the number of zones are required: a scene never runs on a
+#: value it did not state. ``coexist check`` lists every defaulted value.
 DEFAULTS = {
-    "shear_modulus": 45e3,
-    "relative_permittivity": 4.7,
-    "thickness": 0.5e-3,
-    "zone_radius": 10e-3,
     "prestretch": 1.0,
-    "jlim": 97.0,
-    "count": 1,
     "atmospheric_pressure": 101_325.0,
     "start": 0.0,
 }
@@ -240,7 +236,8 @@ class _Section:
     def require(self, name, what):
         if name not in self.entries:
             spec = SCHEMA[self.section][name]
-            raise SceneError(f"missing: {what}, e.g. {name}_{spec.unit} = ...", self.where(name))
+            example = f"{name}_{spec.unit}" if spec.unit else name
+            raise SceneError(f"missing: {what}, e.g. {example} = ...", self.where(name))
         return self.get(name)
 
 
@@ -284,21 +281,38 @@ def read_document(doc: dict, source: str) -> dict:
     fitted = doc.get("fitted", {})
     if not isinstance(fitted, dict):
         raise SceneError(f"must be a table (a [fitted] header), got {_describe(fitted)}", "[fitted]")
+    if not any(s in doc for s in SCHEMA):
+        raise SceneError(
+            "the scene is empty: it needs at least [membrane] (material, shear_modulus_kPa, thickness_mm, "
+            "zone_radius_mm) and [zones] count",
+            "[membrane]",
+        )
     membrane, zones, chamber, voltage = (_Section(doc, s) for s in SCHEMA)
+    defaulted: list[str] = []
+
+    def optional(section: _Section, key: str, default=None):
+        if key in section:
+            return section.get(key)
+        if default is not None:
+            defaulted.append(f"[{section.section}].{key}")
+        return default
+
     material, jlim = _material(membrane)
-    thickness = membrane.get("thickness", DEFAULTS["thickness"])
-    radius = membrane.get("zone_radius", DEFAULTS["zone_radius"])
+    shear_modulus = membrane.require("shear_modulus", "the shear modulus μ of the elastomer")
+    thickness = membrane.require("thickness", "the membrane's thickness H")
+    radius = membrane.require("zone_radius", "the radius A of each clamped zone")
+    permittivity = membrane.require("relative_permittivity", "the relative permittivity εr of the elastomer")
     if not thickness < radius:
         raise SceneError(
             f"a membrane must be thinner than its zone radius ({radius * 1e3:g} mm), got {thickness * 1e3:g} mm",
             membrane.where("thickness"),
         )
-    prestretch = membrane.get("prestretch", DEFAULTS["prestretch"])
+    prestretch = optional(membrane, "prestretch", DEFAULTS["prestretch"])
     if jlim is not None and 2 * prestretch**2 + prestretch**-4 - 3 >= jlim:
         raise SceneError(
             f"a prestretch of {prestretch:g} locks a Gent membrane with jlim = {jlim:g}", membrane.where("prestretch")
         )
-    count = zones.get("count", DEFAULTS["count"])
+    count = zones.require("count", "the number of identical zones")
     if not 1 <= count <= MAX_ZONES:
         raise SceneError(f"must be a whole number from 1 to {MAX_ZONES}, got {count}", zones.where("count"))
     pressure = zones.get("pressure")
@@ -308,8 +322,8 @@ def read_document(doc: dict, source: str) -> dict:
             zones.where("pressure"),
         )
     return dict(
-        shear_modulus=membrane.get("shear_modulus", DEFAULTS["shear_modulus"]),
-        relative_permittivity=membrane.get("relative_permittivity", DEFAULTS["relative_permittivity"]),
+        shear_modulus=shear_modulus,
+        relative_permittivity=permittivity,
         thickness=thickness,
         zone_radius=radius,
         prestretch=prestretch,
@@ -318,12 +332,14 @@ def read_document(doc: dict, source: str) -> dict:
         breakdown_field=membrane.get("breakdown_field"),
         zone_count=count,
         controlled_pressure=pressure,
-        chamber=_chamber(chamber),
-        voltage=_voltage(voltage),
+        controlled_pressure_field=zones.where("pressure"),
+        chamber=_chamber(chamber, optional),
+        voltage=_voltage(voltage, optional),
         name=name if name is not None else Path(source).stem,
         description=description or "",
         fitted=copy.deepcopy(fitted),
         source=source,
+        defaulted=tuple(defaulted),
     )
 
 
@@ -357,7 +373,7 @@ def _top_string(doc, key):
 
 
 def _material(membrane: _Section) -> tuple[str, float | None]:
-    given = membrane.get("material", "neo-hookean")
+    given = membrane.require("material", 'the elastomer model, "neo-hookean" or "gent"')
     material = canonical_material(given)
     if material is None:
         raise SceneError(
@@ -369,21 +385,21 @@ def _material(membrane: _Section) -> tuple[str, float | None]:
         if "jlim" in membrane:
             raise SceneError('only the gent material takes jlim (add material = "gent")', membrane.where("jlim"))
         return material, None
-    return material, membrane.get("jlim", DEFAULTS["jlim"])
+    return material, membrane.require("jlim", "the Gent limit Jlim of I1 − 3 (e.g. 97 for VHB)")
 
 
-def _chamber(chamber: _Section) -> dict | None:
+def _chamber(chamber: _Section, optional) -> dict | None:
     if not chamber.present:
         return None
     return dict(
         volume=chamber.require("volume", "the chamber volume"),
         closing_pressure=chamber.require("closing_pressure", "the gauge pressure when the valves close"),
-        atmospheric_pressure=chamber.get("atmospheric_pressure", DEFAULTS["atmospheric_pressure"]),
+        atmospheric_pressure=optional(chamber, "atmospheric_pressure", DEFAULTS["atmospheric_pressure"]),
         closing_pressure_field=chamber.where("closing_pressure"),
     )
 
 
-def _voltage(voltage: _Section) -> dict | None:
+def _voltage(voltage: _Section, optional) -> dict | None:
     if not voltage.present:
         return None
     ramp = [n for n in ("start", "stop", "step") if n in voltage]
@@ -393,11 +409,11 @@ def _voltage(voltage: _Section) -> dict | None:
                 "give either a ramp (start, stop, step) or a list of values, not both", voltage.where(ramp[0])
             )
         return dict(kind="list", values=np.array(voltage.get("values")))
-    start = voltage.get("start", DEFAULTS["start"])
+    start = optional(voltage, "start", DEFAULTS["start"])
     stop = voltage.require("stop", "a ramp needs the highest voltage (or give a list of values)")
     if stop < start:
         raise SceneError(f"the ramp must go up: stop ({stop:g} V) is below start ({start:g} V)", voltage.where("stop"))
-    step = voltage.get("step", (stop - start) / 100 or 1.0)
+    step = voltage.get("step") if "step" in voltage else optional(voltage, "step", (stop - start) / 100 or 1.0)
     if (stop - start) / step > MAX_VOLTAGE_POINTS:
         raise SceneError(
             f"a step of {step:g} V makes {(stop - start) / step:.3g} steps; at most {MAX_VOLTAGE_POINTS}",

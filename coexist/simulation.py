@@ -269,7 +269,7 @@ class Simulation:
             field_name = scene.chamber.closing_pressure_field
         elif scene.controlled_pressure is not None:
             p_close = float(scene.p_hat(scene.controlled_pressure))
-            field_name = "[zones].pressure"
+            field_name = scene.controlled_pressure_field
             if not p_close < p_max:
                 raise SceneError(
                     f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar "

@@ -58,3 +58,77 @@ def neo_hookean():
 @pytest.fixture(scope="session")
 def gent97():
     return MembraneModel(Gent(97.0), IdealDielectric())
+
+
+# --- scene texts ----------------------------------------------------------------------------------------
+#: what every scene must state (the physical fields of [membrane] and [zones].count), as written in a file
+REQUIRED_SCENE_KEYS = {
+    "membrane": {
+        "material": '"neo-hookean"',
+        "shear_modulus": "45",
+        "relative_permittivity": "4.7",
+        "thickness": "0.5",
+        "zone_radius": "10",
+    },
+    "zones": {"count": "1"},
+}
+_REQUIRED_UNITS = {"shear_modulus": "kPa", "thickness": "mm", "zone_radius": "mm"}
+#: the smallest complete scene: a neo-Hookean zone of 10 mm radius, 0.5 mm thick, μ = 45 kPa, εr = 4.7
+MINIMAL_SCENE = """\
+[membrane]
+material = "neo-hookean"
+shear_modulus_kPa = 45
+relative_permittivity = 4.7
+thickness_mm = 0.5
+zone_radius_mm = 10
+[zones]
+count = 1
+"""
+
+
+def _toml_value(value) -> str:
+    import datetime
+    import json
+
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, (datetime.date, datetime.datetime)):
+        return value.isoformat()
+    if isinstance(value, list):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    return json.dumps(value, ensure_ascii=False)
+
+
+def complete_scene(text: str) -> str:
+    """``text`` with the required scene keys it leaves out added (the values of :data:`MINIMAL_SCENE`), so
+    that a test can state only what it is about. Text that is not valid TOML is returned unchanged (the test
+    is then about that); a key present under any unit suffix counts as present; a ``material = "gent"``
+    without ``jlim`` gets ``jlim = 97``."""
+    try:
+        import tomllib
+    except ImportError:  # Python 3.10
+        import tomli as tomllib
+
+    try:
+        doc = tomllib.loads(text)
+    except tomllib.TOMLDecodeError:
+        return text
+    for section, keys in REQUIRED_SCENE_KEYS.items():
+        table = doc.setdefault(section, {})
+        if not isinstance(table, dict):
+            return text
+        for key, value in keys.items():
+            if not any(k == key or k.startswith(key + "_") for k in table):
+                name = f"{key}_{_REQUIRED_UNITS[key]}" if key in _REQUIRED_UNITS else key
+                table[name] = tomllib.loads(f"x = {value}")["x"]
+    membrane = doc["membrane"]
+    if str(membrane.get("material", "")).lower() == "gent" and "jlim" not in membrane:
+        membrane["jlim"] = 97
+    lines = [f"{k} = {_toml_value(v)}" for k, v in doc.items() if not isinstance(v, dict)]
+    for section, table in doc.items():
+        if isinstance(table, dict):
+            lines.append(f"[{section}]")
+            lines += [f"{k} = {_toml_value(v)}" for k, v in table.items()]
+    return "\n".join(lines) + "\n"

@@ -4,6 +4,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from conftest import complete_scene
 from scipy.integrate import quad
 from scipy.optimize import brentq
 
@@ -170,7 +171,8 @@ def test_pressure_control_equal_free_energy_is_the_maxwell_voltage():
     from coexist.scene import parse_scene
 
     text = (
-        '[membrane]\nmaterial = "gent"\njlim = 97\nzone_radius_mm = 21.4165\n[zones]\ncount = 3\n'
+        '[membrane]\nmaterial = "gent"\njlim = 97\nshear_modulus_kPa = 45\nrelative_permittivity = 4.7\n'
+        "thickness_mm = 0.5\nzone_radius_mm = 21.4165\n[zones]\ncount = 3\n"
         "pressure_mbar = 17\n[voltage]\nstop_kV = 5\nstep_kV = 0.05\n"
     )
     scene = parse_scene(text)
@@ -194,5 +196,9 @@ def test_scene_with_chamber_and_controlled_pressure_is_rejected():
     from coexist.scene import parse_scene
 
     with pytest.raises(SceneError) as info:
-        parse_scene("[zones]\npressure_mbar = 10\n[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\n")
+        parse_scene(
+            complete_scene(
+                "[zones]\ncount = 1\npressure_mbar = 10\n[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\n"
+            )
+        )
     assert info.value.field == "[zones].pressure_mbar"

@@ -759,6 +759,9 @@ SCENE = """
 name = "hard-cases"
 [membrane]
 material = "neo-hookean"
+shear_modulus_kPa = 45
+relative_permittivity = 4.7
+thickness_mm = 0.5
 zone_radius_mm = 10
 [zones]
 count = 3

@@ -11,6 +11,7 @@ import casadi as ca
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import MINIMAL_SCENE, complete_scene
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -19,11 +20,12 @@ from coexist.errors import SceneError
 from coexist.scene import VACUUM_PERMITTIVITY, Scene, builtin_scene_text, builtin_scenes, load_scene, parse_scene
 from coexist.scene_format import SCHEMA, UNITS
 
-THREE_LINES = """\
-[membrane]
-thickness_mm = 0.5
-zone_radius_mm = 10
-"""
+THREE_LINES = MINIMAL_SCENE
+
+
+def parse_completed(text: str, **kwargs):
+    """``parse_scene`` of ``text`` with the required keys it does not state filled in (conftest)."""
+    return parse_scene(complete_scene(text), **kwargs)
 
 
 def _no_traceback(result):
@@ -54,13 +56,54 @@ def test_tricircle_is_the_paper_experiment():
     assert "zone_radius" in scene.fitted and scene.material == "gent" and scene.jlim == 97
 
 
-def test_three_line_scene_takes_documented_defaults():
+def test_minimal_scene_states_every_physical_value_and_defaults_only_the_standard_ones():
+    """The physical fields of [membrane] and [zones].count are required; what is left out takes a
+    documented default and is listed in ``defaulted`` (and marked by ``coexist check``)."""
     scene = parse_scene(THREE_LINES)
     assert (scene.shear_modulus, scene.relative_permittivity, scene.prestretch) == (45e3, 4.7, 1.0)
     assert scene.zone_radius == pytest.approx(0.01) and scene.zone_count == 1
     assert scene.chamber is None and scene.voltage is None and scene.breakdown_field is None
     assert scene.effects() == ["elasticity:neo-hookean", "pressure-control"]
-    assert parse_scene("").zone_radius == pytest.approx(0.01)
+    assert scene.defaulted == ("[membrane].prestretch",)
+    assert [src for key, _, src in scene.values() if key == "[membrane].prestretch"] == ["default"]
+    full = parse_scene(THREE_LINES + "[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\n[voltage]\nstop_kV = 4\n")
+    assert set(full.defaulted) == {
+        "[membrane].prestretch",
+        "[chamber].atmospheric_pressure",
+        "[voltage].start",
+        "[voltage].step",
+    }
+    assert load_scene("tricircle").defaulted == ()
+
+
+@pytest.mark.parametrize(
+    "drop, field",
+    [
+        ("material", "[membrane].material"),
+        ("shear_modulus_kPa", "[membrane].shear_modulus_kPa"),
+        ("relative_permittivity", "[membrane].relative_permittivity"),
+        ("thickness_mm", "[membrane].thickness_mm"),
+        ("zone_radius_mm", "[membrane].zone_radius_mm"),
+        ("count", "[zones].count"),
+    ],
+)
+def test_a_missing_physical_value_is_an_error_naming_it(drop, field):
+    text = "\n".join(line for line in THREE_LINES.splitlines() if not line.startswith(drop + " ")) + "\n"
+    with pytest.raises(SceneError, match="missing") as info:
+        parse_scene(text)
+    assert info.value.field == field
+
+
+@pytest.mark.parametrize("text", ["", "\n\n", "# only a comment\n", 'name = "x"\n'])
+def test_an_empty_scene_is_an_error(text):
+    with pytest.raises(SceneError, match="empty"):
+        parse_scene(text)
+
+
+def test_gent_needs_its_jlim():
+    with pytest.raises(SceneError, match="Jlim") as info:
+        parse_scene(THREE_LINES.replace('"neo-hookean"', '"gent"'))
+    assert info.value.field == "[membrane].jlim"
 
 
 def test_three_line_scene_runs():
@@ -134,13 +177,13 @@ def test_gas_amount_needs_a_chamber():
     ],
 )
 def test_voltage_paths(text, expected_kV):
-    path = parse_scene(f"[voltage]\n{text}\n").voltage
+    path = parse_completed(f"[voltage]\n{text}\n").voltage
     np.testing.assert_allclose(path.values, np.array(expected_kV) * 1e3)
     assert path.kind == ("list" if "values" in text else "ramp")
 
 
 def test_units_convert_to_si():
-    scene = parse_scene("""
+    scene = parse_completed("""
         [membrane]
         thickness_um = 500
         zone_radius_m = 0.02
@@ -160,7 +203,7 @@ def test_units_convert_to_si():
 def test_fitted_notes_carry_through_and_a_scene_holds_no_solver_settings():
     """Notes of fitted parameters pass unchanged; a [solver] section is refused with the way to set the
     tolerance (a choice of the run, not of the experiment)."""
-    scene = parse_scene('[fitted]\nzone_radius = "fitted to 4.0 kV"\nwhen = 2024-05-01\n')
+    scene = parse_completed('[fitted]\nzone_radius = "fitted to 4.0 kV"\nwhen = 2024-05-01\n')
     assert scene.fitted == {"zone_radius": "fitted to 4.0 kV", "when": datetime.date(2024, 5, 1)}
     assert scene.to_dict()["fitted"]["when"] == "2024-05-01"
     assert "solver" not in scene.to_dict() and not hasattr(scene, "settings")
@@ -240,7 +283,7 @@ BAD = [
 @pytest.mark.parametrize("text, field, words", BAD, ids=[b[1] + ":" + b[2] for b in BAD])
 def test_bad_scene_names_the_field(text, field, words):
     with pytest.raises(SceneError) as info:
-        parse_scene(text + "\n")
+        parse_completed(text + "\n")
     assert info.value.field == field
     assert words in str(info.value)
 
@@ -273,8 +316,9 @@ def test_scene_without_voltage_builds_no_electrostatics():
 
 
 def test_scene_with_voltage_and_gent_builds_them():
-    scene = parse_scene(
-        '[membrane]\nmaterial = "gent"\nprestretch = 1.2\nbreakdown_field_MV_per_m = 100\n[voltage]\nstop_kV = 4\n'
+    scene = parse_completed(
+        '[membrane]\nmaterial = "gent"\njlim = 97\nprestretch = 1.2\nbreakdown_field_MV_per_m = 100\n'
+        "[voltage]\nstop_kV = 4\n"
     )
     model = scene.model()
     assert model.has_voltage and ca.depends_on(model.symbols["W"], model.symbols["phi"])
@@ -325,8 +369,8 @@ def test_cli_check_builtin_and_stdin():
     runner = CliRunner()
     result = runner.invoke(cli, ["check", "--json", "tricircle"])
     assert result.exit_code == 0 and json.loads(result.stdout)["zones"]["count"] == 3
-    result = runner.invoke(cli, ["check", "-"], input="[zones]\ncount = 2\n")
-    assert result.exit_code == 0 and "zones: 2" in result.stdout
+    result = runner.invoke(cli, ["check", "-"], input=complete_scene("[zones]\ncount = 2\n"))
+    assert result.exit_code == 0 and "[zones].count" in result.stdout and "2" in result.stdout
 
 
 @pytest.mark.parametrize(
@@ -340,7 +384,7 @@ def test_cli_check_builtin_and_stdin():
 )
 def test_cli_check_bad_file(tmp_path, text, field):
     path = tmp_path / "bad.toml"
-    path.write_text(text)
+    path.write_text(complete_scene(text))
     result = CliRunner().invoke(cli, ["check", str(path)])
     assert result.exit_code == 2
     assert field in result.output and "bad.toml" in result.output
@@ -515,7 +559,9 @@ def test_zero_voltage_gives_the_numbers_of_no_voltage():
 def test_cli_check_closing_pressure_above_snap_through(tmp_path):
     """The zones (neo-Hookean, A = 30 mm: p̂max = 1.879 is 14.1 mbar) cannot hold 20 mbar: exit 2, field named."""
     bad = tmp_path / "big.toml"
-    bad.write_text("[membrane]\nzone_radius_mm = 30\n[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\n")
+    bad.write_text(
+        complete_scene("[membrane]\nzone_radius_mm = 30\n[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\n")
+    )
     r = CliRunner().invoke(cli, ["check", str(bad)])
     assert r.exit_code == 2 and "[chamber].closing_pressure_mbar" in r.output and "snap-through" in r.output
     ok = CliRunner().invoke(cli, ["check", "tricircle"])

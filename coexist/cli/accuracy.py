@@ -6,7 +6,7 @@ import os
 
 import click
 
-from .common import InputError, check_output_path, info, library_errors, parse_floats, write_json
+from .common import InputError, Outputs, info, library_errors, parse_floats, write_json
 
 
 def _parse_studies(text: str) -> list[int]:
@@ -48,9 +48,8 @@ def accuracy(study, quick, plot, as_json, overwrite):
     from coexist.studies.accuracy import report, run_studies, summary_lines
 
     numbers = _parse_studies(study)
-    plot_path = check_output_path(plot, overwrite, "--plot")
-    if plot_path is not None and plot_path.suffix.lower() not in (".png", ".svg", ".pdf"):
-        raise InputError(f"--plot: unsupported figure type {plot_path.suffix!r} (use .png, .svg or .pdf)")
+    out = Outputs(overwrite)
+    plot_path = out.figure(plot, "--plot")
     if plot_path is None:
         info("note: no figure (pass -o figures/accuracy_cost.png to draw one)")
     try:
@@ -60,11 +59,12 @@ def accuracy(study, quick, plot, as_json, overwrite):
     if load_before is not None and load_before[0] > 0.5 * (os.cpu_count() or 1):
         info(f"note: the machine is busy (load {load_before[0]:.2f} on {os.cpu_count()} CPUs); timings will be slower")
     studies = run_studies(numbers, quick=quick, progress=info)
-    if plot_path is not None:
-        from coexist.studies.plotting import plot_accuracy
+    with out:
+        if plot_path is not None:
+            from coexist.studies.plotting import plot_accuracy
 
-        plot_accuracy(studies, plot_path, title="What accuracy costs in time" + (" (quick)" if quick else ""))
-        info(f"wrote {plot_path}")
+            title = "What accuracy costs in time" + (" (quick)" if quick else "")
+            plot_accuracy(studies, out.staged(plot_path), title=title)
     if as_json:
         write_json(report(studies, quick=quick, load_before=load_before))
     else:

@@ -5,7 +5,9 @@ from __future__ import annotations
 import functools
 import json
 import math
+import os
 import sys
+import tempfile
 from pathlib import Path
 
 import click
@@ -152,39 +154,187 @@ def write_json(data: dict) -> None:
     click.echo(json.dumps(data, indent=1, sort_keys=True, allow_nan=False))
 
 
-def check_output_path(path: str | None, overwrite: bool, option: str) -> Path | None:
-    """Check an output file option before anything is computed.
+#: figure formats the figure writer (matplotlib, Agg backend) is asked to produce
+FIGURE_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+class Outputs:
+    """The files one command writes, checked before anything is computed and written all or nothing.
+
+    Every output option is checked when it is registered (:meth:`figure`, :meth:`data`): the suffix is
+    one the writer produces, the folder exists and is a writable directory, the path is not a directory,
+    it does not exist unless ``--overwrite`` was given, no two options name the same file, and at most one
+    output goes to stdout. Files are drawn or written to temporary names beside their targets
+    (:meth:`staged`) and renamed onto them only when the command finishes without error; a failure
+    removes the temporary files and leaves every existing file as it was.
 
     Parameters
     ----------
-    path : str or None
-        The file given, or None when the option was not given.
     overwrite : bool
-        Whether an existing file may be replaced (``--overwrite``).
-    option : str
-        The option's name for messages, e.g. ``"-o"``.
+        Whether existing files may be replaced.
+
+    Examples
+    --------
+    >>> with Outputs(overwrite=False) as out:  # doctest: +SKIP
+    ...     fig = out.figure("ramp.png", "--plot")
+    ...     plot_ramp_volumes(report, out.staged(fig))
+    """
+
+    def __init__(self, overwrite: bool):
+        self.overwrite = bool(overwrite)
+        self._targets: dict[Path, str] = {}
+        self._stdout: str | None = None
+        self._staged: list[tuple[Path, Path]] = []
+
+    def stdout(self, option: str) -> None:
+        """Claim stdout for the output of ``option`` (data go to stdout one format at a time).
+
+        Parameters
+        ----------
+        option : str
+            The option that prints to stdout, e.g. ``"--json"``.
+
+        Raises
+        ------
+        InputError
+            If another option already prints to stdout.
+        """
+        if self._stdout is not None and self._stdout != option:
+            raise InputError(f"{option}: {self._stdout} already prints to stdout; write one of them to a file")
+        self._stdout = option
+
+    def _check(self, path: str, option: str, suffixes: tuple) -> Path:
+        p = Path(path)
+        if p.suffix.lower() not in suffixes:
+            raise InputError(
+                f"{option}: unsupported file type {p.suffix or '(none)'!r} for {path!r} (use {', '.join(suffixes)})"
+            )
+        parent = p.parent if str(p.parent) else Path(".")
+        if not parent.exists():
+            raise InputError(f"{option}: folder {parent} does not exist")
+        if not parent.is_dir():
+            raise InputError(f"{option}: {parent} is not a folder")
+        try:  # the one reliable test: create (and remove) a file there
+            fd, probe = tempfile.mkstemp(prefix=".coexist-probe-", dir=parent)
+            os.close(fd)
+            os.unlink(probe)
+        except OSError as exc:
+            raise InputError(f"{option}: cannot write in folder {parent} ({exc.strerror or exc})") from None
+        if p.is_dir():
+            raise InputError(f"{option}: {p} is a folder")
+        if p.exists() and not self.overwrite:
+            raise InputError(f"{option}: {p} exists; pass --overwrite to replace it")
+        key = p.resolve()
+        if key in self._targets:
+            raise InputError(f"{option}: {p} is also the file of {self._targets[key]}; give each output its own file")
+        self._targets[key] = option
+        return p
+
+    def figure(self, path: str | None, option: str) -> Path | None:
+        """Register a figure file.
+
+        Parameters
+        ----------
+        path : str or None
+            The file given (None: the option was not given).
+        option : str
+            The option's name for messages.
+
+        Returns
+        -------
+        pathlib.Path or None
+
+        Raises
+        ------
+        InputError
+            If the file cannot be written as a figure (see the class).
+        """
+        return None if path is None else self._check(path, option, FIGURE_SUFFIXES)
+
+    def data(self, path: str | None, option: str, suffix: str) -> Path | str | None:
+        """Register a data file, or stdout for ``-``.
+
+        Parameters
+        ----------
+        path : str or None
+            The file given, ``"-"`` for stdout, None when the option was not given.
+        option : str
+            The option's name for messages.
+        suffix : str
+            The one suffix the format takes, e.g. ``".csv"``.
+
+        Returns
+        -------
+        pathlib.Path, "-" or None
+
+        Raises
+        ------
+        InputError
+            If the file cannot be written (see the class), or stdout is already taken.
+        """
+        if path is None:
+            return None
+        if path == "-":
+            self.stdout(option)
+            return "-"
+        return self._check(path, option, (suffix,))
+
+    def staged(self, target: Path) -> Path:
+        """A temporary file beside ``target`` (same suffix) to write to; renamed onto ``target`` at the end.
+
+        Parameters
+        ----------
+        target : pathlib.Path
+            A registered output file.
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}-", suffix=target.suffix, dir=target.parent or ".")
+        os.close(fd)
+        self._staged.append((Path(tmp), target))
+        return Path(tmp)
+
+    def write_text(self, target: Path, text: str) -> None:
+        """Write ``text`` to ``target`` through a staged file.
+
+        Parameters
+        ----------
+        target : pathlib.Path
+            A registered data file.
+        text : str
+            Its content.
+        """
+        self.staged(target).write_text(text, encoding="utf-8")
+
+    def __enter__(self) -> Outputs:
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if exc_type is None:
+            for tmp, target in self._staged:
+                os.replace(tmp, target)
+                info(f"wrote {target}")
+        else:
+            for tmp, _ in self._staged:
+                tmp.unlink(missing_ok=True)
+        self._staged.clear()
+
+
+def printable(text: str) -> str:
+    """``text`` safe for a terminal: control characters (from a scene's name or description, say) shown as
+    ``\\xNN`` escapes instead of reaching the terminal raw.
+
+    Parameters
+    ----------
+    text : str
 
     Returns
     -------
-    pathlib.Path or None
-        The path, or None when none was given.
-
-    Raises
-    ------
-    InputError
-        If the file exists without ``overwrite``, its suffix is not ``.png``, ``.svg``, ``.pdf``, ``.csv`` or
-        ``.json``, or its folder does not exist.
+    str
     """
-    if path is None:
-        return None
-    p = Path(path)
-    if p.exists() and not overwrite:
-        raise InputError(f"{option}: {p} exists; pass --overwrite to replace it")
-    if p.suffix.lower() not in (".png", ".svg", ".pdf", ".csv", ".json"):
-        raise InputError(f"{option}: unsupported file type {p.suffix!r} (use .png, .svg, .pdf, .csv)")
-    if not p.parent.exists():
-        raise InputError(f"{option}: folder {p.parent} does not exist")
-    return p
+    return "".join(ch if ch.isprintable() or ch == " " else f"\\x{ord(ch):02x}" for ch in str(text))
 
 
 def info(message: str) -> None:
@@ -195,7 +345,7 @@ def info(message: str) -> None:
     message : str
         One line for stderr.
     """
-    click.echo(message, err=True)
+    click.echo(printable(message), err=True)
 
 
 def load_scene_arg(scene):
@@ -204,7 +354,7 @@ def load_scene_arg(scene):
     Parameters
     ----------
     scene : str or None
-        Built-in scene name or path of a scene file.
+        Built-in scene name, path of a scene file, or ``-`` for a scene on stdin.
 
     Returns
     -------
@@ -217,9 +367,11 @@ def load_scene_arg(scene):
         If the scene cannot be loaded (the message names the scene and the field).
     """
     from coexist.errors import SceneError
-    from coexist.scene import load_scene
+    from coexist.scene import load_scene, parse_scene
 
     try:
+        if scene == "-":
+            return parse_scene(sys.stdin.read(), source="<stdin>")
         return load_scene(scene)
     except SceneError as exc:
         raise InputError(f"{scene or 'default scene'}: {exc}") from None

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from .common import (
     InputError,
+    Outputs,
     accuracy_option,
-    check_output_path,
     info,
     library_errors,
     material_options,  # noqa: I001
@@ -95,8 +97,11 @@ def curves(
         raise InputError(f"--{(exc.field or 'material').replace('_', '-')}: {exc.message}") from None
     if lo <= model.prestretch:
         raise InputError(f"--pole-stretch: must start above the prestretch {model.prestretch:g}, got {lo:g}")
-    plot_path = check_output_path(plot, overwrite, "--plot")
-    csv_file = None if csv_path in (None, "-") else check_output_path(csv_path, overwrite, "--csv")
+    out = Outputs(overwrite)
+    plot_path = out.figure(plot, "--plot")
+    csv_target = out.data(csv_path, "--csv", ".csv")
+    if as_json:
+        out.stdout("--json")
     grid = np.linspace(lo, hi, points)
     pv, vq = [], []
     for phi in phis:
@@ -110,23 +115,22 @@ def curves(
         "settings": {"relative_tolerance": settings.rtol, "points": points, "pole_stretch_range": [lo, hi]},
         "curves": [c.to_dict() for c in pv + vq],
     }
-    if plot_path is not None:
-        from coexist.plotting import plot_curves
+    with out:
+        if plot_path is not None:
+            from coexist.plotting import plot_curves
 
-        plot_curves(pv, vq, plot_path, title=_title(model))
-        info(f"wrote {plot_path}")
-    if csv_path is not None:
+            plot_curves(pv, vq, out.staged(plot_path), title=_title(model))
+        if isinstance(csv_target, Path):
+            from coexist.curves import curves_csv
+
+            out.write_text(csv_target, curves_csv(pv + vq))
+    if csv_target == "-":
         from coexist.curves import curves_csv
 
-        text = curves_csv(pv + vq)
-        if csv_file is None:
-            click.echo(text, nl=False)
-        else:
-            csv_file.write_text(text)
-            info(f"wrote {csv_file}")
-    if as_json:
+        click.echo(curves_csv(pv + vq), nl=False)
+    elif as_json:
         write_json(data)
-    if not as_json and csv_path != "-":
+    else:
         _summary(pv, vq, settings)
 
 

@@ -36,5 +36,31 @@ cli.add_command(accuracy)
 
 
 def main():
-    """Entry point of the ``coexist`` console script: runs :func:`cli` with the program name ``coexist``."""
-    cli(prog_name="coexist")
+    """Entry point of the ``coexist`` console script: runs :func:`cli` with the program name ``coexist``.
+
+    Exit codes: 0 success, 2 bad input (click's usage errors and :class:`~coexist.errors.SceneError`),
+    1 when the physics or a solver fails, 130 when interrupted (Ctrl-C). An unexpected exception (a bug)
+    is one line on stderr with exit code 1; ``COEXIST_DEBUG=1`` shows its traceback.
+    """
+    import os
+    import sys
+
+    try:
+        code = cli.main(prog_name="coexist", standalone_mode=False)
+    except click.exceptions.Abort:
+        click.echo("interrupted", err=True)
+        sys.exit(130)
+    except click.ClickException as exc:
+        exc.show()
+        sys.exit(exc.exit_code)
+    except RecursionError:
+        click.echo("Error: the input is nested too deeply to be read", err=True)
+        sys.exit(2)
+    except Exception as exc:  # a bug: say so in one line, keep the traceback for those who ask
+        if os.environ.get("COEXIST_DEBUG"):
+            raise
+        click.echo(
+            f"internal error: {type(exc).__name__}: {exc} (please report it; COEXIST_DEBUG=1 shows where)", err=True
+        )
+        sys.exit(1)
+    sys.exit(code if isinstance(code, int) else 0)

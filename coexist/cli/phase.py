@@ -6,8 +6,8 @@ import click
 
 from .common import (
     InputError,
+    Outputs,
     accuracy_option,
-    check_output_path,
     info,
     library_errors,
     material_options,  # noqa: I001
@@ -53,14 +53,16 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     gent = material == "gent"
     model = build_model(material, jlim=jlim if gent else None, prestretch=prestretch)
     lmax = stretch_range_end(model.elasticity, prestretch, settings)
-    plot_path = check_output_path(plot, overwrite, "--plot")
+    out = Outputs(overwrite)
+    plot_path = out.figure(plot, "--plot")
     info(f"{points} voltages ...")
     d = compute(model, np.linspace(lo, hi, points), lmax, settings)
-    if plot_path is not None:
-        from coexist.plotting import plot_phase_diagram
+    with out:
+        if plot_path is not None:
+            from coexist.plotting import plot_phase_diagram
 
-        plot_phase_diagram(d, plot_path, title=f"{material}" + (f", Jlim = {jlim:g}" if gent else ""))
-        info(f"wrote {plot_path}")
+            title = f"{material}" + (f", Jlim = {jlim:g}" if gent else "")
+            plot_phase_diagram(d, out.staged(plot_path), title=title)
     data = {"model": model.describe(), "relative_tolerance": settings.rtol, **d.to_dict()}
     if as_json:
         write_json(data)
@@ -78,7 +80,7 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
             f"λ0 = {d.critical_point[2]:.4f}"
         )
     for n in d.notes:
-        click.echo(f"note: {n}")
+        info(f"note: {n}")
     click.echo(
         f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {settings.phase_diagram_points} shot "
         f"states per voltage, critical voltage bisected to {CRITICAL_XTOL:g})"

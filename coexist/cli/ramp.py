@@ -5,8 +5,8 @@ from __future__ import annotations
 import click
 
 from .common import (
+    Outputs,
     accuracy_option,
-    check_output_path,
     info,
     library_errors,
     load_scene_arg,
@@ -49,23 +49,24 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
 
     sc = load_scene_arg(scene)
     settings = settings_from(accuracy, rtol)
-    plot_path = check_output_path(plot, overwrite, "--plot")
-    states_path = check_output_path(states_plot, overwrite, "--states-plot")
-    info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
-    info("following the stable states along the voltage path ...")
-    sim = Simulation.from_scene(sc, settings)
-    n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
-    with stderr_progress(n, "ramp") as bar:
-        report = sim.ramp(progress=lambda i: bar.update(1))
-    data = report.to_dict()
-    if plot_path is not None:
-        from coexist.plotting import plot_ramp_volumes
+    with Outputs(overwrite) as out:
+        plot_path = out.figure(plot, "--plot")
+        states_path = out.figure(states_plot, "--states-plot")
+        info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
+        info("following the stable states along the voltage path ...")
+        sim = Simulation.from_scene(sc, settings)
+        n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
+        with stderr_progress(n, "ramp") as bar:
+            report = sim.ramp(progress=lambda i: bar.update(1))
+        data = report.to_dict()
+        if plot_path is not None:
+            from coexist.plotting import plot_ramp_volumes
 
-        info("tracing the visited configurations' branches for the figure ...")
-        plot_ramp_volumes(report, plot_path, title=_title(sc), branches=sim.branches(report.result.segments))
-        info(f"wrote {plot_path}")
-    if states_path is not None:
-        _states_figure(report, sim, states_path)
+            info("tracing the visited configurations' branches for the figure ...")
+            branches = sim.branches(report.result.segments)
+            plot_ramp_volumes(report, out.staged(plot_path), title=_title(sc), branches=branches)
+        if states_path is not None:
+            _states_figure(report, sim, states_path, out)
     if as_json:
         write_json(data)
         return
@@ -80,7 +81,7 @@ def _title(sc):
     )
 
 
-def _states_figure(report, sim, path):
+def _states_figure(report, sim, path, out):
     from coexist.plotting import plot_coexisting_states
     from coexist.zone_curves import ZoneCurve
 
@@ -97,9 +98,8 @@ def _states_figure(report, sim, path):
                 s.state,
                 f"{report.scene.name}: coexisting states at {kv:.3g} kV, "
                 f"{report.pressure_mbar(s.state.p_hat):.4g} mbar",
-                path,
+                out.staged(path),
             )
-            info(f"wrote {path}")
             return
     info(f"note: no bulged state on the path; {path} not written")
 

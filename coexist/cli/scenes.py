@@ -2,11 +2,9 @@
 
 from __future__ import annotations
 
-import sys
-
 import click
 
-from .common import InputError, library_errors, write_json
+from .common import InputError, library_errors, load_scene_arg, printable, write_json
 
 
 @click.group(invoke_without_command=True)
@@ -52,15 +50,8 @@ def check(scene, as_json, no_solve):
     volume _m3 _l _ml; voltage _V _kV; field _V_per_m _MV_per_m.
     """
     from coexist.errors import SceneError
-    from coexist.scene import load_scene, parse_scene
 
-    try:
-        if scene == "-":
-            loaded = parse_scene(sys.stdin.read(), source="<stdin>")
-        else:
-            loaded = load_scene(scene)
-    except SceneError as exc:
-        raise InputError(f"{scene}: {exc}" if exc.field else str(exc)) from None
+    loaded = load_scene_arg(scene)
     p_max = None
     held = loaded.chamber is not None or loaded.controlled_pressure is not None
     if held and not no_solve:
@@ -73,7 +64,7 @@ def check(scene, as_json, no_solve):
             raise InputError(f"{scene}: {exc}") from None
         if loaded.controlled_pressure is not None and not loaded.p_hat(loaded.controlled_pressure) < p_max:
             raise InputError(
-                f"{scene}: [zones].pressure: the zones cannot hold "
+                f"{scene}: {loaded.controlled_pressure_field}: the zones cannot hold "
                 f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their snap-through "
                 f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)"
             )
@@ -96,29 +87,15 @@ def check(scene, as_json, no_solve):
 
 
 def _print_scene(scene):
-    click.echo(f"scene {scene.name}: {scene.description}" if scene.description else f"scene {scene.name}")
-    click.echo(f"source: {scene.source}")
-    jlim = f", Jlim = {scene.jlim:g}" if scene.jlim is not None else ""
-    click.echo(
-        f"membrane: {scene.material}{jlim}, μ = {scene.shear_modulus / 1e3:g} kPa, "
-        f"εr = {scene.relative_permittivity:g}, H = {scene.thickness * 1e3:g} mm, "
-        f"A = {scene.zone_radius * 1e3:g} mm, prestretch {scene.prestretch:g}"
-    )
-    click.echo(f"zones: {scene.zone_count}")
-    if scene.chamber is not None:
-        c = scene.chamber
-        click.echo(
-            f"chamber: {c.volume * 1e6:g} ml, closed at {c.closing_pressure / 100:g} mbar (gauge), "
-            f"atmosphere {c.atmospheric_pressure / 1e3:g} kPa"
-        )
+    click.echo(printable(f"scene {scene.name}: {scene.description}" if scene.description else f"scene {scene.name}"))
+    click.echo(printable(f"source: {scene.source}"))
+    click.echo("values (from the file, or the documented default where marked):")
+    rows = scene.values()
+    width = max(len(k) for k, _, _ in rows)
+    for key, value, source in rows:
+        click.echo(f"  {key:<{width}}  {value}" + ("  [default]" if source == "default" else ""))
     if scene.voltage is not None:
-        v = scene.voltage
-        path = (
-            f"ramp {v.start / 1e3:g} -> {v.stop / 1e3:g} -> {v.start / 1e3:g} kV in {v.step / 1e3:g} kV steps"
-            if v.kind == "ramp"
-            else f"{len(v.values)} values up to {v.peak / 1e3:g} kV"
-        )
-        click.echo(f"voltage: {path} ({len(v.values)} points)")
+        click.echo(f"voltage path: {len(scene.voltage.values)} points")
     click.echo(f"effects: {', '.join(scene.effects())}")
     click.echo("dimensionless groups:")
     groups = scene.dimensionless_groups()
@@ -128,4 +105,4 @@ def _print_scene(scene):
     if scene.fitted:
         click.echo("fitted:")
         for key, value in scene.fitted.items():
-            click.echo(f"  {key} = {value}")
+            click.echo(printable(f"  {key} = {value}"))
