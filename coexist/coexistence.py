@@ -28,6 +28,7 @@ from .errors import ModelRangeError, SceneError, SolverError
 from .numerics.roots import bisect
 from .numerics.splines import casadi_piecewise
 from .settings import SolverSettings
+from .validation import instance, membrane_model, real, real_array, settings_or_default
 from .zone_curves import ZoneCurve
 
 #: iterations allowed to every CasADi Newton solve
@@ -311,7 +312,8 @@ def maxwell_coexistence(curve: ZoneCurve, settings: SolverSettings | None = None
     SolverError
         The Newton solve failed (says why).
     """
-    return MaxwellSolver(curve, settings).solve()
+    instance(curve, ZoneCurve, "curve", "a ZoneCurve (ZoneCurve.compute(model, phi_hat, pole_stretch))")
+    return MaxwellSolver(curve, settings_or_default(settings)).solve()
 
 
 @dataclass
@@ -403,7 +405,10 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     SolverError
         If a Maxwell solve fails numerically (a :class:`ModelRangeError` is recorded in ``notes``).
     """
-    settings = settings or SolverSettings()
+    settings = settings_or_default(settings)
+    membrane_model(model)
+    phi_values = real_array(phi_values, "phi_values", lo=0.0)
+    pole_stretch_max = real(pole_stretch_max, "pole_stretch_max")
     if not (np.isfinite(pole_stretch_max) and pole_stretch_max > model.prestretch * (1 + 2e-3)):
         raise SceneError(
             f"pole_stretch_max must exceed the prestretch by more than 0.2 %, got {pole_stretch_max!r}",

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import validation
 from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
 from .numerics.roots import bracketed_root, chebyshev_extremum
@@ -231,7 +232,7 @@ def _find_limit_points(states, quantities, evaluate_states, settings):
 
 
 def _check_range(pole_stretch, model):
-    l0 = np.asarray(pole_stretch, dtype=float)
+    l0 = validation.real_array(pole_stretch, "pole_stretch")
     if l0.ndim != 1 or l0.size < 3:
         raise SceneError("needs at least 3 pole stretches", "pole_stretch")
     if np.any(np.diff(l0) <= 0):
@@ -279,7 +280,9 @@ def pressure_volume_curve(
     >>> round(c.limit_points[0].p_hat, 3)
     1.879
     """
-    settings = settings or SolverSettings()
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    phi_hat = validation.real(phi_hat, "phi_hat", lo=0.0)
     return _trace(
         "pressure_volume",
         phi_hat,
@@ -343,12 +346,12 @@ def voltage_at_pressure(
     """
     from .shooting import NO_VOLTAGE
 
-    settings = settings or SolverSettings()
-    if not (np.isfinite(p_hat) and p_hat > 0):
-        raise SceneError(f"p̂ must be a positive number, got {p_hat!r}", "p_hat")
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    p_hat = validation.real(p_hat, "p_hat", lo=0.0, lo_open=True)
     if not model.has_voltage:
         raise SceneError("a voltage-charge curve needs a model with electrostatics", "voltage")
-    l0 = np.atleast_1d(np.asarray(pole_stretch, dtype=float))
+    l0 = validation.real_array(pole_stretch, "pole_stretch")
     n = l0.size
     # bracket: s = 0 and the voltage that makes the pole tension vanish (grown by doubling, then located)
     hi_s = np.ones(n)
@@ -442,9 +445,9 @@ def voltage_charge_curve(
     SolverError
         No valid state near a limit point while refining it.
     """
-    settings = settings or SolverSettings()
-    if not (np.isfinite(p_hat) and p_hat > 0):
-        raise SceneError(f"p̂ must be a positive number, got {p_hat!r}", "p_hat")
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    p_hat = validation.real(p_hat, "p_hat", lo=0.0, lo_open=True)
     return _trace(
         "voltage_charge",
         p_hat,

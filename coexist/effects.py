@@ -26,6 +26,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from .errors import SceneError
+from .validation import real
 
 
 def _symbolic_zero():
@@ -304,8 +305,7 @@ class Gent:
     name = "gent"
 
     def __post_init__(self):
-        if not (isinstance(self.jlim, (int, float)) and math.isfinite(self.jlim) and self.jlim > 0):
-            raise SceneError(f"Jlim must be a positive number, got {self.jlim!r}", "jlim")
+        object.__setattr__(self, "jlim", real(self.jlim, "jlim", lo=0.0, lo_open=True))
 
     def energy_of_invariant(self, i1):
         """``Ws/μ`` as a function of ``I = I1 − 3``: ``Ws/μ = −(Jlim/2) ln(1 − I/Jlim)``.
@@ -554,9 +554,7 @@ class GasChamber:
 
     def __post_init__(self):
         for key in ("chamber_volume", "atmospheric_pressure", "gas_amount"):
-            v = getattr(self, key)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise SceneError(f"must be a positive number, got {v!r}", key)
+            object.__setattr__(self, key, real(getattr(self, key), key, lo=0.0, lo_open=True))
 
     @classmethod
     def closed_at(cls, chamber_volume, atmospheric_pressure, closing_pressure, zone_volumes_total):
@@ -647,8 +645,7 @@ class PressureReservoir:
     name = "pressure-control"
 
     def __post_init__(self):
-        if not (isinstance(self.pressure_hat, (int, float)) and math.isfinite(self.pressure_hat)):
-            raise SceneError(f"must be a finite number, got {self.pressure_hat!r}", "pressure_hat")
+        object.__setattr__(self, "pressure_hat", real(self.pressure_hat, "pressure_hat"))
 
     def pressure(self, total_volume):
         """``p̂``, whatever the volume.
@@ -710,8 +707,7 @@ class Breakdown:
     name = "breakdown-check"
 
     def __post_init__(self):
-        if not (isinstance(self.field_hat, (int, float)) and math.isfinite(self.field_hat) and self.field_hat > 0):
-            raise SceneError(f"must be a positive number, got {self.field_hat!r}", "breakdown_field")
+        object.__setattr__(self, "field_hat", real(self.field_hat, "breakdown_field", lo=0.0, lo_open=True))
 
     def margin(self, max_field: float) -> float:
         """``Ê_max − Êb``: the event function (the path ends where it reaches zero from below).

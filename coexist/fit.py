@@ -7,11 +7,11 @@ its own exact equilibria (:class:`~coexist.simulation.Simulation`).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
+from . import validation
 from .errors import CoexistError, ModelRangeError, SceneError
 from .numerics.roots import bracketed_root
 from .scene import Scene
@@ -45,7 +45,8 @@ class Shared:
             The model, ``snap = (p̂max, λ0 at it)`` of one zone at zero voltage
             (:func:`~coexist.simulation.snap_through`), and the settings.
         """
-        settings = settings or SolverSettings()
+        settings = validation.settings_or_default(settings)
+        validation.scene(scene)
         model = scene.model()
         return cls(model, snap_through(model, settings, pole_stretch_max(scene, settings)), settings)
 
@@ -136,10 +137,10 @@ def fit_zone_radius(
         If no radius in the bracket puts the transition at ``target_voltage`` (``reason="no_fit"``; the
         message gives the range of transitions the radii reach).
     """
+    validation.scene(scene)
     if scene.chamber is None or scene.voltage is None:
         raise SceneError("fitting needs a scene with [chamber] and [voltage]", "[chamber]")
-    if not (isinstance(target_voltage, (int, float)) and math.isfinite(target_voltage) and target_voltage > 0):
-        raise SceneError(f"the target voltage must be a positive number of volts, got {target_voltage!r}", "target")
+    target_voltage = validation.real(target_voltage, "target_voltage", lo=0.0, lo_open=True)
     shared = shared or Shared.of(scene)
     mu_h = scene.shear_modulus * scene.thickness
     a_max = shared.snap[0] * mu_h / scene.chamber.closing_pressure  # closing pressure = snap-through
@@ -235,6 +236,7 @@ def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | No
     SceneError
         If the scene has no ``[chamber]``.
     """
+    validation.scene(scene)
     if scene.chamber is None:
         raise SceneError("the sensitivity table needs a scene with a [chamber]", "[chamber]")
     shared = shared or Shared.of(scene)

@@ -74,10 +74,24 @@ class MembraneModel:
     _built: dict = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self):
-        if not (
-            isinstance(self.prestretch, (int, float)) and math.isfinite(self.prestretch) and self.prestretch >= 1.0
-        ):
-            raise SceneError(f"prestretch must be a number >= 1, got {self.prestretch!r}", "prestretch")
+        from . import validation
+
+        validation.has_methods(
+            self.elasticity,
+            ("energy_of_invariant", "locking_margin"),
+            "elasticity",
+            "an elasticity effect (NeoHookean(), Gent(97))",
+        )
+        validation.has_methods(
+            self.electrostatics,
+            ("energy_of_invariant", "charge_density", "field"),
+            "electrostatics",
+            "an electrostatics effect (IdealDielectric(), NoElectrostatics())",
+        )
+        try:
+            object.__setattr__(self, "prestretch", validation.real(self.prestretch, "prestretch", lo=1.0))
+        except SceneError as exc:
+            raise SceneError(f"prestretch {exc.message}", "prestretch") from None
         object.__setattr__(self, "_built", _build(self))
 
     # --- description -------------------------------------------------------------------------

@@ -611,6 +611,10 @@ def load_scene(name_or_path: str | Path | None = None) -> Scene:
     """
     if name_or_path is None:
         name_or_path = DEFAULT_SCENE
+    if not isinstance(name_or_path, (str, Path)):
+        raise SceneError(
+            f"must be a built-in scene name or a path, got {type(name_or_path).__name__} {name_or_path!r}", "scene"
+        )
     text = str(name_or_path)
     looks_like_path = isinstance(name_or_path, Path) or text.endswith(".toml") or "/" in text or "\\" in text
     if not looks_like_path and (text in _builtin_names() or not Path(text).is_file()):

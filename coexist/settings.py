@@ -141,6 +141,19 @@ class SolverSettings:
     merge_tolerance: float = 1e-7
 
     def __post_init__(self):
+        from . import validation
+
+        for f in fields(self):  # types first: every field a finite number of its kind (or a bool / None)
+            value = getattr(self, f.name)
+            if f.name == "pole_radius" and value is None:
+                continue
+            if isinstance(f.default, bool):
+                if not isinstance(value, bool):
+                    raise SceneError(f"{f.name} must be True or False, got {value!r}", f.name)
+            elif isinstance(f.default, int):
+                validation.integer(value, f.name, lo=1)
+            else:
+                object.__setattr__(self, f.name, validation.real(value, f.name, lo=0.0, lo_open=True))
         if not (1e-14 <= self.rtol <= 1e-2):
             raise SceneError(f"relative tolerance must lie in [1e-14, 1e-2], got {self.rtol!r}", "rtol")
         if self.max_steps < 10:

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import validation
 from .errors import ModelRangeError, SceneError
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
@@ -288,7 +289,7 @@ class MembraneStates:
         ``OK`` or a failure code of :data:`REASONS`.
     fail_radius : ndarray
         Where a failed trajectory stopped, in units of the clamp radius estimated before the
-        integration (its true clamp radius is unknown when it fails); NaN when ``OK``.
+        integration (its true clamp radius is unknown when it fails); ``inf`` when ``OK`` (it never fails).
     steps : ndarray of int
         Integration steps taken per state (a diagnostic of cost).
     shapes : list or None
@@ -767,9 +768,12 @@ def solve_states(
         If a pole stretch is not finite or not above ``λpre``, a voltage is negative or not finite,
         or a voltage is not zero for a model without electrostatics.
     """
-    settings = settings or SolverSettings()
-    l0, phi = np.broadcast_arrays(
-        np.atleast_1d(np.asarray(pole_stretch, dtype=float)), np.asarray(phi_hat, dtype=float)
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    l0, phi = validation.broadcastable(
+        "pole_stretch, phi_hat",
+        validation.real_array(pole_stretch, "pole_stretch"),
+        validation.real_array(phi_hat, "phi_hat", lo=0.0),
     )
     l0 = np.array(l0, dtype=float).ravel()
     phi = np.array(phi, dtype=float).ravel()
@@ -777,7 +781,7 @@ def solve_states(
     n = l0.size
     lam_clamp = model.prestretch
     status = np.zeros(n, dtype=int)
-    fail_radius = np.full(n, np.nan)
+    fail_radius = np.full(n, np.inf)
 
     with np.errstate(all="ignore"):
         T0, alpha, beta, W0, q0 = (np.broadcast_to(np.asarray(x, dtype=float), (n,)) for x in model.pole(l0, phi))
@@ -1094,7 +1098,7 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
             )
     status[live] = code
     fail_radius[live] = np.where(
-        code == OK, np.nan, local_fail_R / np.where(np.isfinite(out["R"][live]), out["R"][live], 1.0)
+        code == OK, np.inf, local_fail_R / np.where(np.isfinite(out["R"][live]), out["R"][live], 1.0)
     )
     min_tension[live] = local_min_T
     max_field[live] = local_max_E

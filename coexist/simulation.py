@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import validation
 from .continuation import EquilibriumMap, Event, StableSegment, error_floor, relocate
 from .effects import Breakdown, GasChamber, PressureReservoir, PressureSource
 from .equilibria import Configuration, Equilibrium, zone_index_on_curve
@@ -254,7 +255,8 @@ class Simulation:
         >>> round(sim.p_hat_max, 4), round(sim.closing_stretch, 4)  # p̂max at 0 V, λ0 at 20 mbar
         (1.9727, 1.866)
         """
-        settings = settings or SolverSettings()
+        settings = validation.settings_or_default(settings)
+        validation.scene(scene)
         model = model if model is not None else scene.model()
         lam_max = pole_stretch_max(scene, settings)
         if snap is None:  # at zero voltage a model with electrostatics gives the passive numbers (tested)
@@ -684,6 +686,14 @@ def equilibria_on_gas(
     from .candidates import candidate_equilibria
     from .zone_curves import ZoneCurve
 
+    validation.membrane_model(model)
+    validation.has_methods(
+        gas, ("pressure", "stiffness", "free_energy"), "gas", "a pressure source (GasChamber, PressureReservoir)"
+    )
+    zones = validation.integer(zones, "zones", lo=1, hi=1000)
+    phi = validation.real(phi, "phi", lo=0.0)
+    settings = validation.settings_or_default(settings)
+    lam_max = validation.real(lam_max, "lam_max", lo=model.prestretch, lo_open=True)
     emap = emap or EquilibriumMap(model, gas, zones, settings, (phi, phi))
     pre = model.prestretch
     u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(lam_max - pre), settings.zone_curve_points)

@@ -119,10 +119,12 @@ def test_wrinkling_is_reported_not_integrated(neo_hookean):
 
 @pytest.mark.parametrize("l0", [1.0, 0.9, float("nan")])
 def test_bad_pole_stretch(neo_hookean, l0):
-    with pytest.raises(SceneError, match="pole stretch"):
+    with pytest.raises(SceneError) as info:
         solve_states(neo_hookean, [l0], 0.0)
+    assert info.value.field == "pole_stretch"
 
 
 def test_negative_voltage_rejected(neo_hookean):
-    with pytest.raises(SceneError, match="Φ̂"):
+    with pytest.raises(SceneError) as info:
         solve_states(neo_hookean, [2.0], -0.1)
+    assert info.value.field == "phi_hat"
