@@ -897,14 +897,17 @@ class RampReport:
         -------
         dict
             ``pressure_mbar``, ``zone_volumes_ml`` and ``pole_stretches`` (per zone, least inflated first),
-            ``configuration``, ``bulged_zones``, ``stable`` and ``residual_p_hat``; without a state the values
-            are None, ``"none"`` and False, and there is no ``residual_p_hat``.
+            ``groups`` (the same per group of identical zones: ``zones``, ``volume_ml``, ``pole_stretch``; its
+            size does not grow with the number of zones), ``configuration``, ``bulged_zones``, ``stable`` and
+            ``residual_p_hat``; without a state the values are None, ``"none"`` and False, and there is no
+            ``residual_p_hat``.
         """
         if st is None:
             return {
                 "pressure_mbar": None,
                 "zone_volumes_ml": None,
                 "pole_stretches": None,
+                "groups": None,
                 "configuration": "none",
                 "bulged_zones": None,
                 "stable": False,
@@ -913,14 +916,24 @@ class RampReport:
             "pressure_mbar": float(self.pressure_mbar(st.p_hat)),
             "zone_volumes_ml": [float(self.volume_ml(v)) for v in st.zone_volumes],
             "pole_stretches": [float(x) for x in st.zone_pole_stretches],
+            "groups": [
+                {"zones": int(n), "volume_ml": float(self.volume_ml(v)), "pole_stretch": float(lam)}
+                for n, v, lam in zip(st.configuration.counts, st.v_hat, st.pole_stretch)
+            ],
             "configuration": st.label,
             "bulged_zones": st.k,
             "stable": bool(st.stable),
             "residual_p_hat": float(st.residual),
         }
 
-    def to_dict(self) -> dict:
+    def to_dict(self, every: int = 1) -> dict:
         """The whole report, JSON-ready.
+
+        Parameters
+        ----------
+        every : int, optional
+            Keep every ``every``-th voltage of the path (default all), and always the first, the last and
+            each where the configuration changes.
 
         Returns
         -------
@@ -930,10 +943,25 @@ class RampReport:
             ``direction``, the :meth:`state_dict` fields, the segment's ``configuration`` label, with a
             breakdown field ``max_field_MV_per_m``, and any ``note``), ``transitions`` (the transitions, then
             the equal-free-energy voltages, each a :meth:`transition_dict`) and ``notes``.
+
+        Raises
+        ------
+        SceneError
+            If the output would pass the limits of :mod:`coexist.cost` (names the field, suggests ``every``).
         """
+        from .cost import ramp_cost
+
+        if self.scene.voltage is not None:
+            ramp_cost(self.scene, every).check(every)  # the output must fit before it is built
         steps = []
         check_field = self.scene.breakdown_field is not None
-        for s in self.result.steps:
+        last = len(self.result.steps) - 1
+        previous = None
+        for i, s in enumerate(self.result.steps):
+            label = s.segment.label if s.segment is not None else "none"
+            changed, previous = previous is not None and label != previous, label
+            if i % every and not changed and i != last:
+                continue
             d = {
                 "voltage_kV": round(float(self.voltage_kV(s.phi_hat)), 10),
                 "direction": s.direction,

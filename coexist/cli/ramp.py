@@ -31,7 +31,7 @@ from .common import (
     type=click.IntRange(1, 10_000),
     default=1,
     show_default=True,
-    help="Print every n-th voltage of the table (transitions are always listed).",
+    help="Print (and put in --json) every n-th voltage; the first, the last and every change of configuration always.",
 )
 @click.option("--overwrite", is_flag=True, help="Replace existing output files.")
 @accuracy_option
@@ -53,12 +53,18 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
         plot_path = out.figure(plot, "--plot")
         states_path = out.figure(states_plot, "--states-plot")
         info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
+        if sc.voltage is not None:
+            from coexist.cost import ramp_cost
+
+            cost = ramp_cost(sc, every)
+            cost.check(every)
+            info(f"estimated cost: {cost.describe()}")
         info("following the stable states along the voltage path ...")
         sim = Simulation.from_scene(sc, settings)
         n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
         with stderr_progress(n, "ramp") as bar:
             report = sim.ramp(progress=lambda i: bar.update(1))
-        data = report.to_dict()
+        data = report.to_dict(every)
         if plot_path is not None:
             from coexist.plotting import plot_ramp_volumes
 
@@ -70,7 +76,7 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
     if as_json:
         write_json(data)
         return
-    _table(data, every)
+    _table(data)
 
 
 def _title(sc):
@@ -112,21 +118,27 @@ def format_voltage(kv: float, err_kv: float) -> str:
     return f"{kv:.{digits}f} kV ± {err_kv:.0e}"
 
 
-def _table(data, every):
+def _volumes(step) -> str:
+    """The zones' volumes of one row: each zone's for up to six zones, else per group (``999×10.798``)."""
+    if step["zone_volumes_ml"] is None:
+        return "-"
+    if len(step["zone_volumes_ml"]) <= 6:
+        return " ".join(f"{v:.3f}" for v in step["zone_volumes_ml"])
+    return " ".join(f"{g['zones']}×{g['volume_ml']:.3f}" for g in step["groups"])
+
+
+def _table(data):
     click.echo(
         f"{'voltage_kV':>10} {'dir':>4} {'pressure_mbar':>13}  {'zone_volumes_ml':<28} {'configuration':<18} stable"
     )
     prev = None
-    for i, s in enumerate(data["steps"]):
+    for s in data["steps"]:
         changed = prev is not None and s["configuration"] != prev
         prev = s["configuration"]
-        if i % every and not changed and i != len(data["steps"]) - 1:
-            continue
-        vols = "-" if s["zone_volumes_ml"] is None else " ".join(f"{v:.3f}" for v in s["zone_volumes_ml"])
         p = "-" if s["pressure_mbar"] is None else f"{s['pressure_mbar']:.4f}"
         mark = "  <- " + s.get("note", "transition") if changed else ""
         click.echo(
-            f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {vols:<28} {s['configuration']:<18} "
+            f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {_volumes(s):<28} {s['configuration']:<18} "
             f"{'yes' if s['stable'] else 'no'}{mark}"
         )
     click.echo("")

@@ -68,13 +68,32 @@ def check(scene, as_json, no_solve):
                 f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their snap-through "
                 f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)"
             )
+    cost = None
+    if loaded.voltage is not None:
+        from coexist.cost import ramp_cost
+
+        cost = ramp_cost(loaded)
+        try:
+            cost.check()
+        except SceneError as exc:
+            raise InputError(f"{scene}: {exc}") from None
     if as_json:
         data = loaded.to_dict()
         if p_max is not None:
             data["snap_through_pressure_hat"] = p_max
+        if cost is not None:
+            data["ramp_cost"] = {
+                "voltages": cost.voltages,
+                "rows": cost.rows,
+                "numbers": cost.numbers,
+                "seconds_estimate": cost.seconds,
+                "memory_bytes_estimate": cost.memory_bytes,
+            }
         write_json(data)
         return
     _print_scene(loaded)
+    if cost is not None:
+        click.echo(f"ramp cost (estimate): {cost.describe()}")
     if p_max is not None:
         held_hat = (
             loaded.closing_pressure_hat if loaded.chamber is not None else loaded.p_hat(loaded.controlled_pressure)
