@@ -441,6 +441,12 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
             states.append(co)
         except ModelRangeError as exc:
             notes.append(f"Φ̂ = {phi:.6g}: {exc}")
+    if not has_loop.any():
+        notes.append(
+            f"no voltage in Φ̂ = {phi_values.min():.4g}..{phi_values.max():.4g} has a pressure maximum followed by a "
+            "minimum: no spinodals, no coexistence (the curve rises monotonically up to the end of the model's "
+            f"range, λ0 = {pole_stretch_max:.4g}, or has no second stable branch)"
+        )
     critical = None
     change = np.flatnonzero(has_loop[:-1] != has_loop[1:])
     for j in change:

@@ -340,7 +340,7 @@ class Scene:
             groups["breakdown_field_hat"] = self.breakdown_field / self.field_scale
         return groups
 
-    def check_closing_pressure(self, p_hat_max: float) -> None:
+    def check_closing_pressure(self, p_hat_max: float, snap_through: bool = True) -> None:
         """Raise :class:`SceneError` if the zones cannot hold the closing pressure.
 
         Parameters
@@ -348,6 +348,9 @@ class Scene:
         p_hat_max : float
             The largest normalised pressure one zone can hold at zero voltage (the snap-through
             pressure of the zone's ``p̂–V̂`` curve, e.g. 1.879 for neo-Hookean without prestretch).
+        snap_through : bool, optional
+            Whether ``p_hat_max`` is a pressure maximum (True) or, for a curve that rises to the end of the
+            model's range, the pressure there (the message then says so).
 
         Raises
         ------
@@ -360,9 +363,14 @@ class Scene:
         p_hat = float(self.p_hat(self.chamber.closing_pressure))
         if not p_hat < p_hat_max:
             mbar = self.chamber.closing_pressure / 100
+            what = (
+                "snap-through pressure p̂max"
+                if snap_through
+                else "largest pressure they hold within the model's range (no snap-through: near Gent locking)"
+            )
             raise SceneError(
                 f"the zones cannot hold {mbar:.4g} mbar (p̂ = {p_hat:.4g}): it is at or above the "
-                f"snap-through pressure p̂max = {p_hat_max:.4g} ({self.pressure(p_hat_max) / 100:.4g} mbar); "
+                f"{what} = {p_hat_max:.4g} ({self.pressure(p_hat_max) / 100:.4g} mbar); "
                 "close the valves at a lower pressure",
                 self.chamber.closing_pressure_field,
             )

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -73,7 +74,17 @@ def stretch_range_end(elasticity, prestretch: float, settings: SolverSettings | 
     return settings.stretch_max_factor * prestretch
 
 
-def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float, float]:
+class Snap(NamedTuple):
+    """The largest pressure one zone holds at zero voltage: ``p_hat`` at ``pole_stretch``; ``maximum`` says
+    whether it is a true pressure maximum (a snap-through) or, for a curve that rises to the end of the
+    model's range (a stiff Gent material), the pressure at that end."""
+
+    p_hat: float
+    pole_stretch: float
+    maximum: bool
+
+
+def snap_through(model, settings: SolverSettings, lam_max: float) -> Snap:
     """``(p̂max, λ0)`` of one zone's first pressure maximum at zero voltage (solved exactly), or the
     largest pressure of the computed range and its pole stretch if the curve has no maximum.
 
@@ -88,8 +99,9 @@ def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float
 
     Returns
     -------
-    tuple of float
-        ``(p̂max, λ0)``: the normalised pressure and the pole stretch at which it is reached.
+    Snap
+        ``(p̂max, λ0, maximum)``: the normalised pressure, the pole stretch at which it is reached, and
+        whether it is a pressure maximum.
     """
     from .curves import pressure_volume_curve
 
@@ -98,13 +110,14 @@ def snap_through(model, settings: SolverSettings, lam_max: float) -> tuple[float
     curve = pressure_volume_curve(model, 0.0, grid, settings)
     maxima = [lp for lp in curve.limit_points if lp.kind == "pressure_max"]
     if maxima:
-        return float(maxima[0].p_hat), float(maxima[0].pole_stretch)
+        return Snap(float(maxima[0].p_hat), float(maxima[0].pole_stretch), True)
     i = int(np.argmax(curve.states.p_hat))
-    return float(curve.states.p_hat[i]), float(curve.states.pole_stretch[i])
+    return Snap(float(curve.states.p_hat[i]), float(curve.states.pole_stretch[i]), False)
 
 
-def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) -> float:
-    """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``).
+def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) -> Snap:
+    """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``), and
+    whether it is a snap-through (:class:`Snap`).
 
     Parameters
     ----------
@@ -115,8 +128,9 @@ def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) 
 
     Returns
     -------
-    float
-        ``p̂max = pmax A/(μH)`` (:func:`snap_through` up to :func:`pole_stretch_max`).
+    Snap
+        ``p̂max = pmax A/(μH)``, its pole stretch and whether it is a maximum (:func:`snap_through` up to
+        :func:`pole_stretch_max`).
     """
     from .effects import NoElectrostatics
     from .model import MembraneModel
@@ -124,7 +138,7 @@ def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) 
     base = scene.model()
     model = MembraneModel(base.elasticity, NoElectrostatics(), base.prestretch)
     settings = settings or SolverSettings()
-    return snap_through(model, settings, pole_stretch_max(scene, settings))[0]
+    return snap_through(model, settings, pole_stretch_max(scene, settings))
 
 
 def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: float, lam_hi: float) -> float:
@@ -261,12 +275,13 @@ class Simulation:
         lam_max = pole_stretch_max(scene, settings)
         if snap is None:  # at zero voltage a model with electrostatics gives the passive numbers (tested)
             snap = snap_through(model, settings, lam_max)
-        p_max, lam_at_max = snap
+        p_max, lam_at_max = snap[0], snap[1]
+        snaps = bool(snap[2]) if len(snap) > 2 else True
         if phi_window is None:
             path = scene.voltage_hat_path
             phi_window = (0.0, float(np.max(path)) if path is not None else 0.0)
         if scene.chamber is not None:
-            scene.check_closing_pressure(p_max)
+            scene.check_closing_pressure(p_max, snaps)
             p_close = float(scene.p_hat(scene.chamber.closing_pressure))
             field_name = scene.chamber.closing_pressure_field
         elif scene.controlled_pressure is not None:

@@ -232,3 +232,16 @@ def test_ctrl_c_exits_130(tmp_path):
     assert proc.returncode == 130, (proc.returncode, err[-500:])
     assert "Traceback" not in err and "interrupted" in err
     assert not (tmp_path / "r.png").exists()
+
+
+# --- the smaller items ------------------------------------------------------------------------------------
+def test_a_stiff_gent_membrane_has_no_snap_through_and_says_so(tmp_path):
+    """Jlim = 0.5: the zone's curve rises to the end of the model's range; check calls the largest pressure
+    there what it is (not a snap-through), and the phase diagram says why it has no spinodals."""
+    (tmp_path / "stiff.toml").write_text(tricircle(jlim=0.5))
+    result, _, _ = run(["check", "stiff.toml"], tmp_path)
+    assert result.exit_code == 0 and "no snap-through" in result.stdout
+    data = json.loads(run(["check", "stiff.toml", "--json"], tmp_path)[0].stdout)
+    assert data["snap_through_is_maximum"] is False
+    result, _, _ = run(["phase-diagram", "--jlim", "0.5", "--points", "3"], tmp_path)
+    assert result.exit_code == 0 and "no spinodals, no coexistence" in result.stderr

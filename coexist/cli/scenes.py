@@ -53,19 +53,22 @@ def check(scene, as_json, no_solve):
 
     loaded = load_scene_arg(scene)
     p_max = None
+    name = "snap-through"
     held = loaded.chamber is not None or loaded.controlled_pressure is not None
     if held and not no_solve:
         from coexist.simulation import snap_through_pressure
 
-        p_max = snap_through_pressure(loaded)
+        snap = snap_through_pressure(loaded)
+        p_max, is_max = snap.p_hat, snap.maximum
+        name = "snap-through" if is_max else "largest pressure within the model's range (no snap-through)"
         try:
-            loaded.check_closing_pressure(p_max)
+            loaded.check_closing_pressure(p_max, is_max)
         except SceneError as exc:
             raise InputError(f"{scene}: {exc}") from None
         if loaded.controlled_pressure is not None and not loaded.p_hat(loaded.controlled_pressure) < p_max:
             raise InputError(
                 f"{scene}: {loaded.controlled_pressure_field}: the zones cannot hold "
-                f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their snap-through "
+                f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their {name} "
                 f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)"
             )
     cost = None
@@ -81,6 +84,7 @@ def check(scene, as_json, no_solve):
         data = loaded.to_dict()
         if p_max is not None:
             data["snap_through_pressure_hat"] = p_max
+            data["snap_through_is_maximum"] = name == "snap-through"
         if cost is not None:
             data["ramp_cost"] = {
                 "voltages": cost.voltages,
@@ -100,7 +104,7 @@ def check(scene, as_json, no_solve):
         )
         what = "closing pressure" if loaded.chamber is not None else "controlled pressure"
         click.echo(
-            f"{what}: p̂ = {held_hat:.6g}, below the zones' snap-through "
+            f"{what}: p̂ = {held_hat:.6g}, below the zones' {name} "
             f"p̂max = {p_max:.6g} ({loaded.pressure(p_max) / 100:.4g} mbar): a stable start"
         )
 
