@@ -798,7 +798,11 @@ def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> 
     conf = Configuration(counts)
     n = np.asarray(counts, dtype=float)
     lam = system.model.prestretch + st.u[i, order] ** 2
-    a = st.dp_du[i, order] / st.dv_du[i, order]
+    dv = st.dv_du[i, order]
+    # exactly on a volume fold (a root finder can land there) dp/dV is infinite: taken as the limit from
+    # the inflating side, a large finite slope, so that the Hessian's eigenvalues stay numbers
+    dv = np.where(dv == 0, 1e-14 * max(float(np.max(np.abs(dv))), 1.0), dv)
+    a = st.dp_du[i, order] / dv
     psi = st.psi[i, order]
     v = st.v[i, order]
     G = float(n @ psi + system.gas.free_energy(float(n @ v)))

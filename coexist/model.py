@@ -34,7 +34,8 @@ from .effects import (
     first_invariant_derivatives,
 )
 from .errors import SceneError
-from .numerics.codegen import numpy_function
+from .numerics import cache
+from .numerics.codegen import numpy_module_source
 
 #: constant factors of the quadratures V̂, Q̂, Ψ̂, ẑ: the right-hand side integrates V̂/π, Q̂/2π,
 #: Ψ̂/2π and ẑ (one multiplication fewer per stage each), the shooting multiplies them back
@@ -92,7 +93,7 @@ class MembraneModel:
             object.__setattr__(self, "prestretch", validation.real(self.prestretch, "prestretch", lo=1.0))
         except SceneError as exc:
             raise SceneError(f"prestretch {exc.message}", "prestretch") from None
-        object.__setattr__(self, "_built", _build(self))
+        object.__setattr__(self, "_built", _numeric(self))
 
     # --- description -------------------------------------------------------------------------
     @property
@@ -125,10 +126,17 @@ class MembraneModel:
         return out
 
     # --- symbolic access (tests and the coexistence solver use these) --------------------------
+    def _symbolic(self) -> dict:
+        """The CasADi symbols and functions, built on first use (the numeric methods do not need them
+        when their generated code comes from the cache)."""
+        if "symbolic" not in self._built:
+            self._built["symbolic"] = _build(self)
+        return self._built["symbolic"]
+
     @property
     def symbols(self) -> dict:
         """CasADi symbols and expressions: ``l1, l2, phi, W, T1, T2, T11, T12`` and the RHS."""
-        return self._built["symbols"]
+        return self._symbolic()["symbols"]
 
     # --- numeric functions (numpy, vectorised) -------------------------------------------------
     def free_energy(self, l1, l2, phi=0.0):
@@ -268,7 +276,7 @@ class MembraneModel:
     @property
     def casadi_functions(self) -> dict:
         """The CasADi functions the numpy code is generated from (``rhs``, ``rhs_sens``, ``aux``, ...)."""
-        return self._built["casadi"]
+        return self._symbolic()["casadi"]
 
     def pole(self, l0, phi=0.0):
         """Pole quantities ``(T0, α, β, W0, q0)``: tension, its stretch derivatives, energy, charge density.
@@ -404,14 +412,64 @@ def _build(model: MembraneModel) -> dict:
             "rhs": ca.vertcat(dl1, dl2, dth, dV, dQ, dPsi, dz),
         },
         "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole, "rhs_sens": rhs_sens, "series": series},
-        "rhs": numpy_function(rhs),
-        "rhs_into": numpy_function(rhs, into=True),
-        "rhs_sens_into": numpy_function(rhs_sens, into=True),
-        "series": numpy_function(series),
-        "aux": numpy_function(aux),
-        "energy": numpy_function(energy),
-        "pole": numpy_function(pole),
     }
+
+
+#: the model's numpy functions: (name, CasADi function it translates, writes into ``out``)
+_NUMPY_FUNCTIONS = (
+    ("rhs", "rhs", False),
+    ("rhs_into", "rhs", True),
+    ("rhs_sens_into", "rhs_sens", True),
+    ("series", "series", False),
+    ("aux", "aux", False),
+    ("energy", "energy", False),
+    ("pole", "pole", False),
+)
+#: the library's source files that determine the generated numpy code (part of its cache key)
+_GENERATOR_SOURCES = ("model.py", "effects.py", "numerics/codegen.py")
+
+
+def model_cache_key(model: MembraneModel) -> str | None:
+    """The key of a model's generated code in the disk cache (:mod:`coexist.numerics.cache`).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The model.
+
+    Returns
+    -------
+    str or None
+        A key standing for the effects (their classes and parameters), the prestretch and the
+        library's generating source files; None when an effect is not one of :mod:`coexist.effects`
+        (a user's class may change without a change of key, so its code is never cached).
+    """
+    effects = (model.elasticity, model.electrostatics)
+    if any(type(e).__module__ != "coexist.effects" for e in effects):
+        return None
+    return cache.key(
+        "membrane_model",
+        tuple(f"{type(e).__qualname__}:{e!r}" for e in effects),
+        repr(float(model.prestretch)),
+        cache.source_digest(_GENERATOR_SOURCES),
+    )
+
+
+def _numeric(model: MembraneModel) -> dict:
+    """The numpy functions of ``model``, generated from its CasADi functions, or loaded from the disk
+    cache when an earlier process generated them."""
+
+    def source() -> str:
+        fns = model._symbolic()["casadi"]
+        return numpy_module_source((name, fns[c], into) for name, c, into in _NUMPY_FUNCTIONS)
+
+    key = model_cache_key(model)
+    if key is None:
+        namespace: dict = {}
+        exec(compile(source(), "<coexist generated membrane model>", "exec"), namespace)
+    else:
+        namespace = cache.python_module("membrane_model", key, source)
+    return {name: namespace[name] for name, _, _ in _NUMPY_FUNCTIONS}
 
 
 def build_model(

@@ -23,7 +23,8 @@ import numpy as np
 
 from . import validation
 from .errors import ModelRangeError, SceneError
-from .model import QUADRATURE_FACTORS, MembraneModel
+from .model import QUADRATURE_FACTORS, MembraneModel, model_cache_key
+from .numerics import cache
 from .numerics import dop853 as _int
 from .numerics.roots import bracketed_root, newton
 from .settings import SolverSettings
@@ -456,12 +457,13 @@ class _Integrators:
         entry = self._casadi.setdefault(("attempts", kind), {"fun": None, "uses": 0, "compiled": False, "maps": {}})
         name, key = f"coexist_attempts_{kind}", _attempts_key(self.model, kind)
         if entry["fun"] is None:
-            fast = load_cached(name, key, f"attempts_{kind}")
+            fast = None if key is None else load_cached(name, key, f"attempts_{kind}")
             if fast is not None:  # compiled by an earlier process: no symbolic graph to build at all
                 entry["fun"], entry["fast"], entry["compiled"] = fast, True, True
-            else:
+            else:  # the CasADi graph: deserialised if an earlier process built it, else built (and kept)
                 rows = {"radius": 9, "radius_sens": 19}[kind]
-                entry["fun"] = attempt_function(self.model, kind, rows)
+                make = lambda: attempt_function(self.model, kind, rows)  # noqa: E731
+                entry["fun"] = make() if key is None else cache.casadi_function(name, key, make)
         entry["uses"] += 1
         if not entry["compiled"] and entry["uses"] >= COMPILE_AFTER:
             fast = compiled(entry["fun"], name, key=key)
@@ -486,9 +488,13 @@ class _Integrators:
         st = self._casadi.get(kind)
         if st is None:
             rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
-            st = self._casadi[kind] = _int.CasadiStepper(
-                _int.casadi_step_function(self._casadi_rhs(kind), rows, f"dop853_{kind}"), fun, rows
-            )
+            key = _attempts_key(self.model, kind)
+
+            def make():
+                return _int.casadi_step_function(self._casadi_rhs(kind), rows, f"dop853_{kind}")
+
+            step = make() if key is None else cache.casadi_function(f"coexist_dop853_{kind}", key, make)
+            st = self._casadi[kind] = _int.CasadiStepper(step, fun, rows)
         return st
 
     def _casadi_rhs(self, kind):
@@ -678,43 +684,25 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     return ca.Function(f"attempts_{kind}", [xm], [acc(xm)[:, K - 1]])
 
 
-_SOURCE_DIGEST: dict = {}
-
-
-def _attempts_key(model: MembraneModel, kind: str) -> str:
-    """The cache key of a model's compiled attempt function: what the model is (effects, parameters),
-    which function, the settings baked into it, the library's own source files that generate it and the
-    CasADi version — so that a library is reused exactly when it would be generated the same again."""
-    import hashlib
-    from pathlib import Path
-
-    import casadi as ca
-
-    if "digest" not in _SOURCE_DIGEST:
-        here = Path(__file__).parent
-        h = hashlib.sha256()
-        for f in (
+def _attempts_key(model: MembraneModel, kind: str) -> str | None:
+    """The cache key of a model's attempt function (serialised or compiled): what the model is (effects,
+    parameters), which function, the settings baked into it, the library's own source files that
+    generate it and the CasADi version — so that a cached function is reused exactly when it would be
+    generated the same again. None for a model whose effects are not the library's (never cached)."""
+    if model_cache_key(model) is None:
+        return None
+    digest = cache.source_digest(
+        (
             "model.py",
             "effects.py",
             "shooting.py",
             "numerics/dop853.py",
+            "numerics/dop853_tableau.py",
             "numerics/codegen.py",
             "numerics/compiled.py",
-        ):
-            h.update((here / f).read_bytes())
-        _SOURCE_DIGEST["digest"] = h.hexdigest()
-    text = repr(
-        (
-            model.describe(),
-            model.electrostatics.name,
-            kind,
-            ATTEMPTS_PER_CALL,
-            REFINE_MINIMUM_BELOW,
-            _SOURCE_DIGEST["digest"],
-            getattr(ca, "__version__", "?"),
         )
     )
-    return hashlib.sha256(text.encode()).hexdigest()[:20]
+    return cache.key(model.describe(), model.electrostatics.name, kind, ATTEMPTS_PER_CALL, REFINE_MINIMUM_BELOW, digest)
 
 
 def _integrators(model: MembraneModel) -> _Integrators:

@@ -30,7 +30,7 @@ def test_compilation_can_be_turned_off(monkeypatch, tmp_path):
     monkeypatch.setenv("COEXIST_COMPILE", "0")
     fun = attempt_function(build_model("neo-hookean"), "radius", 9, K=2)
     assert C.compiled(fun, "coexist_off") is None and "turned off" in C.STATUS["last"]
-    assert not list(tmp_path.iterdir())
+    assert not list(tmp_path.glob("*.so"))  # no library (generated numpy code may be cached: numerics.cache)
 
 
 def test_states_do_not_depend_on_the_path_taken(monkeypatch, tmp_path):

@@ -651,3 +651,91 @@ def test_chebyshev_extremum_refuses_non_finite_values():
     lo, hi = np.array([1.0, 4.0, 7.0, 10.5]), np.array([2.0, 5.5, 8.5, 11.5])
     with pytest.raises(ValueError, match=r"not finite in \[7, 8.5\]"):
         chebyshev_extremum(g, lo, hi, [True, False, True, False], ftol=1e-12, xtol=1e-12)
+
+
+def test_the_dop853_tableau_is_scipys_to_the_last_bit():
+    """The copied tableau (so the integrator need not import scipy.integrate) equals SciPy's exactly."""
+    from scipy.integrate import DOP853
+
+    from coexist.numerics import dop853_tableau as T
+
+    assert T.N_STAGES == DOP853.n_stages
+    assert np.array_equal(T.A, DOP853.A[: T.N_STAGES, : T.N_STAGES])
+    assert np.array_equal(T.B, DOP853.B)
+    assert np.array_equal(T.C, DOP853.C[: T.N_STAGES])
+    assert np.array_equal(T.E3, DOP853.E3)
+    assert np.array_equal(T.E5, DOP853.E5)
+
+
+# --- rosenbrock2 (the stiff integrator of the jumps' gradient flow) -----------------------------------
+
+
+def test_rosenbrock2_is_stable_on_a_stiff_system_and_second_order_on_a_smooth_one():
+    """``u' = A u`` with eigenvalues −1 and −1e6 (stiffness 1e6): the end state at ``t = 2`` agrees with
+    the matrix exponential within a few times the tolerance asked for, in a few thousand steps where an
+    explicit method's stability limit (``h < 2e-6``) needs a million. On the non-stiff ``A`` (a Jordan
+    block at −1) the error falls by ~30× per 10× in tolerance (order 2: ``tol^{3/2}``)."""
+    from scipy.linalg import expm
+
+    from coexist.numerics.stiff import rosenbrock2
+
+    u0 = np.array([1.0, 1.0])
+    stiff = np.array([[-1.0, 1.0], [0.0, -1e6]])
+    exact = expm(2.0 * stiff) @ u0
+    for rtol in (1e-3, 1e-4):
+        r = rosenbrock2(lambda t, u: stiff @ u, u0, 2.0, rtol=rtol, atol=1e-10)
+        assert r.status == "t_end" and r.t == pytest.approx(2.0, abs=1e-12)
+        assert r.steps < 5000
+        assert abs(r.u[0] - exact[0]) / abs(exact[0]) < 5 * rtol
+        assert abs(r.u[1]) < 1e-10
+    smooth = np.array([[-1.0, 1.0], [0.0, -1.0]])
+    exact = expm(2.0 * smooth) @ u0
+    errors = []
+    for rtol in (1e-4, 1e-5, 1e-6):
+        r = rosenbrock2(lambda t, u: smooth @ u, u0, 2.0, rtol=rtol, atol=1e-12)
+        errors.append(abs(r.u[0] - exact[0]) / abs(exact[0]))
+    assert errors[-1] < 1e-8
+    assert errors[0] / errors[1] > 15 and errors[1] / errors[2] > 15
+
+
+def test_rosenbrock2_locates_a_terminal_event():
+    """``u' = −u`` from 1: the event ``u = 0.5`` is at ``t = ln 2``, located to the step's interpolant."""
+    from coexist.numerics.stiff import rosenbrock2
+
+    r = rosenbrock2(lambda t, u: -u, [1.0], 50.0, events=[lambda t, u: 1.0, lambda t, u: u[0] - 0.5], rtol=1e-8)
+    assert r.status == "event" and r.event == 1
+    assert r.u[0] == pytest.approx(0.5, abs=1e-9)
+    assert r.t == pytest.approx(np.log(2.0), rel=1e-5)
+
+
+def test_rosenbrock2_follows_a_gradient_flow_into_the_basin_it_starts_in():
+    """The double well ``G = (u² − 1)²/4``, ``u' = −G'(u)``: from just either side of the saddle ``u = 0`` the
+    flow ends in the well on that side (the basin decision the ramp's jumps rely on)."""
+    from coexist.numerics.stiff import rosenbrock2
+
+    for start, well in ((1e-6, 1.0), (-1e-6, -1.0)):
+        r = rosenbrock2(lambda t, u: -(u**3 - u), [start], 1e4, rtol=1e-4, atol=1e-7)
+        assert r.u[0] == pytest.approx(well, abs=1e-5)
+
+
+# --- FastCubic.roots without scipy ----------------------------------------------------------------------
+
+
+def test_fast_cubic_roots_of_a_derivative_equal_scipys():
+    """Roots of the derivative of a not-a-knot spline (closed-form quadratic pieces) against scipy's
+    ``PPoly.roots``, inside the grid and extrapolated; a cubic's roots (through scipy) too."""
+    from scipy.interpolate import CubicSpline
+
+    x = np.linspace(0.0, 3.0, 41)
+    for y in (np.sin(3 * x), np.cos(5 * x) + 0.1 * x, (x - 1.5) ** 2 - 0.25):
+        ref = CubicSpline(x, y)
+        (fast,) = interpolating_cubics(x, y[:, None])
+        for extrapolate in (False, True):
+            want = ref.derivative().roots(extrapolate=extrapolate)
+            got = fast.derivative().roots(extrapolate=extrapolate)
+            # (a linear piece's rounding-sized quadratic term puts a root at 1e12: not a root worth comparing)
+            want = np.unique(want[np.isfinite(want) & (np.abs(want) < 100)])
+            got = got[np.abs(got) < 100]
+            assert got.shape == want.shape
+            np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(fast.roots(), ref.roots(extrapolate=False), rtol=0, atol=1e-12)

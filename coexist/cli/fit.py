@@ -81,5 +81,6 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
         s = "-" if r["spinodal"] is None else f"{r['spinodal']:.4f}"
         e = "-" if r["equal_free_energy"] is None else f"{r['equal_free_energy']:.4f}"
         click.echo(f"{r['parameter']:<24}{v:>12}{s:>14}{e:>14}")
-    click.echo("('-': no stable start, the zones cannot hold the closing pressure, or no transition in range)")
+    if any(r["spinodal"] is None or r["equal_free_energy"] is None for r in rows):
+        click.echo("('-': no stable start, the zones cannot hold the closing pressure, or no transition in range)")
     click.echo(f"(exact equilibria, solver rtol {settings.rtol:.0e})")

@@ -6,16 +6,37 @@ import click
 
 from coexist import __version__
 
-from .accuracy import accuracy
-from .coexistence import coexistence
-from .curves import curves
-from .fit import fit
-from .phase import phase_diagram
-from .ramp import ramp
-from .scenes import check, scenes
+#: each subcommand and where it lives: a command imports only its own module (start-up time)
+COMMANDS = {
+    "curves": ("curves", "curves"),
+    "ramp": ("ramp", "ramp"),
+    "coexistence": ("coexistence", "coexistence"),
+    "phase-diagram": ("phase", "phase_diagram"),
+    "fit": ("fit", "fit"),
+    "scenes": ("scenes", "scenes"),
+    "check": ("scenes", "check"),
+    "accuracy": ("accuracy", "accuracy"),
+}
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class LazyGroup(click.Group):
+    """A click group whose subcommands are imported when they are run (or listed by ``--help``)."""
+
+    def list_commands(self, ctx):
+        """The subcommands in the order of :data:`COMMANDS`."""
+        return list(COMMANDS)
+
+    def get_command(self, ctx, cmd_name):
+        """The subcommand ``cmd_name``, imported now; None for an unknown name (click then says so)."""
+        if cmd_name not in COMMANDS:
+            return None
+        import importlib
+
+        module, attr = COMMANDS[cmd_name]
+        return getattr(importlib.import_module(f"{__package__}.{module}"), attr)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(__version__, prog_name="coexist")
 def cli():
     """Inflated dielectric elastomer membranes: inflation curves, voltage actuation, phase coexistence.
@@ -23,16 +44,6 @@ def cli():
     Data go to stdout (--json, --csv), progress and notes to stderr. Exit code 0 on success,
     2 for bad input, 1 when the physics or a solver fails (the message says why).
     """
-
-
-cli.add_command(curves)
-cli.add_command(ramp)
-cli.add_command(coexistence)
-cli.add_command(phase_diagram)
-cli.add_command(fit)
-cli.add_command(scenes)
-cli.add_command(check)
-cli.add_command(accuracy)
 
 
 def main():

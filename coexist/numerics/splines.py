@@ -9,26 +9,30 @@ of numpy operations (measured 10× faster per small call; ``tests/test_numerics.
 Not-a-knot interpolation is linear in the data: the splines through ``m`` quantities on one grid
 are one tensor product with the splines through the unit vectors (:func:`not_a_knot_basis`, cached
 per grid), which is how a family of curves on a shared grid is built at the cost of one.
+
+The not-a-knot slopes are solved here with numpy (the equations of :class:`scipy.interpolate.CubicSpline`,
+which ``tests/test_numerics.py`` compares them with), because importing :mod:`scipy.interpolate` costs
+0.35 s, half of a ramp's whole process.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.interpolate import CubicSpline, PPoly
 
 __all__ = ["FastCubic", "casadi_piecewise", "casadi_spline", "interpolating_cubics", "not_a_knot_basis"]
 
 
 class FastCubic:
-    """A scipy cubic ``PPoly`` with a lean evaluator.
+    """A cubic piecewise polynomial (scipy's ``PPoly`` layout) with a lean evaluator.
 
     ``s(u) = ((c0 d + c1) d + c2) d + c3`` with ``d = u − x_i`` on the piece ``x_i ≤ u < x_{i+1}``; the
     end pieces extend beyond the grid, as scipy's do.
 
     Parameters
     ----------
-    ppoly : scipy.interpolate.PPoly
-        A piecewise polynomial of degree at most 3 (lower degrees are padded with zero coefficients).
+    ppoly : scipy.interpolate.PPoly or any object with ``x`` and ``c``
+        Breakpoints ``x`` (n,) and coefficients ``c`` (k ≤ 4, n − 1), highest power first; lower
+        degrees are padded with zero coefficients.
 
     Examples
     --------
@@ -40,13 +44,32 @@ class FastCubic:
     (0.125, 0.75)
     """
 
-    def __init__(self, ppoly: PPoly):
-        self.ppoly = ppoly
-        self.x = ppoly.x
-        self.c = ppoly.c
-        c = np.vstack([np.zeros((4 - ppoly.c.shape[0], ppoly.c.shape[1])), ppoly.c])  # degree <= 3
-        self._c0, self._c1, self._c2, self._c3 = (np.ascontiguousarray(r) for r in c)
+    def __init__(self, ppoly):
+        self.x = np.asarray(ppoly.x, dtype=float)
+        c = np.asarray(ppoly.c, dtype=float)
+        self.c = np.vstack([np.zeros((4 - c.shape[0], c.shape[1])), c])  # degree <= 3
+        self._c0, self._c1, self._c2, self._c3 = (np.ascontiguousarray(r) for r in self.c)
         self._last = self.x.size - 2
+
+    @classmethod
+    def from_coefficients(cls, c: np.ndarray, x: np.ndarray) -> FastCubic:
+        """The spline with coefficients ``c`` (4, n − 1) on breakpoints ``x`` (n,).
+
+        Parameters
+        ----------
+        c : ndarray, shape (k, n − 1)
+            Coefficients of each piece, highest power first (k ≤ 4).
+        x : ndarray, shape (n,)
+            Breakpoints.
+
+        Returns
+        -------
+        FastCubic
+            The spline.
+        """
+        spline = cls.__new__(cls)
+        FastCubic.__init__(spline, _Pieces(x, c))
+        return spline
 
     def __call__(self, u):
         """The spline at ``u`` (scalar or array)."""
@@ -60,12 +83,16 @@ class FastCubic:
         Returns
         -------
         FastCubic
-            ``s'(u)`` on the same breakpoints (from scipy's ``PPoly.derivative``).
+            ``s'(u) = (3 c0 d + 2 c1) d + c2`` on the same breakpoints.
         """
-        return FastCubic(self.ppoly.derivative())
+        return FastCubic.from_coefficients(np.vstack([3 * self._c0, 2 * self._c1, self._c2]), self.x)
 
     def roots(self, extrapolate: bool = False) -> np.ndarray:
-        """Real roots (scipy's ``PPoly.roots``), inside the grid unless ``extrapolate``.
+        """Real roots inside the grid (or also on the end pieces continued beyond it).
+
+        A spline of degree ≤ 2 (``c0 = 0``, the derivative of a cubic) is solved in closed form
+        (``q = −(b + sign(b)√(b² − 4ac))/2``, roots ``q/a`` and ``c/q``, without cancellation); a cubic
+        by scipy's ``PPoly.roots``.
 
         Parameters
         ----------
@@ -75,10 +102,42 @@ class FastCubic:
         Returns
         -------
         ndarray, shape (k,)
-            The roots of ``s(u) = 0`` in increasing order; a piece that vanishes identically contributes
-            its left breakpoint followed by ``nan`` (scipy's convention).
+            The roots of ``s(u) = 0`` in increasing order, each once.
         """
-        return self.ppoly.roots(extrapolate=extrapolate)
+        if np.any(self._c0 != 0):
+            from scipy.interpolate import PPoly
+
+            roots = PPoly.construct_fast(self.c, self.x).roots(extrapolate=extrapolate)
+            return np.sort(roots[np.isfinite(roots)])
+        a, b, c = self._c1, self._c2, self._c3
+        h = np.diff(self.x)
+        found = []
+        with np.errstate(all="ignore"):
+            disc = b * b - 4 * a * c
+            q = -0.5 * (b + np.copysign(np.sqrt(np.maximum(disc, 0.0)), b))
+            quad = (a != 0) & (disc >= 0)
+            for d in (np.where(quad, q / a, np.nan), np.where(quad & (q != 0), c / q, np.nan)):
+                found.append(d)
+            lin = (a == 0) & (b != 0)
+            found.append(np.where(lin, -c / b, np.nan))
+        d = np.concatenate(found)
+        piece = np.tile(np.arange(h.size), len(found))
+        slack = 1e-12 * h[piece]  # a root on a breakpoint may land a rounding outside both pieces
+        lo = np.where(extrapolate & (piece == 0), -np.inf, -slack)
+        hi = np.where(extrapolate & (piece == h.size - 1), np.inf, h[piece] + slack)
+        keep = np.isfinite(d) & (d >= lo) & (d <= hi)
+        d = np.where(extrapolate, d[keep], np.clip(d[keep], 0.0, h[piece[keep]])) if keep.any() else d[keep]
+        roots = np.unique(self.x[piece[keep]] + d)
+        if roots.size > 1:  # a root on a breakpoint is found by both of its pieces
+            roots = roots[np.concatenate([[True], np.diff(roots) > 1e-14 * np.maximum(1.0, np.abs(roots[1:]))])]
+        return roots
+
+
+class _Pieces:
+    """Breakpoints and coefficients, the two attributes :class:`FastCubic` reads."""
+
+    def __init__(self, x, c):
+        self.x, self.c = x, c
 
 
 _BASES: dict = {}
@@ -87,10 +146,16 @@ _BASES: dict = {}
 def not_a_knot_basis(x: np.ndarray) -> np.ndarray:
     """Coefficients of the not-a-knot cubic splines through the unit vectors on the grid ``x``.
 
+    The slopes ``m`` at the breakpoints solve ``A m = B y``: for interior points
+    ``h_i m_{i−1} + 2(h_{i−1} + h_i) m_i + h_{i−1} m_{i+1} = 3(h_i δ_{i−1} + h_{i−1} δ_i)``, and at each end
+    the not-a-knot condition (continuous third derivative across the second breakpoint), with
+    ``h_i = x_{i+1} − x_i`` and ``δ_i = (y_{i+1} − y_i)/h_i``; each piece is then the cubic Hermite
+    polynomial of its end values and slopes.
+
     Parameters
     ----------
     x : ndarray, shape (n,)
-        Strictly increasing breakpoints.
+        Strictly increasing breakpoints, ``n ≥ 4``.
 
     Returns
     -------
@@ -101,11 +166,37 @@ def not_a_knot_basis(x: np.ndarray) -> np.ndarray:
     key = (x.size, float(x[0]), float(x[-1]), hash(x.tobytes()))
     basis = _BASES.get(key)
     if basis is None:
-        basis = CubicSpline(x, np.eye(x.size)).c
+        basis = _not_a_knot_coefficients(np.asarray(x, dtype=float), np.eye(x.size))
         if len(_BASES) > 256:
             _BASES.clear()
         _BASES[key] = basis
     return basis
+
+
+def _not_a_knot_coefficients(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """``PPoly`` coefficients (4, n − 1, m) of the not-a-knot splines through the columns of ``y`` (n, m)."""
+    n = x.size
+    if n < 4:
+        raise ValueError(f"a not-a-knot spline here needs at least 4 breakpoints, got {n}")
+    h = np.diff(x)
+    delta = np.diff(y, axis=0) / h[:, None]  # (n-1, m)
+    A = np.zeros((n, n))
+    r = np.zeros((n, y.shape[1]))
+    i = np.arange(1, n - 1)
+    A[i, i - 1] = h[i]
+    A[i, i] = 2 * (h[i - 1] + h[i])
+    A[i, i + 1] = h[i - 1]
+    r[i] = 3 * (h[i][:, None] * delta[i - 1] + h[i - 1][:, None] * delta[i])
+    d = h[0] + h[1]
+    A[0, 0], A[0, 1] = h[1], d
+    r[0] = ((h[0] + 2 * d) * h[1] * delta[0] + h[0] ** 2 * delta[1]) / d
+    d = h[-1] + h[-2]
+    A[-1, -1], A[-1, -2] = h[-2], d
+    r[-1] = (h[-1] ** 2 * delta[-2] + (2 * d + h[-1]) * h[-2] * delta[-1]) / d
+    m = np.linalg.solve(A, r)
+    hh = h[:, None]
+    t = (m[:-1] + m[1:] - 2 * delta) / hh
+    return np.stack([t / hh, (delta - m[:-1]) / hh - t, m[:-1], y[:-1]])
 
 
 def interpolating_cubics(x: np.ndarray, columns: np.ndarray) -> list[FastCubic]:
@@ -127,7 +218,7 @@ def interpolating_cubics(x: np.ndarray, columns: np.ndarray) -> list[FastCubic]:
     """
     x = np.ascontiguousarray(x, dtype=float)
     coef = np.tensordot(not_a_knot_basis(x), np.asarray(columns, dtype=float), axes=1)  # (4, n-1, m)
-    return [FastCubic(PPoly.construct_fast(np.ascontiguousarray(coef[:, :, j]), x)) for j in range(coef.shape[2])]
+    return [FastCubic.from_coefficients(np.ascontiguousarray(coef[:, :, j]), x) for j in range(coef.shape[2])]
 
 
 def casadi_spline(spline, x, window: tuple[int, int] | None = None):
