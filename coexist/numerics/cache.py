@@ -11,10 +11,12 @@ them costs 60–80 ms, more than one curve. They are kept, per machine:
   key, never a stale hit);
 - written to a temporary file in the cache directory and renamed into place, so concurrent processes
   see a whole file or none; a file that does not load is rebuilt in memory;
+- bounded: past :data:`MAX_BYTES` the least recently used files are removed (a hit marks its file
+  used), so a sweep over many materials does not fill the disk;
 - ``COEXIST_CACHE=0`` turns the cache off (everything is built in the process, same numbers); an
   unwritable cache directory only costs the time.
 
-Generated numpy code is stored as a Python module (``*.py``; Python keeps its bytecode beside it), a
+Generated numpy code is stored as a Python module (``*.py``) with its compiled code (``*.marshal``), a
 CasADi function in CasADi's own serialisation (``*.casadi``). Compiled shared libraries
 (:mod:`coexist.numerics.compiled`) live in the same directory.
 """
@@ -27,6 +29,8 @@ import tempfile
 from pathlib import Path
 
 _DIGESTS: dict = {}
+#: the cache's size bound (bytes); past it the least recently used files go
+MAX_BYTES = 256 * 2**20
 
 
 def cache_dir() -> Path:
@@ -123,6 +127,7 @@ def write_atomic(path: Path, data: bytes) -> bool:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
         os.replace(tmp, path)
+        prune(path.parent)
         return True
     except OSError:
         return False
@@ -131,16 +136,61 @@ def write_atomic(path: Path, data: bytes) -> bool:
             os.unlink(tmp)
 
 
+def prune(folder: Path, max_bytes: int | None = None) -> int:
+    """Remove the least recently used files of ``folder`` until it holds at most ``max_bytes``.
+
+    Parameters
+    ----------
+    folder : pathlib.Path
+        The cache directory.
+    max_bytes : int, optional
+        The bound (default :data:`MAX_BYTES`).
+
+    Returns
+    -------
+    int
+        Files removed (files another process removes first are skipped).
+    """
+    limit = MAX_BYTES if max_bytes is None else max_bytes
+    try:
+        entries = [(e.stat().st_mtime, e.stat().st_size, e.path) for e in os.scandir(folder) if e.is_file()]
+    except OSError:
+        return 0
+    total = sum(size for _, size, _ in entries)
+    removed = 0
+    for _, size, name in sorted(entries):
+        if total <= limit:
+            break
+        try:
+            os.unlink(name)
+            removed += 1
+        except OSError:
+            pass
+        total -= size
+    return removed
+
+
+def _touch(path: Path) -> None:
+    try:
+        os.utime(path)
+    except OSError:
+        pass
+
+
 def python_module(name: str, cache_key: str, make_source):
     """A module of generated Python code: loaded from the cache, else made by ``make_source()``, stored
     and loaded.
 
+    The source is kept as ``{name}-{cache_key}.py`` (for the reader, and as the code's file name) and its
+    compiled code beside it (``.{cache_tag}.marshal``, written by the library itself, so that the cache
+    works also where Python writes no bytecode, ``PYTHONDONTWRITEBYTECODE``).
+
     Parameters
     ----------
     name : str
-        Stem of the cached file (``{name}-{cache_key}.py``).
+        Stem of the cached files.
     cache_key : str
-        Its key (:func:`key`).
+        Their key (:func:`key`).
     make_source : callable
         ``make_source() -> str``, the module's source, called only on a miss.
 
@@ -149,23 +199,24 @@ def python_module(name: str, cache_key: str, make_source):
     dict
         The module's namespace (its functions by name).
     """
-    import importlib.util
+    import marshal
+    import sys
 
     path = cache_dir() / f"{name}-{cache_key}.py"
-    if enabled() and (path.exists() or write_atomic(path, make_source().encode())):
+    code_path = path.with_suffix(f".{sys.implementation.cache_tag}.marshal")
+    namespace: dict = {"__name__": f"_coexist_generated_{name}"}
+    if enabled() and code_path.exists():
         try:
-            spec = importlib.util.spec_from_file_location(f"_coexist_generated_{name}_{cache_key}", path)
-            module = importlib.util.module_from_spec(spec)  # type: ignore[arg-type]
-            spec.loader.exec_module(module)  # type: ignore[union-attr]
-            return vars(module)
-        except Exception:  # noqa: BLE001 - a damaged cache file: rebuilt below, and replaced
-            source = make_source()
-            write_atomic(path, source.encode())
-            namespace: dict = {}
-            exec(compile(source, f"<coexist generated {name}>", "exec"), namespace)
+            exec(marshal.loads(code_path.read_bytes()), namespace)
+            _touch(code_path)
             return namespace
-    namespace = {}
-    exec(compile(make_source(), f"<coexist generated {name}>", "exec"), namespace)
+        except Exception:  # noqa: BLE001 - a damaged cache file: rebuilt below, and replaced
+            namespace = {"__name__": f"_coexist_generated_{name}"}
+    source = make_source()
+    code = compile(source, str(path), "exec")
+    if enabled() and write_atomic(path, source.encode()):
+        write_atomic(code_path, marshal.dumps(code))
+    exec(code, namespace)
     return namespace
 
 
@@ -191,7 +242,9 @@ def casadi_function(name: str, cache_key: str, make):
     path = cache_dir() / f"{name}-{cache_key}.casadi"
     if enabled() and path.exists():
         try:
-            return ca.Function.deserialize(path.read_text())
+            fun = ca.Function.deserialize(path.read_text())
+            _touch(path)
+            return fun
         except (OSError, RuntimeError, UnicodeDecodeError):
             pass  # a damaged file: rebuild and overwrite it
     fun = make()
