@@ -1,9 +1,15 @@
 """The two curve families of one zone: ``p̂(V̂)`` at fixed ``Φ̂`` and ``Φ̂(Q̂)`` at fixed ``p̂``.
 
 Both are traced by the pole stretch ``λ0``, which does not turn where pressure, voltage or volume
-do, so the curves pass through their limit points. Limit points are then located precisely by
-solving for the extremum (Chebyshev interpolation of the quantity on a shrinking bracket around
-the grid extremum, converged to the solver tolerance), not read off the grid.
+do, so the curves pass through their limit points. Limit points are then located precisely, not read
+off the grid: on a ``p̂–V̂`` curve by solving for the extremum (Chebyshev interpolation of the quantity
+on a shrinking bracket around the grid extremum, converged to the solver tolerance); on a ``Φ̂–Q̂``
+curve as roots of the exact derivatives along it, ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)`` and
+``dQ̂/dλ0 = ∂Q̂/∂λ0 + (∂Q̂/∂Φ̂) dΦ̂/dλ0`` (the variational equations of the shooting).
+
+A ``Φ̂–Q̂`` curve needs the voltage that carries ``p̂`` at every pole stretch
+(:func:`voltage_at_pressure`: a safeguarded Newton iteration with the exact ``∂p̂/∂Φ̂``); along the curve
+most voltages start from the Hermite interpolant of a coarser set of solved ones and need two shots.
 """
 
 from __future__ import annotations
@@ -17,7 +23,18 @@ from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
 from .numerics.roots import bracketed_root, chebyshev_extremum
 from .settings import SolverSettings
-from .shooting import OK, MembraneStates, first_valid_run, reason_tag, reason_text, solve_states
+from .shooting import (
+    NO_VOLTAGE,
+    OK,
+    MembraneStates,
+    StateDerivatives,
+    first_valid_run,
+    reason_tag,
+    reason_text,
+    solve_states,
+)
+
+_EPS = np.finfo(float).eps
 
 #: the state quantities of a curve (attributes of :class:`~coexist.shooting.MembraneStates`), in table order
 STATE_FIELDS = (
@@ -308,16 +325,285 @@ def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, set
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
 
 
+def _pole_voltage_squared(model: MembraneModel, l0: np.ndarray) -> np.ndarray:
+    """``s_pole = Φ̂²`` at which the pole tension ``T̂1(λ0, λ0; Φ̂)`` vanishes, per pole stretch (grown by
+    doubling from 1, then located to 1e-15): no state exists at or above it. Zero where the pole tension
+    is not positive (or not defined: Gent locking) even without voltage."""
+    n = l0.size
+    s_pole = np.zeros(n)
+    with np.errstate(all="ignore"):
+        t0 = np.broadcast_to(np.asarray(model.pole(l0, 0.0)[0], dtype=float), (n,))
+        live = np.flatnonzero(np.isfinite(t0) & (t0 > 0))
+        if live.size == 0:
+            return s_pole
+        lv = l0[live]
+        hi_s = np.ones(live.size)
+        for _ in range(60):
+            grow = model.pole(lv, np.sqrt(hi_s))[0] > 0
+            if not np.any(grow):
+                break
+            hi_s = np.where(grow, hi_s * 2, hi_s)
+        root = bracketed_root(
+            lambda x, idx: model.pole(lv[idx], np.sqrt(x))[0], np.zeros(live.size), hi_s, rtol=1e-15, ftol=1e-14 * lv
+        )
+    s_pole[live] = root.x
+    return s_pole
+
+
+#: a Newton step from the valid lower end that overshoots a failed upper end by this many bracket widths
+#: shows that the pressure is not reached before the states fail (see :meth:`_VoltageRoots.newton`)
+NO_ROOT_OVERSHOOT = 10.0
+#: ... once the bracket is at most this fraction of the voltage (the slope cannot change much across it)
+NO_ROOT_WIDTH = 1e-2
+#: ... and until then the next voltage tried lies this far from the valid lower end towards the failed one
+LEAN = 0.9
+#: a pressure residual of a shot without derivatives counts for the bracket only above this multiple of ``p̂``:
+#: shots with and without derivatives take different steps and differ at the 1e-11 level
+PLAIN_SIGN_LEVEL = 1e-8
+#: a Newton step below this fraction of ``s`` is the noise of the shooting (at ``rtol ≤ 1e-12`` the residual
+#: ``inner_ftol p̂`` lies at the level of rounding): the voltage has converged
+NOISE_STEP = 1e-14
+#: Newton steps below this fraction of ``s`` are taken even when they do not halve (near the root the
+#: shooting's noise, not a poor model, keeps them from shrinking)
+NEAR_STEP = 1e-9
+_DERIVATIVE_FIELDS = ("dp_dl0", "dv_dl0", "dq_dl0", "dp_dphi", "dv_dphi", "dq_dphi")
+
+
+def _inverse_hermite_root(fa, xa, da, fb, xb, db):
+    """``s(0)`` of the cubic Hermite interpolant of the inverse function ``s(f)`` through ``(fa, xa)`` and
+    ``(fb, xb)`` with slopes ``1/da`` and ``1/db`` (vectorised; NaN where ``fa = fb``)."""
+    h = fb - fa
+    z = -fa / h
+    h00, h10 = 2 * z**3 - 3 * z**2 + 1, z**3 - 2 * z**2 + z
+    h01, h11 = -2 * z**3 + 3 * z**2, z**3 - z**2
+    return h00 * xa + h10 * h / da + h01 * xb + h11 * h / db
+
+
+def _inverse_quadratic_root(f0, f, x, d):
+    """``s(0)`` of the inverse quadratic ``s(f)`` through ``(f, x)`` with slope ``1/d`` and through ``(f0, 0)``
+    (the zero-voltage state): Newton's step with the curvature of the inverse function."""
+    c = -(x + (f0 - f) / d) / (f0 - f) ** 2
+    return x - f / d + c * f**2
+
+
+class _VoltageRoots:
+    """The roots ``p̂(λ0, s) = p̂`` in ``s = Φ̂²`` at many pole stretches, with the bookkeeping of the
+    voltage search: the bracket of every root (``lo`` with ``p̂(lo) > p̂``, ``hi`` beyond the root: a
+    pressure below ``p̂``, a failed state, or the pole-wrinkling voltage), every state evaluated (the last
+    valid one is kept, with its derivatives when it was shot with them), and whether a root was found.
+
+    ``states0`` are the zero-voltage states: pole stretches whose ``p̂(λ0, 0) < p̂`` (or whose zero-voltage
+    state fails) carry no voltage that reaches the pressure and are finished from the start.
+    """
+
+    def __init__(self, model, l0, p_hat, settings, states0):
+        self.model, self.l0, self.p_hat, self.settings = model, l0, p_hat, settings
+        n = l0.size
+        self.ftol = settings.inner_ftol * p_hat
+        self.s_pole = _pole_voltage_squared(model, l0)
+        self.states0 = states0
+        f0 = np.where(states0.ok, states0.p_hat - p_hat, -np.inf)
+        self.f0 = f0.copy()
+        self.feasible = f0 >= 0
+        self.result = _take(states0, np.arange(n))  # a copy: the evaluations are merged into it
+        self.derivatives = {k: np.full(n, np.nan) for k in _DERIVATIVE_FIELDS}
+        self.converged = self.feasible & (f0 == 0)
+        self.finished = ~self.feasible | self.converged
+        self.lo, self.f_lo = np.zeros(n), f0.copy()
+        self.hi, self.f_hi = self.s_pole.copy(), np.full(n, -np.inf)  # no state at the pole-wrinkling voltage
+        self.f_last = f0.copy()
+
+    def regula_falsi(self, rows):
+        """The first guesses of ``rows``: the secant point of the bracket ``[0, s_pole]``, the pressure taken
+        to fall to zero at the pole-wrinkling voltage (as the spherical-cap estimate, proportional to the
+        pole tension, does)."""
+        f0 = self.f0[rows]
+        return self.s_pole[rows] * f0 / (f0 + self.p_hat)
+
+    def _shoot(self, rows, x, derivatives):
+        """Shoot ``rows`` at ``s = x`` and record the states; returns (residual, ok, dp/ds)."""
+        st = solve_states(self.model, self.l0[rows], np.sqrt(x), self.settings, derivatives=derivatives)
+        ok = st.ok
+        _merge(self.result, _take(st, ok), rows[ok])
+        self.result.status[rows[~ok]] = st.status[~ok]  # as the old search: the last state evaluated decides
+        with np.errstate(all="ignore"):
+            if derivatives:
+                dv = StateDerivatives.of(st)
+                for k in _DERIVATIVE_FIELDS:
+                    self.derivatives[k][rows[ok]] = getattr(dv, k)[ok]
+                slope = dv.dp_dphi / (2 * np.sqrt(x))
+            else:
+                for k in _DERIVATIVE_FIELDS:
+                    self.derivatives[k][rows[ok]] = np.nan
+                slope = np.full(rows.size, np.nan)
+        f = np.where(ok, st.p_hat - self.p_hat, -np.inf)  # an invalid state: beyond the root
+        self.f_last[rows] = f
+        # the bracket (a shot without derivatives moves it only where its sign is beyond doubt)
+        clear = np.abs(f) > (0.0 if derivatives else PLAIN_SIGN_LEVEL * self.p_hat)
+        below = ok & (f > 0) & clear
+        above = ~ok | ((f < 0) & clear)
+        self.lo[rows[below]], self.f_lo[rows[below]] = x[below], f[below]
+        self.hi[rows[above]], self.f_hi[rows[above]] = x[above], f[above]
+        met = ok & (np.abs(f) <= self.ftol)
+        self.converged[rows[met]] = True
+        self.finished[rows[met]] = True
+        return f, ok, slope
+
+    def newton(self, rows, x, iterations, prune=None):
+        """Safeguarded Newton iteration in ``s`` with the exact slope ``∂p̂/∂s = (∂p̂/∂Φ̂)/(2Φ̂)`` on the
+        problems ``rows`` from the points ``x`` (all evaluated with derivatives).
+
+        Each step is the root of the inverse cubic Hermite interpolant ``s(p̂)`` of the last two shots
+        (values and exact slopes; on the first step the inverse quadratic through the shot and the
+        zero-voltage state), which converges faster than Newton's tangent (order ``1 + √3``); it is
+        taken when it stays inside the bracket and at most halves the previous step (``rtsafe``),
+        else the Newton step under the same conditions, else the bracket is bisected. A problem is
+        converged when ``|p̂ − p̂*| ≤ inner_ftol p̂``, or noise-limited when its bracket has closed to
+        1e-15 (relative) or the Newton step falls below :data:`NOISE_STEP` of ``s``. It is given up (no
+        root) when its upper end is a failed state (or the pole-wrinkling voltage) and the Newton step
+        from a valid lower end overshoots that end by :data:`NO_ROOT_OVERSHOOT` bracket widths on a
+        bracket narrower than :data:`NO_ROOT_WIDTH` of ``s``: the slope would have to grow that much
+        within the bracket for the pressure to reach ``p̂`` before the states fail. ``prune(self)``, if
+        given, may finish problems that no longer matter before each round.
+        """
+        rows = np.asarray(rows)
+        x = np.array(x, dtype=float)
+        previous = np.full(rows.size, np.inf)
+        x1, f1, d1 = (np.full(rows.size, np.nan) for _ in range(3))  # the last valid shot of each problem
+        for _ in range(iterations):
+            if prune is not None:
+                prune(self)
+            live = np.flatnonzero(~self.finished[rows])
+            if live.size == 0:
+                break
+            r, xr = rows[live], x[live]
+            f, ok, slope = self._shoot(r, xr, derivatives=True)
+            lo, hi = self.lo[r], self.hi[r]
+            with np.errstate(all="ignore"):
+                step = -f / slope
+                usable = ok & np.isfinite(step)
+                memory = np.where(
+                    np.isfinite(x1[live]) & (f1[live] != f),
+                    _inverse_hermite_root(f1[live], x1[live], d1[live], f, xr, slope),
+                    _inverse_quadratic_root(self.f0[r], f, xr, slope),
+                )
+            closed = (hi - lo) <= np.maximum(1e-15, 4 * _EPS) * np.abs(xr)
+            stalled = usable & (np.abs(step) <= NOISE_STEP * np.abs(xr))
+            failed_above = ~np.isfinite(self.f_hi[r])
+            no_root = (
+                usable
+                & (f > 0)
+                & failed_above
+                & (step >= NO_ROOT_OVERSHOOT * (hi - xr))
+                & (hi - xr <= NO_ROOT_WIDTH * hi)
+            )
+            self.converged[r[closed | stalled]] = True
+            self.finished[r[closed | stalled | no_root]] = True
+            nxt = np.full(live.size, np.nan)
+            for candidate in (memory, xr + step):
+                move = np.abs(candidate - xr)
+                shrinking = (move <= 0.5 * previous[live]) | (move <= NEAR_STEP * np.abs(xr))
+                take = usable & np.isnan(nxt) & np.isfinite(candidate) & (candidate > lo) & (candidate < hi)
+                nxt = np.where(take & shrinking, candidate, nxt)
+            # the Newton step from a valid state overshoots a failed upper end: the failure may lie just
+            # below that end (as at the pole-wrinkling voltage), so look there first
+            lean = usable & (f > 0) & failed_above & (xr + step >= hi)
+            nxt = np.where(np.isnan(nxt), np.where(lean, lo + LEAN * (hi - lo), 0.5 * (lo + hi)), nxt)
+            previous[live] = np.abs(nxt - xr)
+            x1[live] = np.where(usable, xr, x1[live])
+            f1[live] = np.where(usable, f, f1[live])
+            d1[live] = np.where(usable, slope, d1[live])
+            x[live] = nxt
+
+    def polish(self, rows, x, slope, rounds, prune=None):
+        """Chord steps ``s ← s − (p̂ − p̂*)/slope`` with shots without derivatives, for problems whose guess
+        ``x`` and slope ``∂p̂/∂s`` come from converged neighbours; the slope is replaced by the secant of the
+        last two shots once there are two. Returns the problems still open and their next points."""
+        rows, x, slope = np.asarray(rows), np.array(x, dtype=float), np.array(slope, dtype=float)
+        x_prev, f_prev = np.full(rows.size, np.nan), np.full(rows.size, np.nan)
+        active = np.ones(rows.size, dtype=bool)
+        for _ in range(rounds):
+            if prune is not None:
+                prune(self)
+            live = np.flatnonzero(active & ~self.finished[rows])
+            if live.size == 0:
+                break
+            r, xr = rows[live], x[live]
+            f, ok, _ = self._shoot(r, xr, derivatives=False)
+            with np.errstate(all="ignore"):
+                secant = (f - f_prev[live]) / (xr - x_prev[live])
+                fresh = ok & np.isfinite(secant) & (secant < 0) & (np.abs(xr - x_prev[live]) > 1e-12 * xr)
+                d = np.where(fresh, secant, slope[live])
+                nxt = xr - f / d
+            inside = ok & np.isfinite(nxt) & (nxt > self.lo[r]) & (nxt < self.hi[r])
+            noise = inside & (np.abs(nxt - xr) <= NOISE_STEP * np.abs(xr))
+            self.converged[r[noise]] = True
+            self.finished[r[noise]] = True
+            x_prev[live], f_prev[live], slope[live] = xr, f, d
+            active[live[~inside]] = False  # left for the Newton iteration
+            x[live] = np.where(inside, nxt, 0.5 * (self.lo[r] + self.hi[r]))
+        still = ~self.finished[rows]
+        return rows[still], x[still]
+
+    def accepted(self):
+        """Converged with the pressure met to ``10 residual_tol p̂`` at the last state evaluated."""
+        tol = 10 * self.settings.residual_tol * self.p_hat
+        return self.converged & np.isfinite(self.f_last) & (np.abs(self.f_last) <= tol)
+
+    def states(self, with_derivatives: bool) -> MembraneStates:
+        """The states found (flags and NaN set as :func:`voltage_at_pressure` documents)."""
+        result = self.result
+        status = result.status.copy()
+        status[~self.accepted() & (status == OK)] = NO_VOLTAGE
+        s0 = self.states0
+        status[~self.feasible] = np.where(s0.ok[~self.feasible], NO_VOLTAGE, s0.status[~self.feasible])
+        result.status = status
+        bad = status != OK
+        for name in ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension"):
+            getattr(result, name)[bad] = np.nan
+        if with_derivatives:
+            for k in _DERIVATIVE_FIELDS:
+                self.derivatives[k][bad] = np.nan
+            result.derivatives = StateDerivatives(**self.derivatives)
+        else:
+            result.derivatives = None
+        return result
+
+
+def _checked_voltage_inputs(model, p_hat, settings):
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    p_hat = validation.real(p_hat, "p_hat", lo=0.0, lo_open=True)
+    return p_hat, settings
+
+
+def _require_voltage(model):
+    if not model.has_voltage:
+        raise SceneError("a voltage-charge curve needs a model with electrostatics", "voltage")
+
+
 def voltage_at_pressure(
     model: MembraneModel, pole_stretch, p_hat: float, settings: SolverSettings | None = None, iterations: int = 60
 ) -> MembraneStates:
     """States at given pole stretches that carry the pressure ``p̂``: solves ``p̂(λ0, Φ̂) = p̂`` for ``Φ̂``.
 
-    The pressure falls as the voltage rises at fixed pole stretch; the root in ``s = Φ̂²`` is found by
-    a safeguarded regula falsi (Illinois) on ``[0, s_pole]``, where ``s_pole`` is the voltage at
-    which the pole tension vanishes. Pole stretches with ``p̂(λ0, 0) < p̂`` carry no voltage that
-    reaches the pressure and are flagged ``no_equilibrium``; voltages at which the state fails
-    (wrinkling at the clamp, ...) shrink the bracket from above.
+    The pressure falls as the voltage rises at fixed pole stretch; the root in ``s = Φ̂²`` is found by a
+    safeguarded Newton iteration with the exact slope of the variational equations (every shot with
+    derivatives),
+
+    ``s ← s − (p̂(λ0, s) − p̂) / (∂p̂/∂s)``,  ``∂p̂/∂s = (∂p̂/∂Φ̂) / (2Φ̂)``,
+
+    accelerated by memory: the step actually tried first is the root of the inverse cubic Hermite
+    interpolant ``s(p̂)`` through the last two shots (their values and exact slopes; on the first step the
+    inverse quadratic through the shot, its slope and the zero-voltage state), of order ``1 + √3``. Steps
+    stay inside the bracket ``[0, s_pole]``, where ``s_pole`` is the voltage at which the pole tension
+    vanishes; the iteration starts at the regula falsi point of that bracket (the pressure taken to fall
+    linearly to zero at ``s_pole``), and a step that would leave the bracket, or that does not at least
+    halve the previous one, is replaced by bisection. Pole stretches with ``p̂(λ0, 0) < p̂`` carry no voltage
+    that reaches the pressure and are flagged ``no_equilibrium``; voltages at which the state fails
+    (wrinkling at the clamp, ...) shrink the bracket from above, and a root is given up when the Newton step
+    from the last valid state overshoots a failed upper end by far on a narrow bracket (the pressure stays
+    above ``p̂`` up to the failure).
 
     Parameters
     ----------
@@ -328,78 +614,32 @@ def voltage_at_pressure(
     p_hat : float
         The normalised pressure ``p̂ > 0`` to carry.
     settings : SolverSettings, optional
-        Shooting tolerances; the root is converged to ``inner_ftol · p̂`` and accepted within
+        Shooting tolerances; the root is converged to ``inner_ftol · p̂`` (or, noise-limited, until its
+        bracket closes to 1e-15 or the Newton step falls below 1e-14 of ``s``) and accepted within
         ``10 residual_tol · p̂``.
     iterations : int
-        Largest number of regula falsi iterations.
+        Largest number of Newton (or bisection) steps per pole stretch.
 
     Returns
     -------
     MembraneStates
-        One entry per pole stretch, ``phi_hat`` the voltage found; entries without one have status
-        ``NO_VOLTAGE`` (or the failure of their zero-voltage state) and NaN quantities.
+        One entry per pole stretch, ``phi_hat`` the voltage found, with the exact derivatives of the
+        states found (``derivatives``); entries without one have status ``NO_VOLTAGE`` (or the failure of
+        their zero-voltage state, or of the last voltage tried) and NaN quantities.
 
     Raises
     ------
     SceneError
         If the model has no electrostatics, or for invalid pole stretches.
     """
-    from .shooting import NO_VOLTAGE
-
-    settings = validation.settings_or_default(settings)
-    validation.membrane_model(model)
-    p_hat = validation.real(p_hat, "p_hat", lo=0.0, lo_open=True)
-    if not model.has_voltage:
-        raise SceneError("a voltage-charge curve needs a model with electrostatics", "voltage")
+    p_hat, settings = _checked_voltage_inputs(model, p_hat, settings)
+    _require_voltage(model)
     l0 = validation.real_array(pole_stretch, "pole_stretch")
-    n = l0.size
-    # bracket: s = 0 and the voltage that makes the pole tension vanish (grown by doubling, then located)
-    hi_s = np.ones(n)
-    for _ in range(60):
-        grow = model.pole(l0, np.sqrt(hi_s))[0] > 0
-        if not np.any(grow):
-            break
-        hi_s = np.where(grow, hi_s * 2, hi_s)
-    pole_root = bracketed_root(
-        lambda x, idx: model.pole(l0[idx], np.sqrt(x))[0], np.zeros(n), hi_s, rtol=1e-15, ftol=1e-14 * l0
-    )
-    s0 = solve_states(model, l0, 0.0, settings)
-    f0 = np.where(s0.ok, s0.p_hat - p_hat, -np.inf)
-    feasible = f0 >= 0
-    result = s0
-    converged = feasible & (f0 == 0)
-    open_ = np.flatnonzero(feasible & (f0 > 0))
+    roots = _VoltageRoots(model, l0, p_hat, settings, solve_states(model, l0, 0.0, settings))
+    open_ = np.flatnonzero(~roots.finished)
     if open_.size:
-
-        def residual(x, idx):
-            rows = open_[idx]
-            st = solve_states(model, l0[rows], np.sqrt(x), settings)
-            _merge(result, _take(st, st.ok), rows[st.ok])
-            result.status[rows[~st.ok]] = st.status[~st.ok]
-            return np.where(st.ok, st.p_hat - p_hat, -np.inf)  # an invalid state: beyond the root
-
-        # towards the pole-wrinkling voltage the pressure falls to zero: f = −p̂ at the upper end
-        root = bracketed_root(
-            residual,
-            np.zeros(open_.size),
-            pole_root.x[open_],
-            f0[open_],
-            np.full(open_.size, -p_hat),
-            rtol=1e-15,
-            ftol=settings.inner_ftol * p_hat,
-            max_iter=iterations,
-        )
-        # converged: the pressure is met to the solver's accuracy, or the bracket closed with the residual
-        # still at that level (noise-limited); anything else failed
-        met = root.converged & np.isfinite(root.f) & (np.abs(root.f) <= 10 * settings.residual_tol * p_hat)
-        converged[open_] = met
-    status = result.status.copy()
-    status[~converged & (status == OK)] = NO_VOLTAGE
-    status[~feasible] = np.where(s0.ok[~feasible], NO_VOLTAGE, s0.status[~feasible])
-    result.status = status
-    for name in ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension"):
-        getattr(result, name)[status != OK] = np.nan
-    return result
+        roots.newton(open_, roots.regula_falsi(open_), iterations)
+    return roots.states(with_derivatives=True)
 
 
 def _merge(base: MembraneStates, new: MembraneStates, where) -> MembraneStates:
@@ -409,14 +649,250 @@ def _merge(base: MembraneStates, new: MembraneStates, where) -> MembraneStates:
     return base
 
 
+#: the first voltages of a Φ̂–Q̂ curve are solved on every this-many-th pole stretch; the rest start from
+#: the Hermite interpolant of those (values and exact slopes ``ds/dλ0``)
+COARSE_STRIDE = 8
+#: chord steps (shots without derivatives) for the voltage of an interpolated pole stretch before it is
+#: handed to the Newton iteration
+POLISH_ROUNDS = 3
+
+
+def _hermite_at(l0, at, nodes, s, tangent, slope):
+    """At the pole stretches ``l0[at]``: the Hermite interpolant of ``s(λ0)`` through the ``nodes`` (one row
+    per point, values ``s`` and slopes ``tangent``; degree ``2 × nodes − 1``), and the polynomial through
+    the nodes' ``slope`` (``∂p̂/∂s``)."""
+    m, n = nodes.shape
+    width = l0[nodes[:, n // 2]] - l0[nodes[:, n // 2 - 1]]
+    u = (l0[nodes] - l0[at][:, None]) / width[:, None]
+    powers = np.arange(2 * n)
+    A = np.empty((m, 2 * n, 2 * n))
+    A[:, 0::2, :] = u[:, :, None] ** powers
+    with np.errstate(divide="ignore", invalid="ignore"):
+        A[:, 1::2, :] = np.where(powers > 0, powers * u[:, :, None] ** (powers - 1), 0.0)
+    rhs = np.empty((m, 2 * n))
+    rhs[:, 0::2] = s[nodes]
+    rhs[:, 1::2] = tangent[nodes] * width[:, None]
+    value = np.linalg.solve(A, rhs[..., None])[:, 0, 0]
+    V = u[:, :, None] ** np.arange(n)
+    slope_at = np.linalg.solve(V, slope[nodes][..., None])[:, 0, 0]
+    return value, slope_at
+
+
+def _beyond_first_run(roots: _VoltageRoots) -> None:
+    """Give up the open problems beyond the first finished failure after an accepted state: the first valid
+    run of the grid ends before it, so they cannot change the curve."""
+    good = roots.accepted()
+    if not good.any():
+        return
+    first = int(np.argmax(good))
+    failed = np.flatnonzero(roots.finished[first:] & ~good[first:])
+    if failed.size:
+        roots.finished[first + failed[0] + 1 :] = True
+
+
+def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> MembraneStates:
+    """:func:`voltage_at_pressure` on an increasing grid, using that the voltage is a smooth function of the
+    pole stretch: every :data:`COARSE_STRIDE`-th open pole stretch is solved by the Newton iteration; the
+    others between two converged ones start at the Hermite interpolant of ``s(λ0)`` through up to two
+    converged ones on either side, with the exact slopes ``ds/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂s)`` (degree up to 7),
+    and are polished by chord steps with the interpolated ``∂p̂/∂s`` (then the secant of the last two
+    shots), without derivatives; whatever is left goes to the Newton iteration, from the tangent of a
+    converged neighbour where there is one. The same acceptance as :func:`voltage_at_pressure`: every
+    state meets ``inner_ftol · p̂`` (or is noise-limited); problems beyond the end of the first valid run
+    are given up as soon as that end is known (:func:`_beyond_first_run`)."""
+    roots = _VoltageRoots(model, l0, p_hat, settings, solve_states(model, l0, 0.0, settings))
+    is_open = ~roots.finished
+    open_ = np.flatnonzero(is_open)
+    if open_.size == 0:
+        return roots.states(with_derivatives=False)
+    # the ends of every run of open pole stretches are coarse, and every COARSE_STRIDE-th in between
+    edges = np.flatnonzero(np.diff(np.r_[False, is_open, False].astype(int)))
+    firsts, lasts = edges[::2], edges[1::2] - 1
+    coarse = np.unique(np.r_[open_[::COARSE_STRIDE], firsts, lasts])
+    roots.newton(coarse, roots.regula_falsi(coarse), iterations, _beyond_first_run)
+
+    fine = np.setdiff1d(open_, coarse)
+    if fine.size == 0:
+        return roots.states(with_derivatives=False)
+    good = roots.accepted()
+    d = roots.derivatives
+    s = roots.result.phi_hat**2
+    with np.errstate(all="ignore"):
+        slope = d["dp_dphi"] / (2 * roots.result.phi_hat)  # ∂p̂/∂s
+        tangent = -d["dp_dl0"] / slope  # ds/dλ0 along the curve
+    usable = good & np.isfinite(slope) & np.isfinite(tangent) & (slope < 0)
+    run_id = np.cumsum(np.r_[0, np.diff(is_open.astype(int)) != 0])
+    pos = np.searchsorted(coarse, fine)
+    # up to two usable coarse neighbours on either side, in the same run of open pole stretches
+    near: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for name, shift, inner in (("a1", -1, None), ("a2", -2, "a1"), ("b1", 0, None), ("b2", 1, "b1")):
+        k = pos + shift
+        inside_k = (k >= 0) & (k < coarse.size)
+        idx = coarse[np.clip(k, 0, coarse.size - 1)]
+        valid = inside_k & usable[idx] & (run_id[idx] == run_id[fine])
+        if inner is not None:
+            valid &= near[inner][1]
+        near[name] = (idx, valid)
+    both = near["a1"][1] & near["b1"][1]
+    guess, guess_slope = np.full(fine.size, np.nan), np.full(fine.size, np.nan)
+    for with_a2 in (False, True):
+        for with_b2 in (False, True):
+            sel = both & (near["a2"][1] == with_a2) & (near["b2"][1] == with_b2)
+            if not sel.any():
+                continue
+            names = ["a2"] * with_a2 + ["a1", "b1"] + ["b2"] * with_b2
+            nodes = np.stack([near[k][0][sel] for k in names], axis=1)
+            guess[sel], guess_slope[sel] = _hermite_at(l0, fine[sel], nodes, s, tangent, slope)
+    inside = both & np.isfinite(guess) & (guess > roots.lo[fine]) & (guess < roots.hi[fine])
+    inside &= np.isfinite(guess_slope) & (guess_slope < 0)
+    left, nxt = roots.polish(fine[inside], guess[inside], guess_slope[inside], POLISH_ROUNDS, _beyond_first_run)
+    # the rest: from one converged neighbour's tangent, else from the regula falsi point
+    rest = fine[~inside]
+    start = roots.regula_falsi(rest)
+    from_a = near["a1"][1][~inside]
+    from_b = near["b1"][1][~inside] & ~from_a
+    for side, end in ((from_a, near["a1"][0][~inside]), (from_b, near["b1"][0][~inside])):
+        j, e = rest[side], end[side]
+        start[side] = s[e] + tangent[e] * (l0[j] - l0[e])
+    lo, hi = roots.lo[rest], roots.hi[rest]
+    start = np.where(np.isfinite(start), np.clip(start, lo + 0.01 * (hi - lo), hi - 0.01 * (hi - lo)), np.nan)
+    start = np.where(np.isfinite(start), start, roots.regula_falsi(rest))
+    rows = np.r_[left, rest]
+    if rows.size:
+        roots.newton(rows, np.r_[nxt, start], iterations, _beyond_first_run)
+    return roots.states(with_derivatives=False)
+
+
+#: the first guess of a Φ̂–Q̂ limit point is the extremum of the polynomial through the grid values at up to
+#: this many pole stretches on either side of the grid extremum
+LIMIT_POINT_HALF_STENCIL = 3
+
+
+def _local_polynomial(grid, values, i):
+    """The polynomial (in ``λ0 − λ0[i]``) through the grid values at up to ``2 LIMIT_POINT_HALF_STENCIL + 1``
+    pole stretches around ``i``."""
+    lo, hi = max(0, i - LIMIT_POINT_HALF_STENCIL), min(grid.size, i + LIMIT_POINT_HALF_STENCIL + 1)
+    x = grid[lo:hi] - grid[i]
+    scale = grid[i + 1] - grid[i]
+    return np.polynomial.Polynomial.fit(x, values[lo:hi], x.size - 1, domain=[-scale, scale])
+
+
+def _stationary_point(grid, poly, i, is_max):
+    """Where ``poly`` (:func:`_local_polynomial` around ``i``) has its largest (``is_max``) or smallest value
+    among its stationary points in ``(λ0[i−1], λ0[i+1])`` and ``λ0[i]``, as an offset from ``λ0[i]``."""
+    a, b = grid[i - 1] - grid[i], grid[i + 1] - grid[i]
+    roots = poly.deriv().roots()
+    roots = roots[np.abs(roots.imag) <= 1e-9 * (b - a)].real
+    cand = np.r_[roots[(roots > a) & (roots < b)], 0.0]
+    return cand[np.argmax(poly(cand) * (1 if is_max else -1))]
+
+
+#: Newton/secant steps of a Φ̂–Q̂ limit point at most, before the generic extremum search takes it over
+LIMIT_POINT_ITERATIONS = 12
+
+
+def _charge_limit_points(model, p_hat, states, settings, evaluate):
+    """The voltage and charge extrema of a ``Φ̂–Q̂`` curve, as roots of their exact derivatives along it.
+
+    Along the curve ``p̂(λ0, Φ̂) = p̂``: ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)`` and ``dQ̂/dλ0 = ∂Q̂/∂λ0 +
+    (∂Q̂/∂Φ̂) dΦ̂/dλ0``, both from one shot with derivatives. Each discrete extremum of the grid values (as
+    :func:`_find_limit_points` detects them) starts at the extremum of the polynomial through the grid
+    values around it; each step then moves ``λ0`` by the secant (first: the polynomial's curvature) step on
+    the derivative and ``Φ̂`` by the Newton step onto the curve plus the tangent ``dΦ̂/dλ0`` (and curvature)
+    times that move, all extrema in one batched shot. A limit point is located when its voltage meets
+    ``inner_ftol · p̂`` and the ``λ0`` step is at most ``limit_point_xtol/10`` (relative), or at most
+    ``limit_point_xtol`` and no longer shrinking (the noise of the derivatives); one that fails (leaves its
+    grid bracket, meets no valid state, runs out of steps) is refined by :func:`_find_limit_points`.
+    """
+    grid = states.pole_stretch
+    items = []  # (grid index, attribute, kind)
+    for attr, names in (("phi_hat", ("voltage_max", "voltage_min")), ("q_hat", ("charge_max", "charge_min"))):
+        values = getattr(states, attr)
+        diff = np.diff(values)
+        for i in range(1, values.size - 1):
+            if diff[i - 1] > 0 and diff[i] <= 0:
+                items.append((i, attr, names[0], True))
+            elif diff[i - 1] < 0 and diff[i] >= 0:
+                items.append((i, attr, names[1], False))
+    if not items:
+        return []
+    m = len(items)
+    ftol = settings.inner_ftol * p_hat
+    lam, phi = np.empty(m), np.empty(m)
+    curvature, phi_curvature = np.empty(m), np.empty(m)
+    lo_b, hi_b = np.empty(m), np.empty(m)
+    for j, (i, attr, _, is_max) in enumerate(items):
+        poly = _local_polynomial(grid, getattr(states, attr), i)
+        offset = _stationary_point(grid, poly, i, is_max)
+        phi_poly = _local_polynomial(grid, states.phi_hat, i)
+        lam[j], phi[j] = grid[i] + offset, phi_poly(offset)
+        curvature[j], phi_curvature[j] = poly.deriv(2)(offset), phi_poly.deriv(2)(offset)
+        lo_b[j], hi_b[j] = grid[i - 1], grid[i + 1]
+    is_voltage = np.array([attr == "phi_hat" for _, attr, _, _ in items])
+    found: list = [None] * m
+    open_ = np.ones(m, dtype=bool)
+    failed = np.zeros(m, dtype=bool)
+    lam_prev, t_prev, g_prev = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
+    step_prev = np.full(m, np.inf)
+    for _ in range(LIMIT_POINT_ITERATIONS):
+        idx = np.flatnonzero(open_)
+        if idx.size == 0:
+            break
+        st = solve_states(model, lam[idx], phi[idx], settings, derivatives=True)
+        dv = StateDerivatives.of(st)
+        with np.errstate(all="ignore"):
+            f = st.p_hat - p_hat
+            g = -dv.dp_dl0 / dv.dp_dphi  # dΦ̂/dλ0 along the curve
+            t = dv.dq_dl0 + dv.dq_dphi * g  # dQ̂/dλ0 along the curve
+            t[is_voltage[idx]] = g[is_voltage[idx]]
+            dlam = lam[idx] - lam_prev[idx]
+            usable = np.abs(dlam) > 1e-12 * np.abs(lam[idx])
+            secant = np.where(usable, (t - t_prev[idx]) / dlam, np.nan)
+            curvature[idx] = np.where(usable & np.isfinite(secant), secant, curvature[idx])
+            g_secant = np.where(usable, (g - g_prev[idx]) / dlam, np.nan)
+            phi_curvature[idx] = np.where(usable & np.isfinite(g_secant), g_secant, phi_curvature[idx])
+            step = -t / curvature[idx]
+        bad = ~st.ok | ~np.isfinite(step) | ~np.isfinite(g)
+        met = st.ok & (np.abs(f) <= ftol)
+        size = np.abs(step)
+        tol = settings.limit_point_xtol * np.abs(lam[idx])
+        located = met & ~bad & ((size <= 0.1 * tol) | ((size <= tol) & (size >= 0.5 * step_prev[idx])))
+        for k in np.flatnonzero(located):
+            j = idx[k]
+            found[j] = _limit_point(items[j][2], _take(st, slice(k, k + 1)))
+        new_lam = lam[idx] + step
+        left = ~located & ~bad & ~((new_lam > lo_b[idx]) & (new_lam < hi_b[idx]))
+        failed[idx[bad | left]] = True
+        open_[idx[located | bad | left]] = False
+        lam_prev[idx], t_prev[idx], g_prev[idx], step_prev[idx] = lam[idx], t, g, size
+        with np.errstate(all="ignore"):
+            phi[idx] = phi[idx] - f / dv.dp_dphi + g * step + 0.5 * phi_curvature[idx] * step**2
+        lam[idx] = np.where(located | bad | left, lam[idx], new_lam)
+        lost = open_[idx] & ~(phi[idx] > 0)
+        failed[idx[lost]] = True
+        open_[idx[lost]] = False
+    failed |= open_
+    for jj in np.flatnonzero(failed):
+        j = int(jj)
+        at, name, kind, _ = items[j]
+        names = ("voltage_max", "voltage_min") if name == "phi_hat" else ("charge_max", "charge_min")
+        sub = _take(states, slice(at - 1, at + 2))
+        (lp,) = [q for q in _find_limit_points(sub, {name: names}, evaluate, settings) if q.kind == kind]
+        found[j] = lp
+    return sorted(found, key=lambda lp: lp.pole_stretch)
+
+
 def voltage_charge_curve(
     model: MembraneModel, p_hat: float, pole_stretch=None, settings: SolverSettings | None = None
 ) -> Curve:
     """The ``Φ̂–Q̂`` curve of a clamped zone at fixed normalised pressure ``p̂``.
 
-    Traced by the pole stretch; at each ``λ0`` the voltage is the root of ``p̂(λ0, Φ̂) = p̂``
-    (:func:`voltage_at_pressure`). The voltage maximum (snap-through voltage under pressure
-    control) is refined to the solver tolerance.
+    Traced by the pole stretch; at each ``λ0`` the voltage is the root of ``p̂(λ0, Φ̂) = p̂``, found as by
+    :func:`voltage_at_pressure` (safeguarded Newton in ``s = Φ̂²`` with the exact slope), where the
+    voltages of most pole stretches start from the cubic Hermite interpolant of a coarser set along the
+    curve (exact slopes ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)``) and are polished by chord steps. The voltage and
+    charge extrema are located as roots of the exact ``dΦ̂/dλ0`` and
+    ``dQ̂/dλ0 = ∂Q̂/∂λ0 + (∂Q̂/∂Φ̂) dΦ̂/dλ0``, to the solver tolerance.
 
     Parameters
     ----------
@@ -445,19 +921,20 @@ def voltage_charge_curve(
     SolverError
         No valid state near a limit point while refining it.
     """
-    settings = validation.settings_or_default(settings)
-    validation.membrane_model(model)
-    p_hat = validation.real(p_hat, "p_hat", lo=0.0, lo_open=True)
-    return _trace(
-        "voltage_charge",
-        p_hat,
-        model,
-        pole_stretch,
-        settings.charge_curve_points,
-        lambda x: voltage_at_pressure(model, x, p_hat, settings),
-        {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("charge_max", "charge_min")},
-        settings,
+    p_hat, settings = _checked_voltage_inputs(model, p_hat, settings)
+    if pole_stretch is None:
+        pole_stretch = np.linspace(
+            1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), settings.charge_curve_points
+        )
+    l0 = _check_range(pole_stretch, model)
+    _require_voltage(model)
+    states = _voltage_charge_states(model, l0, p_hat, settings)
+    run, starts, stopped = _valid_run(states, l0)
+    states = _take(states, run)
+    limits = _charge_limit_points(
+        model, p_hat, states, settings, lambda x: voltage_at_pressure(model, x, p_hat, settings)
     )
+    return Curve("voltage_charge", float(p_hat), states, limits, starts, stopped, settings.rtol)
 
 
 def curves_csv(curves) -> str:
