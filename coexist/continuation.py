@@ -1220,12 +1220,28 @@ class StableSegment:
         corr = correct(self.tracer.system, Z, n, phis * w, w, chord=True)
         out = []
         index = self.points[0].index
+        failed = np.flatnonzero(~corr.ok)
+        retry = None
+        if failed.size:
+            # just inside an end at the onset of wrinkling a Newton iterate can step past the onset and be
+            # refused; the formally continued equations are smooth there, and a converged state whose
+            # tensions are all positive is a taut equilibrium like any other
+            retry = correct(self.tracer.system, Z[failed], n[failed], phis[failed] * w, w, chord=True, formal=True)
         for i in range(phis.size):
-            if not corr.ok[i]:
+            if corr.ok[i]:
+                out.append(make_equilibrium(self.tracer.system, corr.res, corr.rows[i], index))
+                continue
+            k = int(np.searchsorted(failed, i))
+            eq = None
+            if retry is not None and retry.ok[k]:
+                eq = make_equilibrium(self.tracer.system, retry.res, retry.rows[k], index)
+                if not min(eq.min_tension) > 0:
+                    eq = None
+            if eq is None:
                 raise SolverError(
                     f"{self.label}: no converged state at Φ̂ = {phis[i]:.10g} on its stable segment ({corr.reason[i]})"
                 )
-            out.append(make_equilibrium(self.tracer.system, corr.res, corr.rows[i], index))
+            out.append(eq)
         return out
 
     def matches(self, eq: Equilibrium, tol: float = 1e-6) -> bool:
