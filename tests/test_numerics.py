@@ -739,3 +739,23 @@ def test_fast_cubic_roots_of_a_derivative_equal_scipys():
             assert got.shape == want.shape
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
         np.testing.assert_allclose(fast.roots(), ref.roots(extrapolate=False), rtol=0, atol=1e-12)
+
+
+def test_chebyshev_extremum_stops_after_one_round_when_the_interpolant_is_resolved():
+    """On a narrow bracket (a curve's grid spacing) the degree-8 interpolant of ``sin`` is resolved: one
+    call of ``g``, the maximum located to 1e-10; on a wide bracket it is not, and more rounds follow to
+    the same accuracy. An extremum near the edge of resolution (``cos(40x)``) is still right."""
+    from coexist.numerics.roots import chebyshev_extremum
+
+    for lo, hi, rounds in ((1.55, 1.60, 1), (0.2, 3.0, 2)):
+        calls = []
+
+        def g(x, calls=calls):
+            calls.append(x.size)
+            return np.sin(x)
+
+        x, v = chebyshev_extremum(g, [lo], [hi], [True], ftol=1e-14, xtol=1e-10)
+        assert abs(x[0] - np.pi / 2) <= 1e-10 and abs(v[0] - 1.0) <= 1e-14
+        assert (len(calls) == 1) if rounds == 1 else (len(calls) >= 2)
+    x, v = chebyshev_extremum(lambda x: np.cos(40 * x), [-0.05], [0.06], [True], ftol=1e-14, xtol=1e-12)
+    assert abs(x[0]) <= 1e-10 and abs(v[0] - 1.0) <= 1e-14

@@ -325,7 +325,10 @@ def chebyshev_extremum(
 
     Each round evaluates ``g`` at ``nodes`` Chebyshev points of every open bracket (one call for all),
     takes the extremum of the interpolant of degree ``nodes − 1`` (a root of its derivative, or a node),
-    and shrinks the bracket 16-fold around it.
+    and shrinks the bracket 16-fold around it. A bracket is done after one round when the interpolant
+    is resolved: its last two Chebyshev coefficients (which bound its error) are below ``ftol`` of the
+    value, and the location error they imply (``n² · tail / half-width`` in the slope, over ``|g''|``) is
+    below ``xtol``; otherwise, when the extremum's value stops changing between rounds.
 
     Parameters
     ----------
@@ -386,7 +389,20 @@ def chebyshev_extremum(
             x_star[i] = cand[np.argmax(cv)]
             g_star[i] = sign[i] * cv.max()
             width = b[i] - a[i]
-            if abs(g_star[i] - g_prev[i]) <= ftol * max(1.0, abs(g_star[i])) or width <= xtol * abs(x_star[i]):
+            # converged interpolant: its last two Chebyshev coefficients bound its error in g (value) and,
+            # through g'' at the extremum, in the location (the derivative's error is ≲ n² tail / half-width)
+            tail = abs(cheb.coef[-1]) + abs(cheb.coef[-2])
+            curvature = abs(float(cheb.deriv(2)(x_star[i])))
+            resolved = (
+                tail <= ftol * max(1.0, abs(g_star[i]))
+                and curvature > 0
+                and nodes**2 * tail / (0.5 * width) <= curvature * xtol * abs(x_star[i])
+            )
+            if (
+                resolved
+                or abs(g_star[i] - g_prev[i]) <= ftol * max(1.0, abs(g_star[i]))
+                or width <= xtol * abs(x_star[i])
+            ):
                 open_[i] = False
             g_prev[i] = g_star[i]
             half = max(width / 16, xtol * abs(x_star[i]))
