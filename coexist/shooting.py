@@ -496,16 +496,27 @@ class _Integrators:
         fun = getattr(self, kind)
         if n > CASADI_BATCH_LIMIT:
             return _int.NumpyStepper(fun)
+        from .numerics.compiled import compiled, load_cached
+
+        rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
+        name, key = f"coexist_dop853_{kind}", _attempts_key(self.model, kind)
         st = self._casadi.get(kind)
         if st is None:
-            rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
-            key = _attempts_key(self.model, kind)
+            # compiled by an earlier process, else CasADi's graph (deserialised, or built and kept)
+            step = None if key is None else load_cached(name, key, f"dop853_{kind}")
+            self._casadi[("stepper uses", kind)] = COMPILE_AFTER if step is not None else 0
 
             def make():
                 return _int.casadi_step_function(self._casadi_rhs(kind), rows, f"dop853_{kind}")
 
-            step = make() if key is None else cache.casadi_function(f"coexist_dop853_{kind}", key, make)
+            if step is None:
+                step = make() if key is None else cache.casadi_function(name, key, make)
             st = self._casadi[kind] = _int.CasadiStepper(step, fun, rows)
+        uses = self._casadi[("stepper uses", kind)] = self._casadi[("stepper uses", kind)] + 1
+        if uses == COMPILE_AFTER:  # used often in this process: worth compiling once per machine
+            fast = compiled(st._step, name, key=key)
+            if fast is not None:
+                st = self._casadi[kind] = _int.CasadiStepper(fast, fun, rows)
         return st
 
     def _casadi_rhs(self, kind):

@@ -173,6 +173,48 @@ def not_a_knot_basis(x: np.ndarray) -> np.ndarray:
     return basis
 
 
+def _solve_not_a_knot(A: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Solve the tridiagonal not-a-knot system ``A m = r`` (``r`` with many columns) by elimination.
+
+    The first and last rows (the not-a-knot conditions) are not diagonally dominant; eliminating ``m0``
+    from the second row with the first (and ``m_{n−1}`` from the last but one with the last) leaves a
+    strictly diagonally dominant tridiagonal system for ``m1 … m_{n−2}`` (its first row
+    ``(h0 + h1) m1 + h0 m2``), which the Thomas algorithm solves stably without pivoting; ``m0`` and
+    ``m_{n−1}`` follow from the end rows. Written out rather than through LAPACK because a multithreaded
+    BLAS spent 0.1 s per call starting its threads, on the first splines of every process.
+    """
+    n = A.shape[0]
+    lower = np.array([A[i, i - 1] for i in range(1, n - 1)])  # sub-diagonal of rows 1 … n−2
+    diag = np.array([A[i, i] for i in range(1, n - 1)])
+    upper = np.array([A[i, i + 1] for i in range(1, n - 1)])
+    rhs = r[1 : n - 1].copy()
+    # eliminate m0 (row 0: A00 m0 + A01 m1 = r0) from row 1, and m_{n−1} from row n−2
+    f = A[1, 0] / A[0, 0]
+    diag[0] -= f * A[0, 1]
+    rhs[0] -= f * r[0]
+    f = A[n - 2, n - 1] / A[n - 1, n - 1]
+    diag[-1] -= f * A[n - 1, n - 2]
+    rhs[-1] -= f * r[n - 1]
+    k = n - 2
+    c = np.empty(k)
+    d = np.empty_like(rhs)
+    c[0] = upper[0] / diag[0]
+    d[0] = rhs[0] / diag[0]
+    for i in range(1, k):
+        denom = diag[i] - lower[i] * c[i - 1]
+        c[i] = upper[i] / denom
+        d[i] = (rhs[i] - lower[i] * d[i - 1]) / denom
+    inner = np.empty_like(rhs)
+    inner[-1] = d[-1]
+    for i in range(k - 2, -1, -1):
+        inner[i] = d[i] - c[i] * inner[i + 1]
+    m = np.empty_like(r)
+    m[1 : n - 1] = inner
+    m[0] = (r[0] - A[0, 1] * inner[0]) / A[0, 0]
+    m[n - 1] = (r[n - 1] - A[n - 1, n - 2] * inner[-1]) / A[n - 1, n - 1]
+    return m
+
+
 def _not_a_knot_coefficients(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     """``PPoly`` coefficients (4, n − 1, m) of the not-a-knot splines through the columns of ``y`` (n, m)."""
     n = x.size
@@ -193,7 +235,7 @@ def _not_a_knot_coefficients(x: np.ndarray, y: np.ndarray) -> np.ndarray:
     d = h[-1] + h[-2]
     A[-1, -1], A[-1, -2] = h[-2], d
     r[-1] = (h[-1] ** 2 * delta[-2] + (2 * d + h[-1]) * h[-2] * delta[-1]) / d
-    m = np.linalg.solve(A, r)
+    m = _solve_not_a_knot(A, r)
     hh = h[:, None]
     t = (m[:-1] + m[1:] - 2 * delta) / hh
     return np.stack([t / hh, (delta - m[:-1]) / hh - t, m[:-1], y[:-1]])
