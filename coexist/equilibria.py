@@ -144,6 +144,7 @@ class GroupStates:
     max_field: np.ndarray
     min_tension: np.ndarray
     status: np.ndarray
+    wrinkled_fraction: np.ndarray
 
     @property
     def ok(self) -> np.ndarray:
@@ -221,6 +222,7 @@ def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: boo
         max_field=shaped(st.max_field),
         min_tension=shaped(st.min_tension),
         status=status,
+        wrinkled_fraction=shaped(st.wrinkled_fraction),
     )
 
 
@@ -626,6 +628,9 @@ class Equilibrium:
         Largest entry of the residual ``r`` at the reported state: the pressure balance ``p̂1 − p̂_gas`` and
         the divided differences ``(p̂_{j+1} − p̂_j)/(u_{j+1} − u_j)`` (units of ``dp̂/du``); converged states
         have it below ``residual_tol (1 + p̂)``.
+    wrinkled_fraction : tuple
+        Per group, the reference area fraction of its hoop-wrinkled region (tension-field models; empty
+        for a model that refuses wrinkling).
     """
 
     configuration: Configuration
@@ -643,6 +648,7 @@ class Equilibrium:
     zone_index: tuple
     residual: float
     notes: list = field(default_factory=list)
+    wrinkled_fraction: tuple = ()
 
     @property
     def zones(self) -> int:
@@ -823,4 +829,5 @@ def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> 
         eigenvalues=eig,
         zone_index=idx,
         residual=float(np.max(np.abs(res.r[i]))) if res.r.size else 0.0,
+        wrinkled_fraction=tuple(float(x) for x in st.wrinkled_fraction[i, order]) if system.model.tension_field else (),
     )

@@ -40,6 +40,8 @@ from .numerics.codegen import numpy_module_source
 #: constant factors of the quadratures V̂, Q̂, Ψ̂, ẑ: the right-hand side integrates V̂/π, Q̂/2π,
 #: Ψ̂/2π and ẑ (one multiplication fewer per stage each), the shooting multiplies them back
 QUADRATURE_FACTORS = (math.pi, 2 * math.pi, 2 * math.pi, 1.0)
+#: what a state whose hoop tension would turn negative is (:attr:`MembraneModel.wrinkling`)
+WRINKLING_MODES = ("refuse", "tension-field")
 
 
 @dataclass(frozen=True)
@@ -55,11 +57,16 @@ class MembraneModel:
     prestretch : float
         Equibiaxial prestretch ``λpre ≥ 1`` of the clamped membrane; the rim condition is
         ``λ2(1) = λpre``, lengths stay normalised by the unstretched radius ``A``.
+    wrinkling : {"refuse", "tension-field"}
+        What a state whose hoop tension would turn negative is: ``"refuse"`` (no state, status
+        ``wrinkling``) or ``"tension-field"`` (the membrane wrinkles across the hoop direction and carries
+        the relaxed energy there, docs/physics.md section 10; :mod:`coexist.wrinkling`). The wrinkled
+        segments' functions are generated only for ``"tension-field"``.
 
     Raises
     ------
     SceneError
-        If ``prestretch`` is not a finite number ``≥ 1``.
+        If ``prestretch`` is not a finite number ``≥ 1`` or ``wrinkling`` is not one of the two.
 
     Notes
     -----
@@ -72,6 +79,7 @@ class MembraneModel:
     elasticity: Elasticity = field(default_factory=NeoHookean)
     electrostatics: Electrostatics = field(default_factory=IdealDielectric)
     prestretch: float = 1.0
+    wrinkling: str = "refuse"
     _built: dict = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self):
@@ -93,6 +101,10 @@ class MembraneModel:
             object.__setattr__(self, "prestretch", validation.real(self.prestretch, "prestretch", lo=1.0))
         except SceneError as exc:
             raise SceneError(f"prestretch {exc.message}", "prestretch") from None
+        if self.wrinkling not in WRINKLING_MODES:
+            raise SceneError(
+                f"wrinkling must be one of {', '.join(map(repr, WRINKLING_MODES))}, not {self.wrinkling!r}", "wrinkling"
+            )
         object.__setattr__(self, "_built", _numeric(self))
 
     # --- description -------------------------------------------------------------------------
@@ -104,7 +116,14 @@ class MembraneModel:
             names.append(f"electrostatics:{self.electrostatics.name}")
         if self.prestretch != 1.0:
             names.append("prestretch")
+        if self.tension_field:
+            names.append("wrinkling:tension-field")
         return names
+
+    @property
+    def tension_field(self) -> bool:
+        """Whether wrinkled states are relaxed by tension-field theory (``wrinkling="tension-field"``)."""
+        return self.wrinkling == "tension-field"
 
     @property
     def has_voltage(self) -> bool:
@@ -122,6 +141,7 @@ class MembraneModel:
         """
         out = dict(self.elasticity.describe())
         out["prestretch"] = self.prestretch
+        out["wrinkling"] = self.wrinkling
         out["effects"] = self.effects
         return out
 
@@ -273,6 +293,73 @@ class MembraneModel:
         """
         return self._built["series"](l0, p_trial, phi, R0)
 
+    # --- hoop-wrinkled segments (tension-field models only) --------------------------------------
+    def _wrinkled(self, name: str):
+        if name not in self._built:
+            raise ValueError(
+                f"this model refuses wrinkled states (wrinkling={self.wrinkling!r}); {name} needs 'tension-field'"
+            )
+        return self._built[name]
+
+    def wrinkled_rhs(self, R, l1, rho, theta, p, phi, width):
+        """Right-hand side of a hoop-wrinkled segment, ``(λ1', ρ', θ', V̂'/π, Q̂'/2π, Ψ̂'/2π, ẑ', w')``.
+
+        ``λ1' = −T̂1/(R̂K)``, ``ρ' = (λ1 cos θ − ρ)/R̂``, ``θ' = p̂λ1ρ/T̂1`` with the tensions and
+        ``K = T̂11 − T̂12²/T̂22`` at the natural width ``w`` (``T̂2(λ1, w) = 0``); the quadratures use the
+        geometric hoop stretch ``ρ`` (volume, height) and the material one ``w`` (charge, energy).
+        ``w' = −(T̂12/T̂22) λ1'``. Only for a tension-field model.
+
+        Parameters
+        ----------
+        R, l1, theta, p, phi : float or ndarray
+            As for :meth:`rhs`.
+        rho : float or ndarray
+            Geometric hoop stretch ``ρ = r̂/R̂``.
+        width : float or ndarray
+            The natural width ``w = λ2*(λ1; Φ̂)`` (:func:`coexist.wrinkling.natural_width`).
+
+        Returns
+        -------
+        tuple of 8 float or ndarray
+        """
+        return self._wrinkled("wrinkled_rhs")(R, l1, rho, theta, p, phi, width)
+
+    def wrinkled_rhs_sensitivities(self, R, l1, rho, theta, p, phi, width, s_l0, s_phi):
+        """:meth:`wrinkled_rhs` with the variational equations (total derivatives through ``w``).
+
+        Returns 18 rows: the seven of :meth:`wrinkled_rhs`, then ``d/dR̂ ∂(λ1, ρ, θ, V̂/π, Q̂/2π)/∂λ0``,
+        the same for ``Φ̂`` (``S' = J S`` and ``S' = J S + ∂f/∂Φ̂`` with ``J = ∂f/∂(λ1, ρ, θ)`` at
+        ``w = w(λ1, Φ̂)``), then ``w'``.
+
+        Parameters
+        ----------
+        R, l1, rho, theta, p, phi, width : float or ndarray
+            As for :meth:`wrinkled_rhs`.
+        s_l0, s_phi : sequence of 3 ndarray
+            ``∂(λ1, ρ, θ)/∂λ0`` and ``∂(λ1, ρ, θ)/∂Φ̂`` at fixed ``R̂``.
+
+        Returns
+        -------
+        tuple of 18 float or ndarray
+        """
+        return self._wrinkled("wrinkled_rhs_sens")(R, l1, rho, theta, p, phi, width, *s_l0, *s_phi)
+
+    def wrinkle_aux(self, l1, l2, phi=0.0):
+        """``(∂T̂2/∂Φ̂, K, dw/dλ1, dw/dΦ̂)`` at ``(λ1, λ2)``; the last three mean something at ``λ2 = w``.
+
+        ``K = T̂11 − T̂12²/T̂22`` (``dT̂1/dλ1`` along the natural width: ``K > 0`` or the wrinkled membrane
+        pulls in), ``dw/dλ1 = −T̂12/T̂22``, ``dw/dΦ̂ = −(∂T̂2/∂Φ̂)/T̂22``. Only for a tension-field model.
+
+        Parameters
+        ----------
+        l1, l2, phi : float or ndarray
+
+        Returns
+        -------
+        tuple of 4 float or ndarray
+        """
+        return self._wrinkled("wrinkle_aux")(l1, l2, phi)
+
     @property
     def casadi_functions(self) -> dict:
         """The CasADi functions the numpy code is generated from (``rhs``, ``rhs_sens``, ``aux``, ...)."""
@@ -394,6 +481,9 @@ def _build(model: MembraneModel) -> dict:
     aux = ca.Function("membrane_aux", [l1, l2, phi], [T1, T2, T11, T12, margin, E, T22])
     energy = ca.Function("membrane_energy", [l1, l2, phi], [W])
     pole = ca.Function("membrane_pole", [l0, phi], [sub(T1), sub(T11), sub(T12), sub(W), sub(q)])
+    casadi_fns = {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole, "rhs_sens": rhs_sens, "series": series}
+    if model.tension_field:
+        casadi_fns.update(_wrinkled_functions(R, l1, l2, th, p, phi, W, T1, T2, T11, T12, T22, q))
     return {
         "symbols": {
             "l1": l1,
@@ -411,7 +501,71 @@ def _build(model: MembraneModel) -> dict:
             "E": E,
             "rhs": ca.vertcat(dl1, dl2, dth, dV, dQ, dPsi, dz),
         },
-        "casadi": {"rhs": rhs, "aux": aux, "energy": energy, "pole": pole, "rhs_sens": rhs_sens, "series": series},
+        "casadi": casadi_fns,
+    }
+
+
+def _wrinkled_functions(R, l1, l2, th, p, phi, W, T1, T2, T11, T12, T22, q) -> dict:
+    """The CasADi functions of a hoop-wrinkled segment (docs/physics.md section 10).
+
+    The material hoop stretch is the natural width ``w = λ2*(λ1; Φ̂)`` (``T̂2(λ1, w) = 0``), an input
+    here (:mod:`coexist.wrinkling` solves for it); ``ρ = r̂/R̂`` is the geometric hoop stretch. With
+    ``K = T̂11 − T̂12²/T̂22`` at ``(λ1, w)``:
+
+    ``λ1' = −T̂1/(R̂K)``, ``ρ' = (λ1 cos θ − ρ)/R̂``, ``θ' = p̂ λ1 ρ / T̂1``, ``V̂'/π = (ρR̂)² λ1 sin θ``,
+    ``Q̂'/2π = q̂(λ1, w) R̂``, ``Ψ̂'/2π = W*(λ1, w) R̂``, ``ẑ' = λ1 sin θ``, and ``w' = (dw/dλ1) λ1'``
+    (the width's own row, a starting guess for its Newton polish) with ``dw/dλ1 = −T̂12/T̂22``,
+    ``dw/dΦ̂ = −(∂T̂2/∂Φ̂)/T̂22``. The variational equations use total derivatives through ``w``.
+    """
+    w, rho = ca.SX.sym("w"), ca.SX.sym("rho")
+
+    def at_w(expr):
+        return ca.substitute(expr, l2, w)
+
+    T1w, T2w, T11w, T12w, T22w, Ww, qw = (at_w(x) for x in (T1, T2, T11, T12, T22, W, q))
+    T2_phi = ca.jacobian(T2, phi)
+    K = T11w - T12w * T12w / T22w
+    c, s = ca.cos(th), ca.sin(th)
+    dl1 = -T1w / (R * K)
+    drho = (l1 * c - rho) / R
+    dth = p * l1 * rho / T1w
+    dV = (rho * R) ** 2 * l1 * s
+    dQ = qw * R
+    dPsi = Ww * R
+    dz = l1 * s
+    dw_dl1 = -T12w / T22w
+    dw_dphi = -at_w(T2_phi) / T22w
+    dw = dw_dl1 * dl1
+    rows = ca.vertcat(dl1, drho, dth, dV, dQ)
+    x = ca.vertcat(l1, rho, th)
+    J_w = ca.jacobian(rows, w)
+    J_x = ca.jacobian(rows, x) + ca.horzcat(J_w * dw_dl1, ca.SX.zeros(5, 2))
+    J_phi = ca.jacobian(rows, phi) + J_w * dw_dphi
+    s_l0 = [ca.SX.sym(f"s_l0_{n}") for n in ("l1", "rho", "theta")]
+    s_phi = [ca.SX.sym(f"s_phi_{n}") for n in ("l1", "rho", "theta")]
+    ds_l0 = ca.mtimes(J_x, ca.vertcat(*s_l0))
+    ds_phi = ca.mtimes(J_x, ca.vertcat(*s_phi)) + J_phi
+    args = [R, l1, rho, th, p, phi, w]
+    state = [dl1, drho, dth, dV, dQ, dPsi, dz]
+    return {
+        "wrinkled_rhs": ca.Function("wrinkled_rhs", args, [ca.densify(x) for x in (*state, dw)]),
+        "wrinkled_rhs_sens": ca.Function(
+            "wrinkled_rhs_sensitivities",
+            [*args, *s_l0, *s_phi],
+            [
+                *(ca.densify(x) for x in state),
+                *ca.vertsplit(ca.densify(ds_l0)),
+                *ca.vertsplit(ca.densify(ds_phi)),
+                ca.densify(dw),
+            ],
+        ),
+        # at any (λ1, λ2): ∂T̂2/∂Φ̂ (the hoop tension's voltage slope, for the switch's saltation), and at
+        # λ2 = w: K = dT̂1/dλ1 along the natural width, dw/dλ1, dw/dΦ̂
+        "wrinkle_aux": ca.Function(
+            "wrinkle_aux",
+            [l1, l2, phi],
+            [ca.densify(x) for x in (T2_phi, *(ca.substitute(x, w, l2) for x in (K, dw_dl1, dw_dphi)))],
+        ),
     }
 
 
@@ -424,6 +578,12 @@ _NUMPY_FUNCTIONS = (
     ("aux", "aux", False),
     ("energy", "energy", False),
     ("pole", "pole", False),
+)
+#: generated only for a tension-field model (:func:`_wrinkled_functions`)
+_WRINKLED_NUMPY_FUNCTIONS = (
+    ("wrinkled_rhs", "wrinkled_rhs", False),
+    ("wrinkled_rhs_sens", "wrinkled_rhs_sens", False),
+    ("wrinkle_aux", "wrinkle_aux", False),
 )
 #: the library's source files that determine the generated numpy code (part of its cache key)
 _GENERATOR_SOURCES = ("model.py", "effects.py", "numerics/codegen.py")
@@ -451,6 +611,7 @@ def model_cache_key(model: MembraneModel) -> str | None:
         "membrane_model",
         tuple(f"{type(e).__qualname__}:{e!r}" for e in effects),
         repr(float(model.prestretch)),
+        model.wrinkling,
         cache.source_digest(_GENERATOR_SOURCES),
     )
 
@@ -459,9 +620,11 @@ def _numeric(model: MembraneModel) -> dict:
     """The numpy functions of ``model``, generated from its CasADi functions, or loaded from the disk
     cache when an earlier process generated them."""
 
+    functions = _NUMPY_FUNCTIONS + (_WRINKLED_NUMPY_FUNCTIONS if model.tension_field else ())
+
     def source() -> str:
         fns = model._symbolic()["casadi"]
-        return numpy_module_source((name, fns[c], into) for name, c, into in _NUMPY_FUNCTIONS)
+        return numpy_module_source((name, fns[c], into) for name, c, into in functions)
 
     key = model_cache_key(model)
     if key is None:
@@ -469,11 +632,15 @@ def _numeric(model: MembraneModel) -> dict:
         exec(compile(source(), "<coexist generated membrane model>", "exec"), namespace)
     else:
         namespace = cache.python_module("membrane_model", key, source)
-    return {name: namespace[name] for name, _, _ in _NUMPY_FUNCTIONS}
+    return {name: namespace[name] for name, _, _ in functions}
 
 
 def build_model(
-    material: str = "neo-hookean", jlim: float | None = None, voltage: bool = True, prestretch: float = 1.0
+    material: str = "neo-hookean",
+    jlim: float | None = None,
+    voltage: bool = True,
+    prestretch: float = 1.0,
+    wrinkling: str = "refuse",
 ) -> MembraneModel:
     """Convenience constructor from plain values (what the command line uses).
 
@@ -488,6 +655,8 @@ def build_model(
         (:class:`~coexist.effects.NoElectrostatics`).
     prestretch : float
         Equibiaxial prestretch ``λpre ≥ 1``.
+    wrinkling : {"refuse", "tension-field"}
+        See :class:`MembraneModel`.
 
     Returns
     -------
@@ -504,4 +673,5 @@ def build_model(
         elasticity=material_from_name(material, jlim),
         electrostatics=IdealDielectric() if voltage else NoElectrostatics(),
         prestretch=float(prestretch),
+        wrinkling=wrinkling,
     )

@@ -108,6 +108,8 @@ class Scene:
         ``H`` and ``A`` of the unstretched membrane, in m.
     prestretch : float
         Equibiaxial prestretch ``λpre ≥ 1`` (1: none).
+    wrinkling : str
+        ``"refuse"`` or ``"tension-field"`` (:attr:`coexist.model.MembraneModel.wrinkling`).
     material : str
         ``"neo-hookean"`` or ``"gent"``; ``jlim`` is ``None`` for neo-Hookean.
     breakdown_field : float or None
@@ -148,6 +150,7 @@ class Scene:
     zone_count: int
     jlim: float | None = None
     prestretch: float = DEFAULTS["prestretch"]
+    wrinkling: str = DEFAULTS["wrinkling"]
     breakdown_field: float | None = None
     controlled_pressure: float | None = None
     chamber: Chamber | None = None
@@ -393,6 +396,8 @@ class Scene:
             names.append("electrostatics:ideal-dielectric")
         if self.prestretch != 1.0:
             names.append("prestretch")
+        if self.wrinkling == "tension-field":
+            names.append("wrinkling:tension-field")
         from .effects import Breakdown, GasChamber, PressureReservoir
 
         names.append(f"gas:{GasChamber.name}" if self.chamber is not None else PressureReservoir.name)
@@ -423,7 +428,7 @@ class Scene:
         MembraneModel
             The normalised one-zone model; electrostatics only when the scene has a ``[voltage]``.
         """
-        return _shared_model(self.material, self.jlim, self.voltage is not None, float(self.prestretch))
+        return _shared_model(self.material, self.jlim, self.voltage is not None, float(self.prestretch), self.wrinkling)
 
     def values(self) -> list[tuple[str, str, str]]:
         """Every physical value of the scene as ``(field, value with unit, source)``, source ``"file"`` or
@@ -443,6 +448,7 @@ class Scene:
             ("[membrane].thickness", f"{self.thickness * 1e3:g} mm"),
             ("[membrane].zone_radius", f"{self.zone_radius * 1e3:g} mm"),
             ("[membrane].prestretch", f"{self.prestretch:g}"),
+            ("[membrane].wrinkling", self.wrinkling),
             (
                 "[membrane].breakdown_field",
                 None if self.breakdown_field is None else f"{self.breakdown_field / 1e6:g} MV/m",
@@ -480,6 +486,7 @@ class Scene:
             "thickness_m": self.thickness,
             "zone_radius_m": self.zone_radius,
             "prestretch": self.prestretch,
+            "wrinkling": self.wrinkling,
             "breakdown_field_V_per_m": self.breakdown_field,
         }
         if self.jlim is not None:
@@ -520,10 +527,10 @@ class Scene:
 
 
 @functools.lru_cache(maxsize=32)
-def _shared_model(material: str, jlim: float | None, voltage: bool, prestretch: float):
+def _shared_model(material: str, jlim: float | None, voltage: bool, prestretch: float, wrinkling: str = "refuse"):
     from .model import build_model
 
-    return build_model(material, jlim, voltage=voltage, prestretch=prestretch)
+    return build_model(material, jlim, voltage=voltage, prestretch=prestretch, wrinkling=wrinkling)
 
 
 def _scaled(x, factor):

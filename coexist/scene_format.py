@@ -10,7 +10,9 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
 ============  ===========================================================================================
 [membrane]    ``material`` ("neo-hookean" or "gent"), ``jlim`` (gent only), ``shear_modulus_*``,
               ``relative_permittivity``, ``thickness_*``, ``zone_radius_*`` (all required);
-              ``prestretch`` [1, no prestretch], ``breakdown_field_*`` [absent: no breakdown check]
+              ``prestretch`` [1, no prestretch], ``breakdown_field_*`` [absent: no breakdown check],
+              ``wrinkling`` ["refuse": a state with a compressive hoop tension is no state; or
+              "tension-field": it wrinkles and carries the relaxed energy, coexist.wrinkling]
 [zones]       ``count`` (required), a whole number 1..1000: identical zones sharing one gas and one voltage;
               ``pressure_*``: the gauge pressure held directly when there is no [chamber]
 [chamber]     ``volume_*`` (required), ``closing_pressure_*`` (required, gauge),
@@ -35,6 +37,7 @@ import difflib
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -59,8 +62,9 @@ UNITS = {
 #: properties of the membrane (shear modulus, thickness, zone radius, the permittivity when there is a
 #: voltage, Jlim of a Gent material) and the number of zones are required: a scene never runs on a
 #: value it did not state. ``coexist check`` lists every defaulted value.
-DEFAULTS = {
+DEFAULTS: dict[str, Any] = {
     "prestretch": 1.0,
+    "wrinkling": "refuse",
     "atmospheric_pressure": 101_325.0,
     "start": 0.0,
 }
@@ -86,6 +90,7 @@ SCHEMA = {
         "zone_radius": _Key("length", "positive", "mm"),
         "prestretch": _Key("number", "at_least_one"),
         "breakdown_field": _Key("field", "positive", "MV_per_m"),
+        "wrinkling": _Key("string"),
     },
     "zones": {"count": _Key("integer"), "pressure": _Key("pressure", "positive", "mbar")},
     "chamber": {
@@ -312,6 +317,15 @@ def read_document(doc: dict, source: str) -> dict:
         raise SceneError(
             f"a prestretch of {prestretch:g} locks a Gent membrane with jlim = {jlim:g}", membrane.where("prestretch")
         )
+    wrinkling = optional(membrane, "wrinkling", DEFAULTS["wrinkling"])
+    from .model import WRINKLING_MODES
+
+    if wrinkling not in WRINKLING_MODES:
+        raise SceneError(
+            f"must be one of {', '.join(map(repr, WRINKLING_MODES))}, got {wrinkling!r}"
+            f"{did_you_mean(str(wrinkling), WRINKLING_MODES)}",
+            membrane.where("wrinkling"),
+        )
     count = zones.require("count", "the number of identical zones")
     if not 1 <= count <= MAX_ZONES:
         raise SceneError(f"must be a whole number from 1 to {MAX_ZONES}, got {count}", zones.where("count"))
@@ -327,6 +341,7 @@ def read_document(doc: dict, source: str) -> dict:
         thickness=thickness,
         zone_radius=radius,
         prestretch=prestretch,
+        wrinkling=wrinkling,
         material=material,
         jlim=jlim,
         breakdown_field=membrane.get("breakdown_field"),

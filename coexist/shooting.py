@@ -49,6 +49,10 @@ NOT_FINITE = 16
 FOLDED_BACK = 17
 NO_VOLTAGE = 18
 BELOW_RESOLUTION = 19
+#: tension-field states (coexist.wrinkling): both tensions vanish; no natural width; too many switches
+SLACK = 20
+PULL_IN = 21
+TOO_MANY_SWITCHES = 22
 
 #: a short tag and a sentence for every way a state can fail
 REASONS = {
@@ -77,6 +81,20 @@ REASONS = {
         "out_of_range",
         "the pole stretch is within 5e-9 of the flat membrane: its deviation "
         "from the clamp stretch is below what double precision resolves",
+    ),
+    SLACK: (
+        "slack",
+        "the meridional tension of a wrinkled membrane turns non-positive: it goes slack "
+        "(tension-field theory carries no load there)",
+    ),
+    PULL_IN: (
+        "electromechanical_instability",
+        "a wrinkled segment has no natural width, or dT1/dλ1 along it vanishes: the wrinkled membrane "
+        "loses stability to thinning (pull-in)",
+    ),
+    TOO_MANY_SWITCHES: (
+        "no_equilibrium",
+        "the meridian switches between taut and wrinkled more often than coexist.wrinkling.MAX_SWITCHES",
     ),
 }
 
@@ -297,6 +315,10 @@ class MembraneStates:
         With ``shape=True``: per state an array ``(R̂, r̂, ẑ)`` of the meridian.
     derivatives : StateDerivatives or None
         With ``derivatives=True``: exact first derivatives to ``λ0`` and ``Φ̂``.
+    wrinkled_radii : list or None
+        For a tension-field model (``wrinkling="tension-field"``): per state the hoop-wrinkled intervals
+        ``(R̂start, R̂end)`` of the unit membrane (empty when taut); None for a model that refuses
+        wrinkling. A wrinkled state's ``min_tension`` is 0 (its hoop tension vanishes there).
     """
 
     pole_stretch: np.ndarray
@@ -314,6 +336,17 @@ class MembraneStates:
     steps: np.ndarray
     shapes: list | None = field(default=None, repr=False)
     derivatives: StateDerivatives | None = field(default=None, repr=False)
+    wrinkled_radii: list | None = field(default=None, repr=False)
+
+    @property
+    def wrinkled_fraction(self) -> np.ndarray:
+        """Reference area fraction of the hoop-wrinkled region, ``Σ (R̂end² − R̂start²)`` per state (0 for a
+        taut state; NaN for a failed one, and for every state of a model that refuses wrinkling)."""
+        n = self.status.size
+        if self.wrinkled_radii is None:
+            return np.full(n, np.nan)
+        frac = np.array([sum(b * b - a * a for a, b in w) for w in self.wrinkled_radii], dtype=float)
+        return np.where(self.ok, frac, np.nan)
 
     @property
     def ok(self) -> np.ndarray:
@@ -493,12 +526,17 @@ class _Integrators:
 
     def stepper(self, kind: str, n: int):
         """A stepper for ``n`` trajectories of the right-hand side ``kind``."""
-        fun = getattr(self, kind)
+        rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
+        return self.stepper_of(kind, n, rows, getattr(self, kind), lambda: self._casadi_rhs(kind))
+
+    def stepper_of(self, kind: str, n: int, rows: int, fun, casadi_rhs):
+        """A stepper for ``n`` trajectories of ``rows`` rows: numpy's ``fun(t, y)`` for a large batch, else the
+        whole DOP853 step of the CasADi function ``casadi_rhs()`` (built once per model and ``kind``, cached
+        on disk, compiled after :data:`COMPILE_AFTER` uses in a process)."""
         if n > CASADI_BATCH_LIMIT:
             return _int.NumpyStepper(fun)
         from .numerics.compiled import compiled, load_cached
 
-        rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
         name, key = f"coexist_dop853_{kind}", _attempts_key(self.model, kind)
         st = self._casadi.get(kind)
         if st is None:
@@ -507,7 +545,7 @@ class _Integrators:
             self._casadi[("stepper uses", kind)] = COMPILE_AFTER if step is not None else 0
 
             def make():
-                return _int.casadi_step_function(self._casadi_rhs(kind), rows, f"dop853_{kind}")
+                return _int.casadi_step_function(casadi_rhs(), rows, f"dop853_{kind}")
 
             if step is None:
                 step = make() if key is None else cache.casadi_function(name, key, make)
@@ -718,6 +756,7 @@ def _attempts_key(model: MembraneModel, kind: str) -> str | None:
             "model.py",
             "effects.py",
             "shooting.py",
+            "wrinkling.py",
             "numerics/dop853.py",
             "numerics/dop853_tableau.py",
             "numerics/codegen.py",
@@ -822,6 +861,24 @@ def solve_states(
                 derivatives,
                 formal,
             )
+    wrinkled_radii: list | None = None
+    if model.tension_field and not formal:
+        wrinkled_radii = [[] for _ in range(n)]
+        again = np.flatnonzero(status == WRINKLED)
+        if again.size:
+            from .wrinkling import shoot_relaxed
+
+            with np.errstate(all="ignore"):
+                shots = shoot_relaxed(model, settings, l0[again], phi[again], derivatives)
+            for k in out:
+                out[k][again] = shots.out[k]
+            status[again] = shots.status
+            min_tension[again] = shots.min_tension
+            max_field[again] = shots.max_field
+            steps[again] += shots.steps
+            fail_radius[again] = shots.fail_radius
+            for j, i in enumerate(again):
+                wrinkled_radii[i] = shots.wrinkled_radii[j]
     bad = status != OK
     for k in out:
         out[k][bad] = np.nan
@@ -853,7 +910,74 @@ def solve_states(
         steps=steps,
         shapes=shapes,
         derivatives=deriv,
+        wrinkled_radii=wrinkled_radii,
     )
+
+
+def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool):
+    """The integrator's start at the series radius, and its tolerances, for pole stretches ``l0``.
+
+    Rows ``λ1, λ2, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ`` (then, with ``derivatives``, their sensitivities
+    ``∂(λ1, λ2, θ, V̂/π, Q̂/2π)`` to ``λ0`` and to ``Φ̂``), then ``p̂t`` and ``Φ̂``.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane.
+    settings : SolverSettings
+        Tolerances (``rtol``, ``atol``, the series radius, sensitivity error control).
+    l0, phi : ndarray
+        Pole stretches and voltages, one per state.
+    derivatives : bool
+        With the sensitivity rows.
+
+    Returns
+    -------
+    p_trial : ndarray
+        The trial pressures (:func:`trial_pressure`).
+    y0 : ndarray
+        The rows at ``R̂0 = settings.series_radius``, one column per state.
+    atol : ndarray
+        Absolute tolerance per row and column, from the size of each row at ``R̂ = 1``.
+    rtol : ndarray
+        Relative tolerance per column (``settings.rtol``, raised to what roundoff allows).
+    """
+    p = trial_pressure(model, l0, phi)
+    R0 = settings.series_radius
+    m = l0.size
+    lam_clamp = model.prestretch
+    # series start at the pole (docs/physics.md) and, for the absolute tolerances, the same series
+    # evaluated at R̂ = 1: each trajectory's tolerance then follows the size of its own quantities (a
+    # barely inflated membrane has θ ~ δ, V̂ ~ δ, Ψ̂ ~ δ² for an apex deflection δ, and a fixed
+    # absolute tolerance would swallow them)
+    # (one evaluation for both radii: the generated series costs per call, not per column)
+    both = np.broadcast_arrays(
+        *model.series_start(
+            np.tile(l0, 2), np.tile(p, 2), np.tile(np.broadcast_to(phi, (m,)), 2), np.repeat([R0, 1.0], m)
+        ),
+        np.empty(2 * m),
+    )[:-1]
+    start = [x[:m] for x in both]
+    unit = [x[m:] for x in both]
+    ones = np.ones(m)
+    size = [ones, ones] + [np.abs(unit[i]) for i in range(2, 7)]
+    rows = list(start[:7])
+    if derivatives:
+        rows += list(start[7:17])
+        if settings.sensitivity_error_control:
+            size += [ones, ones] + [np.abs(unit[i]) for i in (9, 10, 11)]
+            size += [np.maximum(np.abs(unit[i]), 1e-30) for i in range(12, 17)]
+        else:
+            # integrated on the steps the states choose: the derivative of the discrete solution
+            size += [np.full(m, np.inf)] * 10
+    rows += [p, phi]
+    size += [ones, ones]
+    y0 = np.vstack(rows)
+    atol = settings.atol * np.maximum(np.vstack(size), 1e-30)
+    # roundoff bounds what can be asked of a barely inflated membrane: its tensions are differences
+    # of O(1) numbers that are O(λ0 − λpre), so their relative precision is ~ε/(λ0 − λpre)
+    rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam_clamp - 1))
+    return p, y0, atol, rtol
 
 
 @dataclass
@@ -885,40 +1009,9 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
     )
     l0, phi, T0 = (a[live] for a in (l0, phi, T0))
     m = live.size
-    p = trial_pressure(model, l0, phi)
     R0 = settings.series_radius
-    # series start at the pole (docs/physics.md) and, for the absolute tolerances, the same series
-    # evaluated at R̂ = 1: each trajectory's tolerance then follows the size of its own quantities (a
-    # barely inflated membrane has θ ~ δ, V̂ ~ δ, Ψ̂ ~ δ² for an apex deflection δ, and a fixed
-    # absolute tolerance would swallow them)
-    # (one evaluation for both radii: the generated series costs per call, not per column)
-    both = np.broadcast_arrays(
-        *model.series_start(
-            np.tile(l0, 2), np.tile(p, 2), np.tile(np.broadcast_to(phi, (m,)), 2), np.repeat([R0, 1.0], m)
-        ),
-        np.empty(2 * m),
-    )[:-1]
-    start = [x[:m] for x in both]
-    unit = [x[m:] for x in both]
-    ones = np.ones(m)
-    size = [ones, ones] + [np.abs(unit[i]) for i in range(2, 7)]
-    rows = list(start[:7])
-    if derivatives:
-        rows += list(start[7:17])
-        if settings.sensitivity_error_control:
-            size += [ones, ones] + [np.abs(unit[i]) for i in (9, 10, 11)]
-            size += [np.maximum(np.abs(unit[i]), 1e-30) for i in range(12, 17)]
-        else:
-            # integrated on the steps the states choose: the derivative of the discrete solution
-            size += [np.full(m, np.inf)] * 10
-    rows += [p, phi]
-    size += [ones, ones]
-    y0 = np.vstack(rows)
+    p, y0, atol, rtol = start_rows(model, settings, l0, phi, derivatives)
     P = y0.shape[0] - 2  # row of the trial pressure; the voltage is the next
-    atol = settings.atol * np.maximum(np.vstack(size), 1e-30)
-    # roundoff bounds what can be asked of a barely inflated membrane: its tensions are differences
-    # of O(1) numbers that are O(λ0 − λpre), so their relative precision is ~ε/(λ0 − λpre)
-    rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam_clamp - 1))
     local_min_T = T0.copy()
     local_max_E = max_field[live].copy()
     local_fail_R = np.full(m, np.nan)

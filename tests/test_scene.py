@@ -64,11 +64,12 @@ def test_minimal_scene_states_every_physical_value_and_defaults_only_the_standar
     assert scene.zone_radius == pytest.approx(0.01) and scene.zone_count == 1
     assert scene.chamber is None and scene.voltage is None and scene.breakdown_field is None
     assert scene.effects() == ["elasticity:neo-hookean", "pressure-control"]
-    assert scene.defaulted == ("[membrane].prestretch",)
+    assert scene.defaulted == ("[membrane].prestretch", "[membrane].wrinkling")
     assert [src for key, _, src in scene.values() if key == "[membrane].prestretch"] == ["default"]
     full = parse_scene(THREE_LINES + "[chamber]\nvolume_ml = 300\nclosing_pressure_mbar = 20\n[voltage]\nstop_kV = 4\n")
     assert set(full.defaulted) == {
         "[membrane].prestretch",
+        "[membrane].wrinkling",
         "[chamber].atmospheric_pressure",
         "[voltage].start",
         "[voltage].step",
@@ -430,6 +431,7 @@ _GOOD = {
     "step": 0.5,
     "values": [0, 1, 2],
     "pressure": 15,
+    "wrinkling": "tension-field",
 }
 #: keys that make a consistent section, where not any subset does
 _NAMES = {

@@ -46,96 +46,9 @@ from scipy.integrate import solve_ivp
 
 from ..model import QUADRATURE_FACTORS, MembraneModel
 from ..shooting import trial_pressure
+from ..wrinkling import natural_width, natural_width_neo_hookean
 
-#: relative Newton step below which the natural width has converged (that step is still taken: the
-#: error left is of the order of its square)
-WIDTH_TOL = 1e-13
-#: iterations of the natural width's safeguarded Newton method before it gives up (no root: NaN)
-WIDTH_MAX_ITER = 200
-
-
-def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
-    """The natural width ``λ2*(λ1; Φ̂)``: the hoop stretch at which the hoop tension vanishes.
-
-    ``T̂2(λ1, λ2*; Φ̂) = ∂W*/∂λ2 = 0`` with ``∂T̂2/∂λ2 > 0`` (a minimum of ``W*`` in ``λ2``), solved by a
-    safeguarded, vectorised Newton method on ``model.tensions`` (``T̂22 = ∂T̂2/∂λ2``). It starts at (or
-    brackets with) ``λ2 = λ1^(−1/2)``, where the elastic hoop tension of any material with
-    ``Ws(I1)`` vanishes, so ``T̂2 = −Φ̂²λ1²λ2 ≤ 0`` there: the root sought is the first upward crossing
-    of ``T̂2`` beyond it. Neo-Hookean: ``λ2* = [λ1²(1 − Φ̂²λ1²)]^(−1/4)``, none for ``Φ̂λ1 ≥ 1``.
-
-    Parameters
-    ----------
-    model : MembraneModel
-        The membrane (its tensions).
-    l1 : float or array_like
-        Meridional stretches ``λ1 > 0``.
-    phi : float or array_like
-        Normalised voltages ``Φ̂``, broadcast against ``l1``.
-    guess : float or array_like, optional
-        Starting values (e.g. the previous width along a meridian); safeguarded, any positive value
-        works.
-
-    Returns
-    -------
-    float or ndarray
-        ``λ2*`` of the broadcast shape (a float for float inputs); NaN where there is no root (at fixed
-        voltage ``W*`` then has no minimum in ``λ2``: electromechanical pull-in).
-    """
-    l1a, phia = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(phi, dtype=float))
-    scalar = l1a.ndim == 0
-    l1a, phia = np.atleast_1d(l1a).astype(float), np.atleast_1d(phia).astype(float)
-    lo = l1a**-0.5  # T̂2(λ1, lo) = −Φ̂²λ1²lo ≤ 0
-    hi = np.full_like(lo, np.inf)
-    x = lo.copy()
-    if guess is not None:
-        g = np.broadcast_to(np.asarray(guess, dtype=float), l1a.shape)
-        x = np.where(np.isfinite(g) & (g > 0), g, x)
-    done = np.zeros(l1a.shape, dtype=bool)
-    with np.errstate(all="ignore"):
-        for _ in range(WIDTH_MAX_ITER):
-            out = model.tensions(l1a, x, phia)
-            T2 = np.broadcast_to(np.asarray(out[1], dtype=float), x.shape)
-            T22 = np.broadcast_to(np.asarray(out[6], dtype=float), x.shape)
-            bad = ~np.isfinite(T2)  # beyond Gent locking: too far
-            hi = np.where(~done & (bad | (T2 > 0)), np.minimum(hi, x), hi)
-            lo = np.where(~done & ~bad & (T2 <= 0), np.maximum(lo, x), lo)
-            step = np.where(bad, np.nan, T2 / T22)
-            new = x - step
-            ok = np.isfinite(new) & (T22 > 0) & (new > lo) & (new < hi)
-            fallback = np.where(np.isfinite(hi), 0.5 * (lo + hi), 2 * lo)
-            new = np.where(ok, new, fallback)
-            conv = ok & (np.abs(step) <= WIDTH_TOL * x)
-            # a bracket below roundoff (the root sits between two neighbouring floats)
-            conv |= np.isfinite(hi) & (hi - lo <= 4 * np.finfo(float).eps * hi)
-            x = np.where(done, x, new)
-            done |= conv
-            if done.all():
-                break
-        out = model.tensions(l1a, x, phia)
-        T22 = np.broadcast_to(np.asarray(out[6], dtype=float), x.shape)
-        x = np.where(done & (T22 > 0), x, np.nan)
-    return float(x[0]) if scalar else x
-
-
-def natural_width_neo_hookean(l1, phi=0.0):
-    """Closed form ``λ2* = [λ1²(1 − Φ̂²λ1²)]^(−1/4)`` of a neo-Hookean membrane (NaN for ``Φ̂λ1 ≥ 1``).
-
-    From ``T̂2 = λ2(1 − Φ̂²λ1²) − λ1⁻²λ2⁻³ = 0``.
-
-    Parameters
-    ----------
-    l1, phi : float or array_like
-        Meridional stretch and normalised voltage.
-
-    Returns
-    -------
-    float or ndarray
-    """
-    l1 = np.asarray(l1, dtype=float)
-    with np.errstate(all="ignore"):
-        s = l1**2 * (1 - np.asarray(phi, dtype=float) ** 2 * l1**2)
-        out = np.where(s > 0, s**-0.25, np.nan)
-    return float(out) if out.ndim == 0 else out
+__all__ = ["RelaxedState", "natural_width", "natural_width_neo_hookean", "shoot_relaxed"]
 
 
 @dataclass

@@ -1,0 +1,607 @@
+"""Shooting through hoop-wrinkled segments: tension-field theory in the vectorised integrator.
+
+A model with ``wrinkling="tension-field"`` (:class:`~coexist.model.MembraneModel`) does not refuse a
+state whose hoop tension would turn negative: there the membrane wrinkles across the hoop direction,
+carries no hoop tension, and its material hoop stretch is the *natural width* ``w = λ2*(λ1; Φ̂)``, the
+root of ``T̂2(λ1, w) = 0`` (docs/physics.md, section 10). :func:`coexist.shooting.solve_states` shoots
+every state as a taut membrane first; the states it finds wrinkled are shot again here, from the pole
+to the clamp, by the same DOP853 integrator (:mod:`coexist.numerics.dop853`), all columns at once:
+
+* a *taut* segment integrates the membrane equations (:meth:`~coexist.model.MembraneModel.rhs`) until
+  the hoop tension ``T̂2(λ1, λ2)`` falls to zero (located within the step to roundoff, including a dip
+  to zero between two nodes); the segment then turns *wrinkled*, with ``ρ = λ2`` and ``w = λ2`` there;
+* a *wrinkled* segment integrates :meth:`~coexist.model.MembraneModel.wrinkled_rhs` (``R̂T̂1`` constant,
+  ``θ' = p̂λ1ρ/T̂1``, ``ρ`` the geometric hoop stretch), its width polished by Newton's method on
+  ``T̂2(λ1, w) = 0`` from a row that integrates ``w' = (dw/dλ1) λ1'``, until the gap ``w − ρ`` closes
+  (taut again, ``λ2 = ρ``);
+* either ends where the geometric hoop stretch reaches the clamp's, ``ρ = λpre``, at ``R̂*``; the
+  ``R̂ → cR̂, p̂ → p̂/c`` scaling then gives the unit membrane, as for taut states.
+
+``λ1, ρ, θ`` and the quadratures are continuous at a switch; ``λ1'`` is not, so the sensitivities
+(the variational equations, for exact derivatives to ``λ0`` and ``Φ̂``) jump by the saltation
+``S⁺ = S⁻ + (f⁻ − f⁺) dτ/da``, ``dτ/da = −(∇g·S⁻ + ∂g/∂a)/(∇g·f⁻)`` for the switching function ``g``.
+
+Failures are named: ``slack`` (the meridional tension falls to zero: both tensions vanish), ``pull-in``
+(no natural width, or ``K = dT̂1/dλ1`` along it falls to zero), Gent locking, folding back, and more than
+:data:`MAX_SWITCHES` switches.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import shooting as sh
+from .model import QUADRATURE_FACTORS, MembraneModel
+from .numerics import dop853 as _int
+from .numerics.roots import bracketed_root
+from .settings import SolverSettings
+
+#: most switches between taut and wrinkled along one meridian
+MAX_SWITCHES = 8
+#: relative Newton step below which the natural width has converged
+WIDTH_TOL = 1e-13
+#: iterations of the natural width's safeguarded Newton method before it gives up (no root: NaN)
+WIDTH_MAX_ITER = 200
+#: Newton steps polishing the integrated width at every right-hand side evaluation (the row is
+#: accurate to the integration tolerance, so one step leaves its square; the second is roundoff)
+WIDTH_POLISH = 2
+#: relative location of a switch or of the clamp within its step
+LOCATE_RTOL = 1e-14
+
+#: a wrinkled segment whose stiffness ``K = dT̂1/dλ1`` falls below this fraction of ``T̂11`` pulls in: ``λ1'``
+#: diverges like ``(R̂c − R̂)^(−1/2)`` as ``K → 0``, so the last ``1e-6`` changes the state by ~1e-12
+PULL_IN_TOLERANCE = 1e-9
+
+TAUT, WRINKLED = 0, 1
+_CLAMP, _SWITCH, _DIP = 1, 2, 3
+
+
+def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
+    """The natural width ``λ2*(λ1; Φ̂)``: the hoop stretch at which the hoop tension vanishes.
+
+    ``T̂2(λ1, λ2*; Φ̂) = ∂W*/∂λ2 = 0`` with ``∂T̂2/∂λ2 > 0`` (a minimum of ``W*`` in ``λ2``), solved by a
+    safeguarded, vectorised Newton method on ``model.tensions`` (``T̂22 = ∂T̂2/∂λ2``). It starts at (or
+    brackets with) ``λ2 = λ1^(−1/2)``, where the elastic hoop tension of any material with
+    ``Ws(I1)`` vanishes, so ``T̂2 = −Φ̂²λ1²λ2 ≤ 0`` there: the root sought is the first upward crossing
+    of ``T̂2`` beyond it. Neo-Hookean: ``λ2* = [λ1²(1 − Φ̂²λ1²)]^(−1/4)``, none for ``Φ̂λ1 ≥ 1``.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane (its tensions).
+    l1 : float or array_like
+        Meridional stretches ``λ1 > 0``.
+    phi : float or array_like
+        Normalised voltages ``Φ̂``, broadcast against ``l1``.
+    guess : float or array_like, optional
+        Starting values (e.g. the previous width along a meridian); safeguarded, any positive value
+        works.
+
+    Returns
+    -------
+    float or ndarray
+        ``λ2*`` of the broadcast shape (a float for float inputs); NaN where there is no root (at fixed
+        voltage ``W*`` then has no minimum in ``λ2``: electromechanical pull-in).
+    """
+    l1a, phia = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(phi, dtype=float))
+    scalar = l1a.ndim == 0
+    l1a, phia = np.atleast_1d(l1a).astype(float), np.atleast_1d(phia).astype(float)
+    lo = l1a**-0.5  # T̂2(λ1, lo) = −Φ̂²λ1²lo ≤ 0
+    hi = np.full_like(lo, np.inf)
+    x = lo.copy()
+    if guess is not None:
+        g = np.broadcast_to(np.asarray(guess, dtype=float), l1a.shape)
+        x = np.where(np.isfinite(g) & (g > 0), g, x)
+    done = np.zeros(l1a.shape, dtype=bool)
+    with np.errstate(all="ignore"):
+        for _ in range(WIDTH_MAX_ITER):
+            out = model.tensions(l1a, x, phia)
+            T2 = np.broadcast_to(np.asarray(out[1], dtype=float), x.shape)
+            T22 = np.broadcast_to(np.asarray(out[6], dtype=float), x.shape)
+            bad = ~np.isfinite(T2)  # beyond Gent locking: too far
+            hi = np.where(~done & (bad | (T2 > 0)), np.minimum(hi, x), hi)
+            lo = np.where(~done & ~bad & (T2 <= 0), np.maximum(lo, x), lo)
+            step = np.where(bad, np.nan, T2 / T22)
+            new = x - step
+            ok = np.isfinite(new) & (T22 > 0) & (new > lo) & (new < hi)
+            fallback = np.where(np.isfinite(hi), 0.5 * (lo + hi), 2 * lo)
+            new = np.where(ok, new, fallback)
+            conv = ok & (np.abs(step) <= WIDTH_TOL * x)
+            # a bracket below roundoff (the root sits between two neighbouring floats)
+            conv |= np.isfinite(hi) & (hi - lo <= 4 * np.finfo(float).eps * hi)
+            x = np.where(done, x, new)
+            done |= conv
+            if done.all():
+                break
+        out = model.tensions(l1a, x, phia)
+        T22 = np.broadcast_to(np.asarray(out[6], dtype=float), x.shape)
+        x = np.where(done & (T22 > 0), x, np.nan)
+    return float(x[0]) if scalar else x
+
+
+def natural_width_neo_hookean(l1, phi=0.0):
+    """Closed form ``λ2* = [λ1²(1 − Φ̂²λ1²)]^(−1/4)`` of a neo-Hookean membrane (NaN for ``Φ̂λ1 ≥ 1``).
+
+    From ``T̂2 = λ2(1 − Φ̂²λ1²) − λ1⁻²λ2⁻³ = 0``.
+
+    Parameters
+    ----------
+    l1, phi : float or array_like
+        Meridional stretch and normalised voltage.
+
+    Returns
+    -------
+    float or ndarray
+    """
+    l1 = np.asarray(l1, dtype=float)
+    with np.errstate(all="ignore"):
+        s = l1**2 * (1 - np.asarray(phi, dtype=float) ** 2 * l1**2)
+        out = np.where(s > 0, s**-0.25, np.nan)
+    return float(out) if out.ndim == 0 else out
+
+
+@dataclass
+class RelaxedShots:
+    """What :func:`shoot_relaxed` found for each state (one entry per column), in the trial scaling.
+
+    ``out`` has the keys of the taut shooting's output (``R`` the clamp radius ``R̂*``, ``p`` the trial
+    pressure, ``V, Q, Psi, z`` the quadratures with their factors, and with derivatives ``dR_dl0`` ...);
+    ``wrinkled_radii`` lists per state the hoop-wrinkled intervals ``(R̂start, R̂end)`` of the unit
+    membrane.
+    """
+
+    out: dict
+    status: np.ndarray
+    min_tension: np.ndarray
+    max_field: np.ndarray
+    steps: np.ndarray
+    fail_radius: np.ndarray
+    wrinkled_radii: list = field(default_factory=list)
+
+
+class _Layout:
+    """Rows of the relaxed integration: the taut shooting's rows ``0 … S−1`` (state, sensitivities), the
+    natural width ``W = S``, the trial pressure ``P = S + 1`` and the voltage ``P + 1``."""
+
+    def __init__(self, derivatives: bool):
+        self.derivatives = derivatives
+        self.S = 17 if derivatives else 7
+        self.W = self.S
+        self.P = self.S + 1
+        self.rows = self.S + 3
+
+
+def _polish(model, l1, w, phi, steps=WIDTH_POLISH):
+    """Newton steps on ``T̂2(λ1, w) = 0`` from ``w``; returns ``w`` and the tensions there."""
+    t = model.tensions(l1, w, phi)
+    for _ in range(steps):
+        w = w - t[1] / t[6]
+        t = model.tensions(l1, w, phi)
+    return w, t
+
+
+class _Equations:
+    """The right-hand sides of both kinds of segment, and their switching functions."""
+
+    def __init__(self, model: MembraneModel, lay: _Layout):
+        self.model, self.lay = model, lay
+        self._maps: dict = {}
+
+    def taut(self, R, y):
+        lay, out = self.lay, np.empty_like(y)
+        out[lay.W :] = 0.0
+        if lay.derivatives:
+            self.model.rhs_sensitivities_into(R, y[0], y[1], y[2], y[lay.P], y[lay.P + 1], y[7:10], y[12:15], out)
+        else:
+            self.model.rhs_into(R, y[0], y[1], y[2], y[lay.P], y[lay.P + 1], out)
+        return out
+
+    def wrinkled(self, R, y):
+        lay, out = self.lay, np.empty_like(y)
+        out[lay.P :] = 0.0
+        phi = y[lay.P + 1]
+        w, _ = _polish(self.model, y[0], y[lay.W], phi)
+        if lay.derivatives:
+            vals = self.model.wrinkled_rhs_sensitivities(R, y[0], y[1], y[2], y[lay.P], phi, w, y[7:10], y[12:15])
+        else:
+            vals = self.model.wrinkled_rhs(R, y[0], y[1], y[2], y[lay.P], phi, w)
+        for i, v in enumerate(vals):
+            out[i if i < lay.S else lay.W] = v
+        return out
+
+    def rhs(self, mode):
+        return self.taut if mode == TAUT else self.wrinkled
+
+    def _switching_function(self, mode):
+        """CasADi ``(λ1, λ2 or ρ, θ, w, Φ̂, λ1', λ2' or ρ', w') -> (g, dg/dR̂, T̂1, |Ê|, stiffness, locking
+        margin, w)`` of one node (one call serves all columns: numpy's per-operation cost would dominate)."""
+        store = sh._integrators(self.model)._casadi
+        key = ("relaxed switching", mode)
+        if key not in store:
+            import casadi as ca
+
+            aux = self.model.casadi_functions["aux"]
+            l1, l2, th, w0, phi, f0, f1, fw = (ca.SX.sym(n) for n in ("l1", "l2", "th", "w", "phi", "f0", "f1", "fw"))
+            if mode == TAUT:
+                T1, T2, T11, T12, margin, E, T22 = aux(l1, l2, phi)
+                out = [T2, T12 * f0 + T22 * f1, T1, ca.fabs(E), T11, margin, l2]
+            else:
+                w = w0
+                for _ in range(WIDTH_POLISH):
+                    a = aux(l1, w, phi)
+                    w = w - a[1] / a[6]
+                T1, T2, T11, T12, margin, E, T22 = aux(l1, w, phi)
+                # K relative to T̂11: near K = 0 the meridian's slope λ1' = −T̂1/(R̂K) diverges like an inverse
+                # square root and an integrator creeps towards it; below PULL_IN_TOLERANCE it is pull-in
+                out = [w - l2, fw - f1, T1, ca.fabs(E), (T11 - T12 * T12 / T22) / T11 - PULL_IN_TOLERANCE, margin, w]
+            x = ca.vertcat(l1, l2, th, w0, phi, f0, f1, fw)
+            store[key] = ca.Function("switching", [x], [ca.vertcat(*out)])
+        return store[key]
+
+    def stepper(self, mode, n: int):
+        """DOP853 steps of ``n`` columns in ``mode``: numpy for a large batch, else one CasADi call per step
+        (compiled once per machine), as the taut shooting's small batches."""
+        kind = ("relaxed_taut", "relaxed_wrinkled")[mode] + ("_sens" if self.lay.derivatives else "")
+        return sh._integrators(self.model).stepper_of(
+            kind, n, self.lay.rows, self.rhs(mode), lambda: self._casadi_rhs(mode)
+        )
+
+    def _casadi_rhs(self, mode):
+        import casadi as ca
+
+        lay, f = self.lay, self.model.casadi_functions
+        t, y = ca.SX.sym("t"), ca.SX.sym("y", lay.rows)
+        phi, p = y[lay.P + 1], y[lay.P]
+        sens = (y[7], y[8], y[9], y[12], y[13], y[14]) if lay.derivatives else ()
+        if mode == TAUT:
+            d = f["rhs_sens" if lay.derivatives else "rhs"](t, y[0], y[1], y[2], p, phi, *sens)
+            out = [*d, 0, 0, 0]
+        else:
+            w = y[lay.W]
+            for _ in range(WIDTH_POLISH):
+                aux = f["aux"](y[0], w, phi)
+                w = w - aux[1] / aux[6]
+            d = f["wrinkled_rhs_sens" if lay.derivatives else "wrinkled_rhs"](t, y[0], y[1], y[2], p, phi, w, *sens)
+            out = [*d, 0, 0]
+        return ca.Function("rhs", [t, y], [ca.vertcat(*out)])
+
+    def switching(self, mode, y, f):
+        """The switching function ``g`` (taut: ``T̂2``; wrinkled: ``w − ρ``) and its slope ``dg/dR̂``, with
+        the tensions, the width used and the validity codes of the node."""
+        lay = self.lay
+        n = y.shape[1]
+        fn = self._switching_function(mode)
+        x = np.vstack([y[0], y[1], y[2], y[lay.W], y[lay.P + 1], f[0], f[1], f[lay.W]])
+        mapped = self._maps.get((mode, n))
+        if mapped is None:
+            mapped = self._maps[(mode, n)] = fn.map(n, "serial") if n > 1 else fn
+        g, dg, T1, E, stiff, margin, w = mapped(x).full()
+        code = np.zeros(np.shape(y[0]), dtype=int)
+        code[np.abs(y[2]) > math.pi] = sh.FOLDED_BACK
+        code[~(stiff > 0)] = sh.LOST_ELLIPTICITY if mode == TAUT else sh.PULL_IN
+        code[~(margin > 0)] = sh.LOCKED
+        code[~(T1 > 0)] = sh.SLACK
+        if mode == WRINKLED:
+            code[~np.isfinite(w)] = sh.PULL_IN
+        return g, dg, T1, np.abs(E), code, stiff
+
+
+def _hermite_dip(Ra, ga, da, Rb, gb, db):
+    """Whether the cubic Hermite interpolant of ``g`` on ``[Ra, Rb]`` dips below zero between positive
+    ends (a switch between two nodes)."""
+    interior = (da < 0) & (db > 0) & (ga > 0) & (gb > 0)
+    dip = np.zeros(np.shape(ga), dtype=bool)
+    if interior.any():
+        est = sh.hermite_minimum(Ra[interior], ga[interior], da[interior], Rb[interior], gb[interior], db[interior])
+        dip[interior] = est < 0
+    return dip
+
+
+def shoot_relaxed(model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool = False) -> RelaxedShots:
+    """Shoot the states ``(λ0, Φ̂)`` of a tension-field membrane from the pole to the clamp.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        A model with ``wrinkling="tension-field"``.
+    settings : SolverSettings
+        Tolerances, as for the taut shooting.
+    l0, phi : ndarray
+        Pole stretches (above ``λpre``, with a positive pole tension) and voltages, one per state.
+    derivatives : bool
+        Carry the variational equations (exact derivatives to ``λ0`` and ``Φ̂``).
+
+    Returns
+    -------
+    RelaxedShots
+    """
+    lay = _Layout(derivatives)
+    eqs = _Equations(model, lay)
+    l0 = np.asarray(l0, dtype=float)
+    phi = np.broadcast_to(np.asarray(phi, dtype=float), l0.shape).copy()
+    m = l0.size
+    R0 = settings.series_radius
+    _, y_start, atol_start, rtol = sh.start_rows(model, settings, l0, phi, derivatives)
+    S = lay.S
+    y = np.vstack([y_start[:S], y_start[1:2], y_start[S:]])
+    atol = np.vstack([atol_start[:S], np.full((1, m), np.inf), atol_start[S:]])
+    atol = np.where(np.isfinite(atol), atol, 1e300)
+    R = np.full(m, R0)
+    h = np.full(m, R0)
+    mode = np.zeros(m, dtype=int)
+    status = np.full(m, -1)  # running
+    steps = np.zeros(m, dtype=int)
+    switches = np.zeros(m, dtype=int)
+    T0, *_ = model.pole(l0, phi)
+    min_T = np.broadcast_to(np.asarray(T0, dtype=float), (m,)).copy()
+    max_E = np.abs(np.broadcast_to(np.asarray(model.tensions(l0, l0, phi)[5], dtype=float), (m,))).copy()
+    fail_R = np.full(m, np.nan)
+    wrinkled_from = np.full(m, np.nan)
+    intervals: list[list] = [[] for _ in range(m)]
+    out = {k: np.full(m, np.nan) for k in ("p", "V", "Q", "Psi", "z", "R")}
+    if derivatives:
+        out.update({k: np.full(m, np.nan) for k in ("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi")})
+    # the switching function at the last node of each column (for a dip between nodes)
+    g_node = np.full(m, np.inf)
+    dg_node = np.zeros(m)
+    while (status == -1).any():
+        for md in (TAUT, WRINKLED):
+            cols = np.flatnonzero((status == -1) & (mode == md))
+            if cols.size:
+                _segment(
+                    eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node, dg_node, rtol, atol, settings
+                )
+                _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, rtol, atol)
+    done = status == sh.OK
+    for i in np.flatnonzero(done):
+        Rs = out["R"][i]
+        intervals[i] = [(a / Rs, (b if math.isfinite(b) else Rs) / Rs) for a, b in intervals[i]]
+        if intervals[i]:
+            min_T[i] = 0.0  # the hoop tension vanishes in the wrinkled region
+    fail_radius = np.where(done, np.inf, fail_R / np.where(np.isfinite(out["R"]), out["R"], 1.0))
+    return RelaxedShots(out, status, min_T, max_E, steps, fail_radius, intervals)
+
+
+def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node, dg_node, rtol, atol, settings):
+    """Integrate the columns ``cols`` (all in mode ``md``) until each crosses the clamp or a switch, or fails;
+    on return ``R, y`` of a crossing column hold the last node before the crossing and ``h`` the step that
+    crossed (status ``-2 - kind``)."""
+    _lay, model = eqs.lay, eqs.model
+    lam_clamp = model.prestretch
+    n = cols.size
+    k_cross = np.zeros(n, dtype=int)
+    h_cross = np.full(n, np.nan)
+    R_last = R[cols].copy()
+    y_start = y[:, cols]
+    f0 = eqs.rhs(md)(R_last, y_start)
+    g0, dg0, *_ = eqs.switching(md, y_start, f0)
+    # right after a switch the new segment's function is zero (to roundoff): a fall below it at the first
+    # node is a switch back
+    g_last = np.maximum(g0, 1e-300)
+    dg_last = dg0.copy()
+
+    def event(t_new, y_new, idx, f_new):
+        g, dg, T1, E, code, _ = eqs.switching(md, y_new, f_new)
+        clamp = y_new[1] <= lam_clamp
+        switch = (g <= 0) & (g_last[idx] > 0)
+        dip = ~switch & _hermite_dip(R_last[idx], g_last[idx], dg_last[idx], t_new, g, dg)
+        if md == TAUT:
+            min_T[cols[idx]] = np.minimum(min_T[cols[idx]], np.where(clamp | switch, np.inf, np.minimum(T1, g)))
+        else:
+            min_T[cols[idx]] = np.minimum(min_T[cols[idx]], np.where(clamp | switch, np.inf, T1))
+        max_E[cols[idx]] = np.maximum(max_E[cols[idx]], np.where(clamp | switch, 0.0, E))
+        res = np.full(idx.size, _int.CONTINUE)
+        cross = clamp | switch | dip
+        k_cross[idx[clamp]] = _CLAMP
+        k_cross[idx[~clamp & switch]] = _SWITCH
+        k_cross[idx[~clamp & ~switch & dip]] = _DIP
+        h_cross[idx[cross]] = t_new[cross] - R_last[idx[cross]]
+        res[cross] = _int.CROSSED
+        bad = ~cross & (code != 0)
+        res[bad] = _int.FAILED + code[bad]
+        fail_R[cols[idx[bad]]] = t_new[bad]
+        keep = ~cross
+        R_last[idx[keep]] = t_new[keep]
+        g_last[idx[keep]] = g[keep]
+        dg_last[idx[keep]] = dg[keep]
+        return res
+
+    res = _int.integrate(
+        eqs.stepper(md, n),
+        R[cols],
+        y_start,
+        np.full(n, settings.max_radius_factor),
+        rtol[cols],
+        atol[:, cols],
+        settings.max_steps,
+        event=event,
+        h0=h[cols],
+    )
+    steps[cols] += res.steps
+    R[cols] = res.t
+    y[:, cols] = res.y
+    st = res.status
+    crossed = st == _int.CROSSED
+    status[cols[crossed]] = -2 - k_cross[crossed]
+    h[cols[crossed]] = h_cross[crossed]
+    status[cols[st == _int.REACHED_END]] = sh.NO_CLAMP
+    status[cols[st == _int.STEP_LIMIT]] = sh.STEP_LIMIT
+    failed = st >= _int.FAILED
+    status[cols[failed]] = st[failed] - _int.FAILED
+    g_node[cols] = g_last
+    dg_node[cols] = dg_last
+
+
+def _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, rtol, atol):
+    """Locate the clamp or the switch inside the step that crossed it, then land on the clamp (with the
+    derivatives) or switch the segment (with the saltation of the sensitivities)."""
+    _lay, model = eqs.lay, eqs.model
+    lam_clamp = model.prestretch
+    sel = np.flatnonzero(status[cols] <= -2)
+    if not sel.size:
+        return
+    idx = cols[sel]
+    kind = -2 - status[idx]
+    fun = eqs.rhs(md)
+    stepper = eqs.stepper(md, idx.size)
+    Ra, ya = R[idx], y[:, idx]
+    fa = fun(Ra, ya)
+    hc = h[idx]
+    # every crossing function of the step, at its end: the clamp, and the switch
+    y_end = stepper.step(Ra, ya, fa, hc)[0]
+    f_end = fun(Ra + hc, y_end)
+    g_a, *_ = eqs.switching(md, ya, fa)
+    g_e, *_ = eqs.switching(md, y_end, f_end)
+
+    def at(s, j):
+        ys, fs, _, _ = stepper.step(Ra[j], ya[:, j], fa[:, j], s)
+        return ys, fs
+
+    # a dip: the switching function's minimum inside the step, located first (its slope's root)
+    s_hi = hc.copy()
+    dip = np.flatnonzero(kind == _DIP)
+    if dip.size:
+
+        def slope(s, j):
+            ys, fs = at(s, dip[j])
+            return eqs.switching(md, ys, fs)[1]
+
+        r = bracketed_root(slope, np.zeros(dip.size), hc[dip], xtol=1e-12 * hc[dip], max_iter=60)
+        ys, fs = at(r.x, dip)
+        g_min = eqs.switching(md, ys, fs)[0]
+        real = g_min <= 0
+        s_hi[dip[real]] = r.x[real]
+        kind[dip[real]] = _SWITCH
+        kind[dip[~real]] = 0  # no crossing after all: resume after the step
+        g_e[dip[real]] = g_min[real]
+    # where both the clamp and a switch fall in the step, the first one counts
+    both = np.flatnonzero((kind == _CLAMP) & (g_e <= 0) & (g_a > 0))
+    if both.size:
+
+        def gsw(s, j):
+            ys, fs = at(s, both[j])
+            return eqs.switching(md, ys, fs)[0]
+
+        def gcl(s, j):
+            return at(s, both[j])[0][1] - lam_clamp
+
+        g_lo, g_hi = np.maximum(g_a[both], 1e-300), np.minimum(g_e[both], -1e-300)
+        s_sw = bracketed_root(gsw, 0.0, hc[both], g_lo, g_hi, rtol=LOCATE_RTOL, max_iter=80).x
+        c_hi = np.minimum(y_end[1, both] - lam_clamp, -1e-300)
+        s_cl = bracketed_root(gcl, 0.0, hc[both], ya[1, both] - lam_clamp, c_hi, rtol=LOCATE_RTOL, max_iter=80).x
+        first_switch = s_sw < s_cl
+        kind[both[first_switch]] = _SWITCH
+        s_hi[both[first_switch]] = s_sw[first_switch]
+    # resume the false alarms at the end of their step
+    none = np.flatnonzero(kind == 0)
+    if none.size:
+        R[idx[none]] = Ra[none] + hc[none]
+        y[:, idx[none]] = y_end[:, none]
+        status[idx[none]] = -1
+    for k in (_CLAMP, _SWITCH):
+        j = np.flatnonzero(kind == k)
+        if not j.size:
+            continue
+        if k == _CLAMP:
+
+            def crossing(s, jj, j=j):
+                return at(s, j[jj])[0][1] - lam_clamp
+
+        else:
+
+            def crossing(s, jj, j=j):
+                ys, fs = at(s, j[jj])
+                return eqs.switching(md, ys, fs)[0]
+
+        # the integrator saw the crossing: its ends keep their signs (a re-evaluation may differ by roundoff)
+        if k == _SWITCH:
+            f_lo, f_hi = np.maximum(g_a[j], 1e-300), np.minimum(g_e[j], -1e-300)
+        else:
+            f_lo, f_hi = ya[1, j] - lam_clamp, np.minimum(y_end[1, j] - lam_clamp, -1e-300)
+        r = bracketed_root(crossing, np.zeros(j.size), s_hi[j], f_lo, f_hi, rtol=LOCATE_RTOL, max_iter=80)
+        ys, fs = at(r.x, j)
+        Rs = Ra[j] + r.x
+        if k == _CLAMP:
+            _land(eqs, md, idx[j], Rs, ys, fs, out, status, intervals, wrinkled_from)
+        else:
+            _switch(eqs, md, idx[j], Rs, ys, fs, R, y, h, hc[j], mode, status, switches, wrinkled_from, intervals)
+
+
+def _land(eqs, md, idx, Rs, ys, fs, out, status, intervals, wrinkled_from):
+    """Land on the clamp ``ρ = λpre`` (a Newton correction from the located point) and record the outputs."""
+    lay, model = eqs.lay, eqs.model
+    lam_clamp = model.prestretch
+    d = (ys[1] - lam_clamp) / fs[1]
+    Rc = Rs - d
+    yc = ys - fs * d
+    fc = eqs.rhs(md)(Rc, yc)
+    fV, fQ, fPsi, _ = QUADRATURE_FACTORS
+    out["R"][idx] = Rc
+    out["p"][idx] = yc[lay.P]
+    out["V"][idx] = fV * yc[3]
+    out["Q"][idx] = fQ * yc[4]
+    out["Psi"][idx] = fPsi * yc[5]
+    out["z"][idx] = yc[6]
+    if lay.derivatives:
+        for a, first in (("l0", 7), ("phi", 12)):
+            dR = -yc[first + 1] / fc[1]
+            out[f"dR_d{a}"][idx] = dR
+            out[f"dV_d{a}"][idx] = fV * (yc[first + 3] + fc[3] * dR)
+            out[f"dQ_d{a}"][idx] = fQ * (yc[first + 4] + fc[4] * dR)
+    status[idx] = sh.OK
+    open_ = md == WRINKLED
+    for _i, c in enumerate(idx):
+        if open_:
+            intervals[c].append((wrinkled_from[c], math.inf))
+    return Rc
+
+
+def _switch(eqs, md, idx, Rs, ys, fs, R, y, h, hc, mode, status, switches, wrinkled_from, intervals):
+    """Switch the columns ``idx`` at ``(Rs, ys)`` to the other kind of segment; the sensitivities jump by
+    the saltation (module docstring)."""
+    lay, model = eqs.lay, eqs.model
+    phi = ys[lay.P + 1]
+    new = WRINKLED if md == TAUT else TAUT
+    yn = ys.copy()
+    if md == TAUT:  # at T̂2 = 0 the width is the hoop stretch itself
+        yn[lay.W] = ys[1]
+        _, T2, _, T12, _, _, T22 = model.tensions(ys[0], ys[1], phi)
+        g_phi = model.wrinkle_aux(ys[0], ys[1], phi)[0]
+        grad = (T12, T22)
+    else:  # the gap closes: λ2 = ρ
+        w, _ = _polish(model, ys[0], ys[lay.W], phi)
+        _, _, dw_dl1, dw_dphi = model.wrinkle_aux(ys[0], w, phi)
+        grad = (dw_dl1, -1.0)
+        g_phi = dw_dphi
+    if lay.derivatives:
+        fn = eqs.rhs(new)(Rs, yn)
+        denom = grad[0] * fs[0] + grad[1] * fs[1]
+        for first, g_a in ((7, 0.0), (12, g_phi)):
+            dtau = -(grad[0] * yn[first] + grad[1] * yn[first + 1] + g_a) / denom
+            for r in range(5):
+                yn[first + r] = yn[first + r] + (fs[r] - fn[r]) * dtau
+    R[idx] = Rs
+    y[:, idx] = yn
+    h[idx] = np.maximum(hc, 1e-6 * Rs)  # a switch located at the very start of its step: never a zero step
+    mode[idx] = new
+    switches[idx] += 1
+    status[idx] = np.where(switches[idx] > MAX_SWITCHES, sh.TOO_MANY_SWITCHES, -1)
+    # a new segment whose own switching function falls at once cannot start: the meridian can neither go on
+    # as it was nor change. Where the wrinkled side's stiffness K has (nearly) vanished this is its pull-in
+    # (the observed case: the gap closes where T̂1ʷ has its minimum), else a degenerate switch
+    f_new = eqs.rhs(new)(Rs, yn)
+    _, dg_new, *_ = eqs.switching(new, yn, f_new)
+    stuck = ~(dg_new > 0)
+    if stuck.any():
+        wr_y, wr_f = (ys, fs) if md == WRINKLED else (yn, f_new)
+        stiff = eqs.switching(WRINKLED, wr_y, wr_f)[5] + PULL_IN_TOLERANCE
+        code = np.where(stiff < 1e-3, sh.PULL_IN, sh.TOO_MANY_SWITCHES)
+        status[idx[stuck]] = code[stuck]
+    for i, c in enumerate(idx):
+        if md == TAUT:
+            wrinkled_from[c] = Rs[i]
+        else:
+            intervals[c].append((wrinkled_from[c], Rs[i]))
