@@ -1,0 +1,288 @@
+"""Design sweeps (coexist.sweep): the same numbers serially, on a local process pool and on a Dask cluster;
+interrupted sweeps resume with only the missing points; a dead worker's points are computed again; labelled
+results round-trip through netCDF; bad --vary is exit 2; the design map's headline number.
+
+Every sweep here is a handful of points of the tricircle scene at a coarse voltage step (0.25 kV): the
+transition voltages are events of the continuation and do not depend on the step (tests/test_ramp.py).
+"""
+
+import dataclasses
+import functools
+import json
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from coexist import load_scene
+from coexist.cli.main import cli
+from coexist.labelled import open_dataset, write_netcdf
+from coexist.simulation import Simulation
+from coexist.sweep import evaluate_point, make_spec, run_sweep, sweep
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+#: 2 × 2 points: the paper's closing pressure and 0.1 mbar more, the fitted radius and 0.1 mm less; the ramp
+#: stops at 4.2 kV, past the jump (3.9 kV) and below the bulged zone's wrinkling (4.33 kV)
+VARY = {
+    "chamber.closing_pressure_mbar": [20.0, 20.1],
+    "membrane.zone_radius_mm": [21.4165, 21.3165],
+    "voltage.stop_kV": [4.2],
+    "voltage.step_kV": [0.25],
+}
+
+
+# --- evaluations the tests count, interrupt or crash (module level: the workers import them) --------------
+def counted(counter: str, spec, index):
+    """evaluate_point, appending the index to the file ``counter`` (one line per evaluation, any process)."""
+    with open(counter, "a", encoding="utf-8") as f:
+        f.write(f"{index}\n")
+    return evaluate_point(spec, index)
+
+
+def interrupted(counter: str, stop_after: int, spec, index):
+    """Like counted, but Ctrl-C after ``stop_after`` evaluations."""
+    if Path(counter).exists() and len(Path(counter).read_text().split()) >= stop_after:
+        raise KeyboardInterrupt
+    return counted(counter, spec, index)
+
+
+def dies_once(marker: str, victim: int, spec, index):
+    """The process evaluating point ``victim`` dies (``os._exit``) the first time; later it computes."""
+    if index == victim and not Path(marker).exists():
+        Path(marker).write_text("died")
+        os._exit(17)
+    return evaluate_point(spec, index)
+
+
+def evaluations(counter: Path) -> list:
+    return [int(x) for x in counter.read_text().split()] if counter.exists() else []
+
+
+@pytest.fixture(scope="module")
+def serial():
+    return sweep("tricircle", VARY)
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    distributed = pytest.importorskip("distributed")
+    with (
+        distributed.LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=40
+        ) as lc,
+        distributed.Client(lc) as client,
+    ):
+        yield client
+
+
+def test_serial_sweep_gives_the_readme_jump(serial):
+    """The sweep's point at 20 mbar and 21.4165 mm is the README's jump, 3.900030858 kV ± 5e-9."""
+    ds = serial.to_xarray()
+    at = ds.sel(chamber_closing_pressure_mbar=20.0, membrane_zone_radius_mm=21.4165).squeeze()
+    assert float(at["spinodal_up_kV"]) == pytest.approx(3.900030858, abs=5e-9)
+    assert float(at["spinodal_down_kV"]) == pytest.approx(3.549241, abs=2e-6)
+    assert float(at["hysteresis_kV"]) == pytest.approx(3.900030858 - 3.549241, abs=2e-6)
+    assert float(at["equal_free_energy_kV"]) == pytest.approx(3.580256, abs=2e-6)
+    assert str(at["status"].values) == "bulges" and int(at["bulged_after_jump"]) == 1
+    # a larger zone or a higher closing pressure brings the jump down (README: 1 % moves it by ~0.4 kV)
+    up = ds["spinodal_up_kV"].squeeze()
+    assert float(up.sel(chamber_closing_pressure_mbar=20.1, membrane_zone_radius_mm=21.4165)) < 3.85
+    assert float(up.sel(chamber_closing_pressure_mbar=20.0, membrane_zone_radius_mm=21.3165)) > 3.95
+    assert serial.computed == 4 and serial.reused == 0
+
+
+def test_dask_local_cluster_is_bit_identical_to_serial(serial, cluster):
+    """Two worker processes on a Dask LocalCluster give the serial records bit for bit."""
+    res = sweep("tricircle", VARY, client=cluster, chunk_size=1)
+    assert res.executor == "dask" and res.workers == 2
+    assert res.records == serial.records  # floats compared exactly
+    assert res.to_xarray().identical(serial.to_xarray())
+
+
+def test_dask_worker_killed_mid_sweep_is_retried(serial, cluster, tmp_path):
+    """The worker computing point 2 dies; the scheduler gives the chunk to a worker again and every point
+    ends computed once, with the serial numbers."""
+    marker = tmp_path / "died"
+    evaluate = functools.partial(dies_once, str(marker), 2)
+    res = sweep("tricircle", VARY, client=cluster, chunk_size=1, evaluate=evaluate)
+    assert marker.exists()  # a worker did die
+    assert [r["index"] for r in res.records] == [0, 1, 2, 3]
+    assert res.records == serial.records
+
+
+def test_process_pool_worker_killed_is_retried(serial, tmp_path):
+    """On the local pool a dead worker breaks the pool: it is replaced, the unfinished chunks run again."""
+    marker = tmp_path / "died"
+    res = sweep("tricircle", VARY, workers=2, chunk_size=1, evaluate=functools.partial(dies_once, str(marker), 1))
+    assert marker.exists() and res.executor == "processes" and res.retried_chunks >= 1
+    assert [r["index"] for r in res.records] == [0, 1, 2, 3]
+    assert res.records == serial.records
+
+
+def test_interrupted_sweep_resumes_with_only_the_missing_points(serial, tmp_path):
+    out = tmp_path / "s.nc"
+    counter = tmp_path / "count"
+    with pytest.raises(KeyboardInterrupt):
+        sweep("tricircle", VARY, output=out, chunk_size=1, evaluate=functools.partial(interrupted, str(counter), 2))
+    parts = tmp_path / "s.nc.parts"
+    assert not out.exists() and sorted(p.name for p in parts.glob("chunk-*.json")) == [
+        "chunk-000000.json",
+        "chunk-000001.json",
+    ]
+    assert evaluations(counter) == [0, 1]
+    # without --resume the parts are not touched
+    with pytest.raises(Exception, match="interrupted sweep"):
+        sweep("tricircle", VARY, output=out)
+    # another sweep may not take them over
+    with pytest.raises(Exception, match="different sweep"):
+        sweep("tricircle", {**VARY, "voltage.step_kV": [0.5]}, output=out, resume=True)
+    res = sweep("tricircle", VARY, output=out, resume=True, evaluate=functools.partial(counted, str(counter)))
+    assert evaluations(counter) == [0, 1, 2, 3]  # each point evaluated once over both runs
+    assert res.reused == 2 and res.computed == 2
+    assert res.records == serial.records
+    assert out.exists() and not parts.exists()
+    assert open_dataset(out).identical(serial.to_xarray())
+
+
+def test_sweep_netcdf_round_trip_keeps_units_and_coordinates(serial, tmp_path):
+    ds = serial.to_xarray()
+    back = open_dataset(write_netcdf(ds, tmp_path / "s.nc"))
+    assert back.identical(ds)
+    assert back["spinodal_up_kV"].attrs["units"] == "kV"
+    assert back["chamber_closing_pressure_mbar"].attrs["units"] == "mbar"
+    assert back["membrane_zone_radius_mm"].attrs["scene_key"] == "membrane.zone_radius_mm"
+    assert list(back["membrane_zone_radius_mm"].values) == [21.4165, 21.3165]
+    assert back["spinodal_up_kV"].dims == (
+        "chamber_closing_pressure_mbar",
+        "membrane_zone_radius_mm",
+        "voltage_stop_kV",
+        "voltage_step_kV",
+    )
+    assert list(back["configuration"].values) == [0, 1]
+    assert json.loads(back.attrs["base_scene"])["membrane"]["material"] == "gent"
+
+
+def test_ramp_and_curve_to_xarray_round_trip(tmp_path):
+    from coexist import MembraneModel, pressure_volume_curve
+    from coexist.scene_format import ramp_path
+
+    sc = load_scene("tricircle")
+    sc = dataclasses.replace(sc, voltage=dataclasses.replace(sc.voltage, values=ramp_path(0, 4200, 250)))
+    report = Simulation.from_scene(sc).ramp()
+    ds = report.to_xarray()
+    back = open_dataset(write_netcdf(ds, tmp_path / "r.nc"))
+    assert back.identical(ds)
+    assert back.sizes["zone"] == 3 and back["zone_volume_ml"].attrs["units"] == "ml"
+    assert back["voltage_kV"].attrs["units"] == "kV" and back["voltage_kV"].dims == ("step",)
+    (up,) = np.flatnonzero(
+        (back["transition_kind"].values == "spinodal") & (back["transition_direction"].values == "up")
+    )
+    assert float(back["transition_voltage_kV"][up]) == pytest.approx(3.900030858, abs=5e-9)
+    top = back.isel(step=int(np.argmax(back["voltage_kV"].values)))
+    assert str(top["configuration"].values) == "1 of 3 bulged" and int(top["bulged_zones"]) == 1
+    vols = top["zone_volume_ml"].values
+    assert vols[2] > 1.5 * vols[1] and vols[0] == pytest.approx(vols[1], rel=1e-12)  # one zone bulged
+    rows = report.to_dict()["steps"]
+    assert [s["configuration"] for s in rows] == list(back["configuration"].values)
+    assert np.array_equal(back["pressure_mbar"].values, [s["pressure_mbar"] for s in rows])
+    curve = pressure_volume_curve(MembraneModel(), phi_hat=0.1)
+    cds = open_dataset(write_netcdf(curve.to_xarray(), tmp_path / "c.nc"))
+    assert cds["p_hat"].dims == ("state",) and "p̂ = pA/(μH)" in cds["p_hat"].attrs["long_name"]
+    i = list(cds["limit_kind"].values).index("pressure_max")
+    assert float(cds["limit_p_hat"][i]) == pytest.approx(1.81362361, abs=1e-8)  # the README's value
+    assert np.array_equal(cds["pole_stretch"].values, curve.pole_stretch)
+
+
+def test_a_point_without_an_answer_has_a_status_and_reason():
+    """Past the snap-through pressure (20.73 mbar at the fitted radius) the zones cannot start."""
+    spec = make_spec("tricircle", {"chamber.closing_pressure_mbar": [21.0], "voltage.step_kV": [0.25]})
+    rec = evaluate_point(spec, 0)
+    assert rec["status"] == "no_start" and "snap-through" in rec["reason"] and rec["spinodal_up_kV"] is None
+    ds = run_sweep(spec).to_xarray()
+    assert np.isnan(ds["spinodal_up_kV"].values).all() and ds["status"].values.ravel()[0] == "no_start"
+
+
+@pytest.mark.parametrize(
+    "vary, words",
+    [
+        ("membrane.zone_radius=21,22", "unit"),
+        ("membrane.zone_radus_mm=21,22", "did you mean"),
+        ("chambr.volume_ml=300", "unknown section"),
+        ("chamber.closing_pressure_mbar=19:21:0", "N must be"),
+        ("chamber.closing_pressure_mbar=19:x:3", "START:STOP:N"),
+        ("chamber.closing_pressure_mbar=-1,2", "positive"),
+        ("zones.count=2.5", "whole"),
+        ("membrane.material=rubber", "unknown material"),
+        ("chamber.closing_pressure_mbar", "KEY="),
+        ("voltage.values_kV=1,2", "cannot be swept"),
+    ],
+)
+def test_bad_vary_is_exit_2_one_line(vary, words):
+    r = CliRunner().invoke(cli, ["sweep", "--vary", vary])
+    assert r.exit_code == 2, r.output
+    (line,) = [x for x in r.output.splitlines() if x.startswith("Error:")]
+    assert words in line and "--vary" in line, line
+    assert "Traceback" not in r.output
+
+
+def test_absurd_sweep_is_refused_before_it_starts(tmp_path):
+    """20 000 points at a 1 V step (10 001 voltages each, ~5.6 s a point) is ~31 h on one worker: refused."""
+    args = ["sweep", "--vary", "chamber.closing_pressure_mbar=10:20:10000", "--vary", "membrane.zone_radius_mm=21,21.4"]
+    r = CliRunner().invoke(cli, [*args, "--vary", "voltage.step_kV=0.001", "-o", str(tmp_path / "x.nc")])
+    assert r.exit_code == 2 and "estimated" in r.output and "h" in r.output
+    assert not list(tmp_path.iterdir())  # nothing written
+    r = CliRunner().invoke(
+        cli,
+        ["sweep", "--vary", "chamber.closing_pressure_mbar=10:20:1000", "--vary", "membrane.zone_radius_mm=1:20:1000"],
+    )
+    assert r.exit_code == 2 and "at most 100,000" in r.output
+
+
+def test_design_map_headline(tmp_path):
+    """figures/design_map.png: the README's headline point, computed by a direct Simulation (the scene built by
+    dataclasses.replace, not by the sweep's document) and by a one-point sweep through the command line."""
+    text = README.read_text(encoding="utf-8")
+    pattern = r"at (\d+\.\d+) mbar and (\d+\.\d+) mm a zone bulges at (\d+\.\d+) kV and returns at (\d+\.\d+) kV"
+    m = re.search(pattern.replace(" ", r"\s+"), text, flags=re.I)
+    assert m, "the README states the design map's headline point"
+    p_mbar, a_mm, up_kV, down_kV = (float(g) for g in m.groups())
+    sc = load_scene("tricircle")
+    from coexist.scene_format import ramp_path
+
+    sc = dataclasses.replace(
+        sc,
+        zone_radius=a_mm / 1e3,
+        breakdown_field=35e6,
+        chamber=dataclasses.replace(sc.chamber, closing_pressure=p_mbar * 100),
+        voltage=dataclasses.replace(sc.voltage, values=ramp_path(0, 6000, 250)),
+    )
+    report = Simulation.from_scene(sc).ramp()
+    ts = [report.transition_dict(t) for t in report.result.transitions]
+    jump = next(t for t in ts if t["kind"] == "spinodal" and t["direction"] == "up")
+    back = [t for t in ts if t["direction"] == "down" and t["to"] == "homogeneous"][-1]
+    assert jump["voltage_kV"] == pytest.approx(up_kV, abs=1e-6)
+    assert back["voltage_kV"] == pytest.approx(down_kV, abs=1e-6)
+    out = tmp_path / "one.nc"
+    args = [
+        "sweep",
+        "--vary",
+        f"chamber.closing_pressure_mbar={p_mbar}",
+        "--vary",
+        f"membrane.zone_radius_mm={a_mm}",
+        "--vary",
+        "membrane.breakdown_field_MV_per_m=35",
+        "--vary",
+        "voltage.stop_kV=6",
+        "--vary",
+        "voltage.step_kV=0.25",
+        "-o",
+        str(out),
+    ]
+    r = CliRunner().invoke(cli, args)
+    assert r.exit_code == 0, r.output
+    ds = open_dataset(out)
+    assert float(ds["spinodal_up_kV"].values.ravel()[0]) == pytest.approx(jump["voltage_kV"], abs=1e-9)
+    assert float(ds["hysteresis_kV"].values.ravel()[0]) == pytest.approx(up_kV - down_kV, abs=2e-6)
