@@ -92,3 +92,28 @@ def test_coexistence_without_voltage_lists_the_equilibria():
     assert eq["configuration"] == "homogeneous" and eq["stable"]
     assert eq["pressure_mbar"] == pytest.approx(30.0, rel=1e-6)
     assert eq["zone_volumes_ml"][0] == pytest.approx(eq["zone_volumes_ml"][1], rel=1e-12)
+
+
+def test_shapes_figure_and_headline(ramp_run, tmp_path):
+    """figures/tricircle_shapes.png (`coexist shape tricircle --voltage-kV 0,3.8,4.0 -o ...`): at 4.0 kV the
+    bulged zone's apex is 39.77 mm high (two unbulged at 12.76 mm), the same number as the library's state of
+    the default ramp (its own voltage steps) shot again here."""
+    from coexist.scene import load_scene
+    from coexist.shooting import solve_states
+
+    png = tmp_path / "shapes.png"
+    r = run("shape", "tricircle", "--voltage-kV", "0,3.8,4.0", "--points", "41", "-o", str(png), "--json")
+    assert png.stat().st_size > 10_000
+    at4 = json.loads(r.stdout)["voltages"][2]
+    assert at4["configuration"] == "1 of 3 bulged"
+    low, high = at4["groups"]
+    assert high["apex_height_mm"] == pytest.approx(39.767, abs=1e-3) and low["apex_height_mm"] == pytest.approx(
+        12.759, abs=1e-3
+    )
+    # independently: the ramp's state at 4.0 kV (a different path: 0.02 kV steps), shot with solve_states
+    _, data = ramp_run
+    step = [s for s in data["steps"] if s["direction"] == "up" and abs(s["voltage_kV"] - 4.0) < 1e-9][0]
+    sc = load_scene("tricircle")
+    lam = max(step["pole_stretches"])
+    st = solve_states(sc.model(), [lam], float(sc.phi_hat(4000.0)))
+    assert high["apex_height_mm"] == pytest.approx(st.apex_height[0] * sc.zone_radius * 1e3, rel=1e-8)

@@ -1,0 +1,228 @@
+"""``coexist shape``: the zones' shapes at chosen voltages of the slow ramp up (side view, apex numbers)."""
+
+from __future__ import annotations
+
+import click
+
+from .common import (
+    InputError,
+    Outputs,
+    accuracy_option,
+    info,
+    library_errors,
+    load_scene_arg,
+    parse_floats,
+    settings_from,
+    write_json,
+)
+
+#: zones drawn one by one in the side view; more are drawn one per group of identical zones
+MAX_DRAWN_ZONES = 12
+#: zones printed one by one in the table; more are printed per group (as ``coexist ramp`` does)
+MAX_LISTED_ZONES = 6
+
+
+@click.command()
+@click.argument("scene", required=False, metavar="[SCENE]")
+@click.option(
+    "--voltage-kV",
+    "voltages",
+    default="0",
+    show_default=True,
+    help="Comma-separated voltages in kV (0 to the scene's stop), visited on the slow ramp up.",
+)
+@click.option("-o", "--plot", "plot", default=None, help="Side view of the zones at each voltage (.png/.svg/.pdf).")
+@click.option("--json", "as_json", is_flag=True, help="Print the shapes (with their profile points) as JSON.")
+@click.option(
+    "--points",
+    type=click.IntRange(3, 100_001),
+    default=201,
+    show_default=True,
+    help="Points per zone profile (equally spaced in the reference radius, pole and clamp included).",
+)
+@click.option("--overwrite", is_flag=True, help="Replace an existing figure file.")
+@accuracy_option
+@library_errors
+def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
+    """The shape of every zone of SCENE (default: tricircle) at the voltages --voltage-kV.
+
+    For each voltage: the state of the zones on a slow ramp up from 0 V to that voltage (the ramp's
+    stable state, so after the transition one zone is bulged and the others not), and per zone its
+    apex height (mm), apex curvature (1/m: the curvature of the meridian at the pole, a lens's focal
+    figure of merit, exact from the Laplace law p = 2 t κ0 of the equibiaxial pole) with its radius
+    of curvature (mm), and the electrode edge (mm; the clamp for a uniform electrode). -o draws the
+    zones side by side at each voltage, to scale.
+    """
+    from coexist.ramp import Ramp
+    from coexist.shapes import equilibrium_profiles
+    from coexist.simulation import Simulation
+
+    sc = load_scene_arg(scene)
+    settings = settings_from(accuracy, rtol)
+    kv = parse_floats(voltages, "--voltage-kV", nonnegative=True)
+    if sc.voltage is None:
+        if any(v != 0 for v in kv):
+            raise InputError(f"--voltage-kV: the scene {sc.name or sc.source} has no [voltage]; only 0 kV is possible")
+    else:
+        stop = sc.voltage.peak / 1e3
+        over = [v for v in kv if v > stop * (1 + 1e-12)]
+        if over:
+            raise InputError(f"--voltage-kV: {over[0]:g} kV is above the scene's stop, {stop:g} kV ([voltage])")
+    with Outputs(overwrite) as out:
+        plot_path = out.figure(plot, "--plot")
+        info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
+        sim = Simulation.from_scene(sc, settings)
+        order = sorted(set(kv))
+        phis = [float(sc.phi_hat(v * 1e3)) for v in order]
+        info("following the stable states up to each voltage ...")
+        result = Ramp(sim.emap, sim.lam_max).run(phis, sim.start)
+        by_kv = dict(zip(order, result.steps))
+        rows = []
+        for v in kv:
+            step = by_kv[v]
+            st = step.state
+            groups = [] if st is None else equilibrium_profiles(sim.model, st, sc.zone_radius, points, settings)
+            rows.append((v, step, groups))
+        data = _to_dict(sc, settings, rows)
+        if plot_path is not None:
+            _figure(sc, rows, out.staged(plot_path))
+    if as_json:
+        write_json(data)
+        return
+    _table(data)
+
+
+def _to_dict(sc, settings, rows) -> dict:
+    entries = []
+    for v, step, groups in rows:
+        st = step.state
+        entries.append(
+            {
+                "voltage_kV": v,
+                "configuration": "none" if st is None else st.label,
+                "pressure_mbar": None if st is None else float(sc.pressure(st.p_hat) / 100),
+                "stable": False if st is None else bool(st.stable),
+                "groups": [{"zones": n, **prof.to_dict(points=True)} for n, prof in groups],
+                **({"note": step.note} if step.note else {}),
+            }
+        )
+    return {
+        "scene": sc.name or str(sc.source),
+        "zone_radius_mm": sc.zone_radius * 1e3,
+        "zones": sc.zone_count,
+        "relative_tolerance": settings.rtol,
+        "voltages": entries,
+    }
+
+
+def _zones(entry):
+    """Rows of the table: ``(label, group)`` per zone for a few zones, else per group."""
+    groups = entry["groups"]
+    if sum(g["zones"] for g in groups) <= MAX_LISTED_ZONES:
+        out, i = [], 1
+        for g in groups:
+            for _ in range(g["zones"]):
+                out.append((str(i), g))
+                i += 1
+        return out
+    return [(f"{g['zones']}×", g) for g in groups]
+
+
+def _table(data):
+    click.echo(
+        f"{'voltage_kV':>10} {'zone':>5} {'pole_stretch':>12} {'apex_height_mm':>14} {'apex_curvature_per_m':>20} "
+        f"{'radius_of_curvature_mm':>22} {'electrode_edge_mm (r, z)':>24}  configuration"
+    )
+    for e in data["voltages"]:
+        if not e["groups"]:
+            click.echo(f"{e['voltage_kV']:>10.3f} {'-':>5} no state: {e.get('note') or 'outside the model range'}")
+            continue
+        for label, g in _zones(e):
+            roc = "inf" if g["radius_of_curvature_mm"] is None else f"{g['radius_of_curvature_mm']:.4f}"
+            edge = f"({g['electrode_edge_mm'][0]:.4f}, {g['electrode_edge_mm'][1]:.4f})"
+            click.echo(
+                f"{e['voltage_kV']:>10.3f} {label:>5} {g['pole_stretch']:>12.6f} {g['apex_height_mm']:>14.6f} "
+                f"{g['apex_curvature_per_m']:>20.6f} {roc:>22} {edge:>24}  {e['configuration']}"
+            )
+    click.echo(
+        f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e}; "
+        "apex curvature from the Laplace law at the pole)"
+    )
+
+
+def _figure(sc, rows, path):
+    """Side view: one panel per voltage, the zones side by side (true scale), as the paper's Fig. 6."""
+    import textwrap
+
+    from coexist.plotting import pyplot, save_figure
+
+    plt = pyplot()
+    A = sc.zone_radius * 1e3
+    pitch = 2 * sc.prestretch * A * 1.15
+    zmax = max([max(p.apex_height * 1e3 for _, p in g) for _, _, g in rows if g] + [0.2 * A])
+    if sc.zone_count <= MAX_DRAWN_ZONES:
+        span = sc.zone_count
+    else:  # one drawing per group of identical zones
+        span = max([len(g) for _, _, g in rows] + [1])
+    x_lo, x_hi = -pitch / 2, (span - 0.5) * pitch
+    y_lo, y_hi = -0.08 * zmax, 1.35 * zmax
+    width = 9.0
+    panel = max(1.4, width * 0.92 * (y_hi - y_lo) / (x_hi - x_lo)) + 0.55
+    fig, axes = plt.subplots(len(rows), 1, figsize=(width, panel * len(rows) + 0.5), squeeze=False)
+    mat = sc.material + (f" Jlim={sc.jlim:g}" if sc.jlim else "")
+    head = f"{sc.name or sc.source}: {sc.zone_count} zones, A = {A:.4g} mm, {mat}; | electrode edges\n"
+    for i_row, (ax, (v, step, groups)) in enumerate(zip(axes[:, 0], rows)):
+        st = step.state
+        total = sum(n for n, _ in groups)
+        if total <= MAX_DRAWN_ZONES:
+            drawn = [(None, p) for n, p in groups for _ in range(n)]
+        else:
+            drawn = [(n, p) for n, p in groups]
+        bulged = groups[-1][1] if st is not None and st.k > 0 and len(groups) > 1 else None
+        for i, (n, p) in enumerate(drawn):
+            c = i * pitch
+            if not p.r_hat.size:  # a wrinkled state: its apex numbers only
+                ax.plot([c], [p.apex_height * 1e3], "v", color="C1")
+                ax.annotate(
+                    f"h {p.apex_height * 1e3:.2f} mm\nκ0 {p.apex_curvature:.1f} /m\nwrinkled: no profile yet",
+                    (c, p.apex_height * 1e3),
+                    xytext=(0, 3),
+                    textcoords="offset points",
+                    ha="center",
+                    va="bottom",
+                    fontsize=7,
+                )
+                continue
+            r, z = p.r * 1e3, p.z * 1e3
+            xs = [c - x for x in r[::-1]] + [c + x for x in r]
+            zs = list(z[::-1]) + list(z)
+            color = "C3" if p is bulged else "C0"
+            ax.fill(xs, zs, color=color, alpha=0.18, lw=0)
+            ax.plot(xs, zs, color=color, lw=1.6)
+            er, ez = (x * 1e3 for x in p.electrode_edge)
+            ax.plot([c - er, c + er], [ez, ez], "|", color="k", ms=9, mew=1.5)
+            label = f"h {p.apex_height * 1e3:.2f} mm\nκ0 {p.apex_curvature:.1f} /m"
+            if n is not None:
+                label = f"{n} zones\n" + label
+            ax.annotate(
+                label,
+                (c, p.apex_height * 1e3),
+                xytext=(0, 3),
+                textcoords="offset points",
+                ha="center",
+                va="bottom",
+                fontsize=7,
+            )
+        ax.plot([x_lo, x_hi], [0, 0], color="0.35", lw=1.0)
+        ax.set_xlim(x_lo, x_hi)
+        ax.set_ylim(y_lo, y_hi)
+        ax.set_aspect("equal")
+        ax.set_ylabel("z (mm)")
+        state = "no state" if st is None else f"{st.label}, {sc.pressure(st.p_hat) / 100:.4g} mbar"
+        ax.set_title(("" if i_row else head) + f"{v:g} kV: {state}", fontsize=9)
+        ax.grid(alpha=0.25)
+        if st is None:
+            why = textwrap.fill(step.note or "outside the model's range", 70)
+            ax.text(0.5, 0.5, why, transform=ax.transAxes, ha="center", va="center", fontsize=8)
+    axes[-1, 0].set_xlabel("r (mm): the zones side by side, to scale")
+    save_figure(fig, path)
