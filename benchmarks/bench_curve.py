@@ -27,8 +27,15 @@ The reference for all is the project's solver at ``rtol = 1e-13`` (checked again
 boundary value method in ``tests/test_second_method.py``), and
 ``pressure_volume_curve`` at ``rtol = 1e-13`` for the limit point.
 
+**Voltage–charge curves** (issue 11's target: a 200-state ``Φ̂–Q̂`` curve within 2× of a ``p̂–V̂`` curve):
+:func:`coexist.curves.voltage_charge_curve` of the Gent membrane (Jlim 97) at ``p̂ = 1.5, 1.7, 1.2`` (the
+last with its spiral of nine turning points) on ``λ0 = linspace(1.01, 4, 200)``, against
+:func:`coexist.curves.pressure_volume_curve` of the same model at ``Φ̂ = 0.1`` on the same grid, default
+settings (rtol 1e-10), all in one process and interleaved (after a warm-up), ``CHARGE_REPEATS`` runs
+each: best and median wall time, and process CPU time (the machine is shared).
+
 Run with ``.venv/bin/python benchmarks/bench_curve.py`` (add ``--json`` for machine-readable
-output on stdout; the progress then goes to stderr).
+output on stdout; the progress then goes to stderr; ``--charge-only`` for the voltage–charge part alone).
 """
 
 from __future__ import annotations
@@ -45,8 +52,8 @@ import scipy
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, minimize_scalar
 
-from coexist.curves import pressure_volume_curve
-from coexist.model import MembraneModel
+from coexist.curves import pressure_volume_curve, voltage_charge_curve
+from coexist.model import MembraneModel, build_model
 from coexist.settings import SolverSettings
 from coexist.shooting import OK, _integrators, solve_states
 
@@ -68,6 +75,11 @@ TUNED_REPEATS = 5
 TUNED_MAX_RADIUS = 1000.0
 #: xatol of minimize_scalar on the pressure maximum (the project's limit_point_xtol)
 TUNED_LIMIT_XATOL = 1e-9
+#: the voltage–charge part: pressures of the Φ̂–Q̂ curves, the voltage of the p̂–V̂ curve they are compared
+#: with, and the interleaved runs of each
+CHARGE_PRESSURES = (1.5, 1.7, 1.2)
+CHARGE_PHI_HAT = 0.1
+CHARGE_REPEATS = 15
 
 
 # --- baseline: neo-Hookean membrane with voltage in plain numpy -----------------------------------
@@ -353,15 +365,83 @@ def _project_path(model):
     return "compiled attempt function" if entry.get("fast") else "CasADi virtual machine"
 
 
+def bench_charge(repeats: int = CHARGE_REPEATS, log=print) -> dict:
+    """Time 200-state ``Φ̂–Q̂`` curves against a 200-state ``p̂–V̂`` curve of the same membrane, interleaved.
+
+    Parameters
+    ----------
+    repeats : int
+        Timed runs of each curve (after one warm-up run of each).
+    log : callable
+        Where the table goes.
+
+    Returns
+    -------
+    dict
+        ``pressure_volume`` and one entry per ``p̂``: ``wall_s`` and ``cpu_s`` as :func:`spread`, the
+        number of states and limit points; for the ``Φ̂–Q̂`` curves also ``ratio_best``, ``ratio_median``
+        (wall, against the ``p̂–V̂`` curve) and ``ratio_cpu_best``.
+    """
+    model = build_model("gent", 97.0)
+    settings = SolverSettings()
+    runs = {"pressure_volume": lambda: pressure_volume_curve(model, CHARGE_PHI_HAT, POLE_STRETCHES, settings)}
+    for p in CHARGE_PRESSURES:
+        runs[f"voltage_charge p̂={p:g}"] = lambda p=p: voltage_charge_curve(model, p, POLE_STRETCHES, settings)
+    wall: dict[str, list] = {k: [] for k in runs}
+    cpu: dict[str, list] = {k: [] for k in runs}
+    last = {k: fn() for k, fn in runs.items()}  # warm-up (compiled code, caches)
+    for _ in range(repeats):
+        for k, fn in runs.items():
+            w, c = time.perf_counter(), time.process_time()
+            last[k] = fn()
+            wall[k].append(time.perf_counter() - w)
+            cpu[k].append(time.process_time() - c)
+    base = spread(wall["pressure_volume"])
+    base_cpu = spread(cpu["pressure_volume"])
+    out = {}
+    log(f"voltage–charge curves against a p̂–V̂ curve (Gent Jlim 97, 200 states, rtol 1e-10, {repeats} runs):")
+    for k in runs:
+        entry = {
+            "wall_s": spread(wall[k]),
+            "cpu_s": spread(cpu[k]),
+            "states": int(last[k].states.pole_stretch.size),
+            "limit_points": len(last[k].limit_points),
+        }
+        line = (
+            f"  {k:<22} best {entry['wall_s']['best'] * 1e3:6.1f} ms, median {entry['wall_s']['median'] * 1e3:6.1f} ms,"
+            f" CPU best {entry['cpu_s']['best'] * 1e3:6.1f} ms ({entry['states']} states,"
+            f" {entry['limit_points']} limit points)"
+        )
+        if k != "pressure_volume":
+            entry["ratio_best"] = entry["wall_s"]["best"] / base["best"]
+            entry["ratio_median"] = entry["wall_s"]["median"] / base["median"]
+            entry["ratio_cpu_best"] = entry["cpu_s"]["best"] / base_cpu["best"]
+            line += (
+                f": {entry['ratio_best']:.2f}x best, {entry['ratio_median']:.2f}x median,"
+                f" {entry['ratio_cpu_best']:.2f}x CPU"
+            )
+        log(line)
+        out[k] = entry
+    return out
+
+
 def main(argv=None):
     """Run the benchmark and print (or dump as JSON) times, errors and the speed ratios."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true", help="print the results as JSON on stdout")
+    parser.add_argument("--charge-only", action="store_true", help="only the voltage–charge curves against a p̂–V̂ one")
     args = parser.parse_args(argv)
     log_stream = sys.stderr if args.json else sys.stdout
 
     def log(message):
         print(message, file=log_stream, flush=True)
+
+    if args.charge_only:
+        with np.errstate(all="ignore"):
+            charge = bench_charge(log=log)
+        if args.json:
+            print(json.dumps({"voltage_charge": charge}, indent=2))
+        return {"voltage_charge": charge}
 
     script_start = time.perf_counter()
     with np.errstate(all="ignore"):
@@ -519,6 +599,8 @@ def main(argv=None):
     )
     if worst > TARGET_ERROR:
         log(f"warning: an error exceeds the target {TARGET_ERROR:g}")
+    with np.errstate(all="ignore"):
+        charge = bench_charge(log=log)
     log(f"script runtime: {time.perf_counter() - script_start:.0f} s")
 
     results = {
@@ -575,6 +657,7 @@ def main(argv=None):
         "ratio_baseline_over_project": ratio_old,
         "ratio_tuned_baseline_over_project": ratio_tuned,
         "ratio_tuned_baseline_over_project_curve_with_limit_points": ratio_curve,
+        "voltage_charge": charge,
         "environment": {
             "python": platform.python_version(),
             "numpy": np.__version__,

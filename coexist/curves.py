@@ -9,7 +9,9 @@ curve as roots of the exact derivatives along it, ``dΦ̂/dλ0 = −(∂p̂/∂�
 
 A ``Φ̂–Q̂`` curve needs the voltage that carries ``p̂`` at every pole stretch
 (:func:`voltage_at_pressure`: a safeguarded Newton iteration with the exact ``∂p̂/∂Φ̂``); along the curve
-most voltages start from the Hermite interpolant of a coarser set of solved ones and need two shots.
+most voltages start from the Hermite interpolant of a coarser set of solved ones and need two shots
+without derivatives, and the zero-voltage states (which decide whether a pole stretch can carry ``p̂`` at
+all) are shot only where they decide where the curve starts and ends.
 """
 
 from __future__ import annotations
@@ -145,13 +147,25 @@ class Curve:
             out["stopped_because"] = self.stopped_because
         return out
 
+    def to_xarray(self):
+        """The curve as an :class:`xarray.Dataset` (:func:`coexist.labelled.curve_dataset`): dimension ``state``
+        with coordinate ``pole_stretch``, the normalised quantities with their normalisation in ``long_name``.
+
+        Returns
+        -------
+        xarray.Dataset
+        """
+        from .labelled import curve_dataset
+
+        return curve_dataset(self)
+
 
 def _take(states: MembraneStates, index) -> MembraneStates:
     kw = {}
     for name, value in states.__dict__.items():
         if isinstance(value, np.ndarray):
             kw[name] = value[index]
-        elif name == "shapes" and value is not None:
+        elif name in ("shapes", "wrinkled_radii") and value is not None:
             kw[name] = [value[i] for i in np.arange(len(value))[index]]
         elif name == "derivatives" and value is not None:
             kw[name] = value.take(index)
@@ -392,26 +406,63 @@ class _VoltageRoots:
     pressure below ``p̂``, a failed state, or the pole-wrinkling voltage), every state evaluated (the last
     valid one is kept, with its derivatives when it was shot with them), and whether a root was found.
 
-    ``states0`` are the zero-voltage states: pole stretches whose ``p̂(λ0, 0) < p̂`` (or whose zero-voltage
-    state fails) carry no voltage that reaches the pressure and are finished from the start.
+    ``states0``, if given, are the zero-voltage states of every pole stretch; otherwise they are shot on
+    demand (:meth:`zero`) and a pole stretch without one is ``known = False``. A pole stretch whose
+    ``p̂(λ0, 0) < p̂`` (or whose zero-voltage state fails) carries no voltage that reaches the pressure and is
+    finished as soon as that is known; one not (yet) shot at zero voltage is taken to be feasible (the
+    pressure falls as the voltage rises, so a root found proves it).
     """
 
-    def __init__(self, model, l0, p_hat, settings, states0):
+    def __init__(self, model, l0, p_hat, settings, states0=None):
         self.model, self.l0, self.p_hat, self.settings = model, l0, p_hat, settings
         n = l0.size
         self.ftol = settings.inner_ftol * p_hat
         self.s_pole = _pole_voltage_squared(model, l0)
-        self.states0 = states0
-        f0 = np.where(states0.ok, states0.p_hat - p_hat, -np.inf)
-        self.f0 = f0.copy()
-        self.feasible = f0 >= 0
-        self.result = _take(states0, np.arange(n))  # a copy: the evaluations are merged into it
+        self._result: MembraneStates | None = None  # created from the first states shot
+        self.known = np.zeros(n, dtype=bool)  # the zero-voltage state was shot
+        self.status0 = np.full(n, NO_VOLTAGE)
+        self.f0 = np.full(n, np.nan)
+        self.feasible = np.ones(n, dtype=bool)
+        self.shot = np.zeros(n, dtype=bool)  # shot at a voltage
         self.derivatives = {k: np.full(n, np.nan) for k in _DERIVATIVE_FIELDS}
-        self.converged = self.feasible & (f0 == 0)
-        self.finished = ~self.feasible | self.converged
-        self.lo, self.f_lo = np.zeros(n), f0.copy()
+        self.converged = np.zeros(n, dtype=bool)
+        self.finished = np.zeros(n, dtype=bool)
+        self.lo, self.f_lo = np.zeros(n), np.full(n, np.nan)
         self.hi, self.f_hi = self.s_pole.copy(), np.full(n, -np.inf)  # no state at the pole-wrinkling voltage
-        self.f_last = f0.copy()
+        self.f_last = np.full(n, np.nan)
+        if states0 is not None:
+            self._record_zero(np.arange(n), states0)
+
+    @property
+    def result(self) -> MembraneStates:
+        """Every pole stretch's state so far (the last valid one evaluated)."""
+        if self._result is None:
+            raise SolverError("internal: no state of the voltage search has been shot yet")
+        return self._result
+
+    def zero(self, rows):
+        """Shoot the zero-voltage states of ``rows`` (one batch) and record them (:meth:`_record_zero`)."""
+        rows = np.asarray(rows, dtype=int)
+        if rows.size:
+            self._record_zero(rows, solve_states(self.model, self.l0[rows], 0.0, self.settings))
+
+    def _record_zero(self, rows, st):
+        """The zero-voltage states ``st`` of ``rows``: ``f0 = p̂(λ0, 0) − p̂`` (``−∞`` for a failed state) is
+        the lower end of the bracket; ``f0 < 0`` finishes the problem (no root), ``f0 = 0`` converges it. A
+        state not yet shot at a voltage starts as this one."""
+        if self._result is None:
+            self._result = _blank_states(st, self.l0)
+        f0 = np.where(st.ok, st.p_hat - self.p_hat, -np.inf)
+        fresh = ~self.shot[rows]
+        _merge(self.result, _take(st, fresh), rows[fresh])
+        self.f_last[rows[fresh]] = f0[fresh]
+        self.known[rows], self.status0[rows], self.f0[rows] = True, st.status, f0
+        feasible = f0 >= 0
+        self.feasible[rows] = feasible
+        self.f_lo[rows] = f0
+        done = feasible & (f0 == 0)
+        self.converged[rows[done]] = True
+        self.finished[rows[~feasible | done]] = True
 
     def regula_falsi(self, rows):
         """The first guesses of ``rows``: the secant point of the bracket ``[0, s_pole]``, the pressure taken
@@ -424,6 +475,9 @@ class _VoltageRoots:
         """Shoot ``rows`` at ``s = x`` and record the states; returns (residual, ok, dp/ds)."""
         st = solve_states(self.model, self.l0[rows], np.sqrt(x), self.settings, derivatives=derivatives)
         ok = st.ok
+        if self._result is None:
+            self._result = _blank_states(st, self.l0)
+        self.shot[rows] = True
         _merge(self.result, _take(st, ok), rows[ok])
         self.result.status[rows[~ok]] = st.status[~ok]  # as the old search: the last state evaluated decides
         with np.errstate(all="ignore"):
@@ -449,7 +503,7 @@ class _VoltageRoots:
         self.finished[rows[met]] = True
         return f, ok, slope
 
-    def newton(self, rows, x, iterations, prune=None):
+    def newton(self, rows, x, iterations, prune=None, handoff=None):
         """Safeguarded Newton iteration in ``s`` with the exact slope ``∂p̂/∂s = (∂p̂/∂Φ̂)/(2Φ̂)`` on the
         problems ``rows`` from the points ``x`` (all evaluated with derivatives).
 
@@ -465,15 +519,30 @@ class _VoltageRoots:
         bracket narrower than :data:`NO_ROOT_WIDTH` of ``s``: the slope would have to grow that much
         within the bracket for the pressure to reach ``p̂`` before the states fail. ``prune(self)``, if
         given, may finish problems that no longer matter before each round.
+
+        With ``handoff`` (a relative residual), a problem whose shot with derivatives meets
+        ``|p̂ − p̂*| ≤ handoff · p̂`` without meeting ``inner_ftol`` leaves the iteration with its next
+        point ``s'`` (the step above, inside the bracket) and the slope there,
+        ``∂p̂/∂s + (∂²p̂/∂s²)(s' − s)`` (the curvature from the slopes of its last two shots, when it has
+        two): the quadratic rate puts ``s'`` within ``O(handoff²)`` of the root, and the shots without
+        derivatives that finish it (:meth:`polish`, which takes the same tolerance) cost half as much.
+        (A shot without derivatives takes other steps, ~1e-11 apart, so one more step is needed anyway.)
+
+        Returns
+        -------
+        rows, x, slope : ndarray
+            The problems handed off, their next points and slopes (empty without ``handoff``).
         """
         rows = np.asarray(rows)
         x = np.array(x, dtype=float)
         previous = np.full(rows.size, np.inf)
         x1, f1, d1 = (np.full(rows.size, np.nan) for _ in range(3))  # the last valid shot of each problem
+        handed = np.zeros(rows.size, dtype=bool)
+        handed_slope = np.full(rows.size, np.nan)
         for _ in range(iterations):
             if prune is not None:
                 prune(self)
-            live = np.flatnonzero(~self.finished[rows])
+            live = np.flatnonzero(~self.finished[rows] & ~handed)
             if live.size == 0:
                 break
             r, xr = rows[live], x[live]
@@ -509,16 +578,34 @@ class _VoltageRoots:
             # below that end (as at the pole-wrinkling voltage), so look there first
             lean = usable & (f > 0) & failed_above & (xr + step >= hi)
             nxt = np.where(np.isnan(nxt), np.where(lean, lo + LEAN * (hi - lo), 0.5 * (lo + hi)), nxt)
+            if handoff is not None:
+                stepped = np.isfinite(nxt) & (nxt > lo) & (nxt < hi) & ~np.isnan(nxt)
+                leave = usable & stepped & (np.abs(f) <= handoff * self.p_hat) & ~self.finished[r]
+                leave &= np.abs(nxt - xr) <= 0.5 * previous[live]  # a Newton-type step, not a bisection
+                with np.errstate(all="ignore"):
+                    curvature = np.where(
+                        np.isfinite(x1[live]) & (x1[live] != xr), (slope - d1[live]) / (xr - x1[live]), 0.0
+                    )
+                    moved = slope + np.where(np.isfinite(curvature), curvature, 0.0) * (nxt - xr)
+                leave &= np.isfinite(moved) & (moved < 0)
+                handed[live[leave]] = True
+                handed_slope[live[leave]] = moved[leave]
             previous[live] = np.abs(nxt - xr)
             x1[live] = np.where(usable, xr, x1[live])
             f1[live] = np.where(usable, f, f1[live])
             d1[live] = np.where(usable, slope, d1[live])
             x[live] = nxt
+        handed &= ~self.finished[rows]
+        return rows[handed], x[handed], handed_slope[handed]
 
     def polish(self, rows, x, slope, rounds, prune=None):
         """Chord steps ``s ← s − (p̂ − p̂*)/slope`` with shots without derivatives, for problems whose guess
-        ``x`` and slope ``∂p̂/∂s`` come from converged neighbours; the slope is replaced by the secant of the
-        last two shots once there are two. Returns the problems still open and their next points."""
+        ``x`` and slope ``∂p̂/∂s`` come from converged neighbours (or from their own Newton iteration, see
+        ``handoff`` in :meth:`newton`); the slope is replaced by the secant of the last two shots once there
+        are two. A step must stay inside the bracket, widened by what a shot without derivatives may differ
+        from one with them (:data:`PLAIN_SIGN_LEVEL` ``· p̂`` in pressure); a problem whose step leaves it
+        goes to the Newton iteration, from its last valid point. Returns the problems still open and their
+        next points."""
         rows, x, slope = np.asarray(rows), np.array(x, dtype=float), np.array(slope, dtype=float)
         x_prev, f_prev = np.full(rows.size, np.nan), np.full(rows.size, np.nan)
         active = np.ones(rows.size, dtype=bool)
@@ -535,13 +622,15 @@ class _VoltageRoots:
                 fresh = ok & np.isfinite(secant) & (secant < 0) & (np.abs(xr - x_prev[live]) > 1e-12 * xr)
                 d = np.where(fresh, secant, slope[live])
                 nxt = xr - f / d
-            inside = ok & np.isfinite(nxt) & (nxt > self.lo[r]) & (nxt < self.hi[r])
+                # a bracket end set by a shot with derivatives is uncertain by the ~1e-11 between the two
+                margin = PLAIN_SIGN_LEVEL * self.p_hat / np.abs(d)
+            inside = ok & np.isfinite(nxt) & (nxt > 0) & (nxt > self.lo[r] - margin) & (nxt < self.hi[r] + margin)
             noise = inside & (np.abs(nxt - xr) <= NOISE_STEP * np.abs(xr))
             self.converged[r[noise]] = True
             self.finished[r[noise]] = True
             x_prev[live], f_prev[live], slope[live] = xr, f, d
-            active[live[~inside]] = False  # left for the Newton iteration
-            x[live] = np.where(inside, nxt, 0.5 * (self.lo[r] + self.hi[r]))
+            active[live[~inside]] = False  # left for the Newton iteration, from here if the state is valid
+            x[live] = np.where(inside, nxt, np.where(ok, xr, 0.5 * (self.lo[r] + self.hi[r])))
         still = ~self.finished[rows]
         return rows[still], x[still]
 
@@ -555,8 +644,8 @@ class _VoltageRoots:
         result = self.result
         status = result.status.copy()
         status[~self.accepted() & (status == OK)] = NO_VOLTAGE
-        s0 = self.states0
-        status[~self.feasible] = np.where(s0.ok[~self.feasible], NO_VOLTAGE, s0.status[~self.feasible])
+        infeasible = self.known & ~self.feasible
+        status[infeasible] = np.where(self.status0[infeasible] == OK, NO_VOLTAGE, self.status0[infeasible])
         result.status = status
         bad = status != OK
         for name in ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension"):
@@ -642,10 +731,27 @@ def voltage_at_pressure(
     return roots.states(with_derivatives=True)
 
 
+def _blank_states(like: MembraneStates, l0: np.ndarray) -> MembraneStates:
+    """States at the pole stretches ``l0`` with nothing found yet (status ``NO_VOLTAGE``, NaN quantities, zero
+    voltage), with the fields of ``like``."""
+    blank = _take(like, np.zeros(l0.size, dtype=int))
+    for value in blank.__dict__.values():
+        if isinstance(value, np.ndarray):
+            value[...] = np.nan if value.dtype.kind == "f" else 0
+    blank.pole_stretch[:] = l0
+    blank.phi_hat[:] = 0.0
+    blank.status[:] = NO_VOLTAGE
+    blank.derivatives = None
+    return blank
+
+
 def _merge(base: MembraneStates, new: MembraneStates, where) -> MembraneStates:
     for name, value in base.__dict__.items():
         if isinstance(value, np.ndarray):
             value[where] = getattr(new, name)
+        elif name in ("shapes", "wrinkled_radii") and value is not None and getattr(new, name) is not None:
+            for j, i in enumerate(np.arange(len(value))[where]):
+                value[i] = getattr(new, name)[j]
     return base
 
 
@@ -655,6 +761,9 @@ COARSE_STRIDE = 8
 #: chord steps (shots without derivatives) for the voltage of an interpolated pole stretch before it is
 #: handed to the Newton iteration
 POLISH_ROUNDS = 3
+#: a coarse voltage leaves the Newton iteration for the chord steps once its shot with derivatives meets
+#: this relative residual (:meth:`_VoltageRoots.newton`): the next point is then within ~1e-10 of the root
+HANDOFF = 1e-6
 
 
 def _hermite_at(l0, at, nodes, s, tangent, slope):
@@ -690,45 +799,130 @@ def _beyond_first_run(roots: _VoltageRoots) -> None:
         roots.finished[first + failed[0] + 1 :] = True
 
 
+def _zero_voltage_plan(roots: _VoltageRoots, coarse: np.ndarray) -> tuple[np.ndarray, int]:
+    """Which fine pole stretches need their zero-voltage state, given those of the ``coarse`` ones, and where
+    the pole stretches stop mattering.
+
+    Between two feasible coarse pole stretches (``p̂(λ0, 0) ≥ p̂``) the fine ones are taken to be feasible:
+    their voltages are solved, and one whose root is not found is shot at zero voltage then. Every other
+    interval up to the first feasible coarse pole stretch is shot (an isolated feasible stretch there would
+    be the curve), and so is the first interval after it that ends at an infeasible one (where the curve
+    ends); beyond that infeasible coarse pole stretch nothing can belong to the first run of valid states
+    while one before it is valid.
+
+    Returns
+    -------
+    rows : ndarray
+        The fine pole stretches to shoot at zero voltage.
+    beyond : int
+        The first pole stretch that no longer matters (``l0.size`` when all do).
+    """
+    n = roots.l0.size
+    feasible = roots.feasible[coarse]
+    if not feasible.any():
+        return np.setdiff1d(np.arange(n), coarse), n
+    k = int(np.argmax(feasible))
+    rows = [np.setdiff1d(np.arange(coarse[k]), coarse)]
+    while k + 1 < coarse.size and feasible[k + 1]:
+        k += 1
+    if k + 1 == coarse.size:
+        return np.concatenate(rows), n
+    rows.append(np.arange(coarse[k] + 1, coarse[k + 1]))
+    return np.concatenate(rows), int(coarse[k + 1]) + 1
+
+
 def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> MembraneStates:
     """:func:`voltage_at_pressure` on an increasing grid, using that the voltage is a smooth function of the
-    pole stretch: every :data:`COARSE_STRIDE`-th open pole stretch is solved by the Newton iteration; the
-    others between two converged ones start at the Hermite interpolant of ``s(λ0)`` through up to two
-    converged ones on either side, with the exact slopes ``ds/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂s)`` (degree up to 7),
-    and are polished by chord steps with the interpolated ``∂p̂/∂s`` (then the secant of the last two
-    shots), without derivatives; whatever is left goes to the Newton iteration, from the tangent of a
-    converged neighbour where there is one. The same acceptance as :func:`voltage_at_pressure`: every
-    state meets ``inner_ftol · p̂`` (or is noise-limited); problems beyond the end of the first valid run
-    are given up as soon as that end is known (:func:`_beyond_first_run`)."""
-    roots = _VoltageRoots(model, l0, p_hat, settings, solve_states(model, l0, 0.0, settings))
+    pole stretch.
+
+    1. Zero-voltage states only where they decide something (:func:`_zero_voltage_plan`): every
+       :data:`COARSE_STRIDE`-th pole stretch, then the fine ones up to the first feasible coarse one and
+       in the interval where the feasible stretch ends.
+    2. The coarse open pole stretches (and the ends of every run of open ones) by the Newton iteration with
+       derivatives, each until its shot meets :data:`HANDOFF` ``· p̂`` (or converges); its next point then
+       lies within ``O(HANDOFF²)`` of the root.
+    3. The fine ones between two of those start at the Hermite interpolant of ``s(λ0)`` through up to
+       two on either side, with the exact slopes ``ds/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂s)`` (degree up to 7), and
+       are finished together with the handed-off coarse ones by chord steps without derivatives
+       (:meth:`_VoltageRoots.polish`: the interpolated or exact ``∂p̂/∂s``, then the secant of the last
+       two shots).
+    4. Whatever is left is shot at zero voltage if it was not, and goes to the Newton iteration, from the
+       tangent of a converged neighbour where there is one.
+    5. Any pole stretch before the first run of accepted states (or just after it) that was set aside in
+       step 1 is solved from scratch, until none is left.
+
+    The same acceptance as :func:`voltage_at_pressure`: every state meets ``inner_ftol · p̂`` (or is
+    noise-limited); problems beyond the end of the first valid run are given up as soon as that end is
+    known (:func:`_beyond_first_run`)."""
+    n = l0.size
+    roots = _VoltageRoots(model, l0, p_hat, settings)
+    coarse = np.unique(np.r_[np.arange(0, n, COARSE_STRIDE), n - 1])
+    roots.zero(coarse)
+    need, beyond = _zero_voltage_plan(roots, coarse)
+    roots.zero(need)
+    skipped = np.zeros(n, dtype=bool)
+    skipped[beyond:] = ~roots.finished[beyond:]
+    roots.finished[skipped] = True
+
     is_open = ~roots.finished
     open_ = np.flatnonzero(is_open)
-    if open_.size == 0:
-        return roots.states(with_derivatives=False)
-    # the ends of every run of open pole stretches are coarse, and every COARSE_STRIDE-th in between
-    edges = np.flatnonzero(np.diff(np.r_[False, is_open, False].astype(int)))
-    firsts, lasts = edges[::2], edges[1::2] - 1
-    coarse = np.unique(np.r_[open_[::COARSE_STRIDE], firsts, lasts])
-    roots.newton(coarse, roots.regula_falsi(coarse), iterations, _beyond_first_run)
+    if open_.size:
+        # the ends of every run of open pole stretches are coarse, and every COARSE_STRIDE-th in between
+        edges = np.flatnonzero(np.diff(np.r_[False, is_open, False].astype(int)))
+        firsts, lasts = edges[::2], edges[1::2] - 1
+        nodes = np.unique(np.r_[coarse[is_open[coarse]], firsts, lasts])
+        roots.zero(nodes[~roots.known[nodes]])  # a run end next to an exact zero-voltage root (rare)
+        nodes = nodes[~roots.finished[nodes]]
+        handed, handed_x, handed_slope = roots.newton(
+            nodes, roots.regula_falsi(nodes), iterations, _beyond_first_run, handoff=HANDOFF
+        )
+        _fine_voltages(roots, is_open, nodes, (handed, handed_x, handed_slope), iterations)
 
-    fine = np.setdiff1d(open_, coarse)
-    if fine.size == 0:
-        return roots.states(with_derivatives=False)
+    # pole stretches set aside that decide where the first run of accepted states starts or ends
+    for _ in range(n):
+        good = roots.accepted()
+        if good.any():
+            run = first_valid_run(good)
+            where = np.r_[np.arange(run.start), [run.stop] if run.stop < n else []].astype(int)
+        else:
+            where = np.arange(n)
+        rows = where[skipped[where]]
+        if rows.size == 0:
+            break
+        skipped[rows] = False
+        roots.finished[rows] = False
+        roots.zero(rows)
+        rows = rows[~roots.finished[rows]]
+        roots.newton(rows, roots.regula_falsi(rows), iterations, _beyond_first_run)
+    return roots.states(with_derivatives=False)
+
+
+def _fine_voltages(roots: _VoltageRoots, is_open, nodes, handed, iterations) -> None:
+    """Steps 3 and 4 of :func:`_voltage_charge_states`: the open pole stretches other than ``nodes``, and the
+    ``handed`` ``(rows, next points, slopes)`` of the nodes' Newton iteration."""
+    l0 = roots.l0
+    handed_rows, handed_x, handed_slope = handed
+    open_ = np.flatnonzero(is_open)
+    fine = np.setdiff1d(open_, nodes)
     good = roots.accepted()
+    good[handed_rows] = True
     d = roots.derivatives
-    s = roots.result.phi_hat**2
+    phi = roots.result.phi_hat
+    s = phi**2
+    s[handed_rows] = handed_x
     with np.errstate(all="ignore"):
-        slope = d["dp_dphi"] / (2 * roots.result.phi_hat)  # ∂p̂/∂s
+        slope = d["dp_dphi"] / (2 * phi)  # ∂p̂/∂s (of the last shot with derivatives)
         tangent = -d["dp_dl0"] / slope  # ds/dλ0 along the curve
+        slope[handed_rows] = handed_slope
     usable = good & np.isfinite(slope) & np.isfinite(tangent) & (slope < 0)
     run_id = np.cumsum(np.r_[0, np.diff(is_open.astype(int)) != 0])
-    pos = np.searchsorted(coarse, fine)
-    # up to two usable coarse neighbours on either side, in the same run of open pole stretches
+    pos = np.searchsorted(nodes, fine)
+    # up to two usable nodes on either side, in the same run of open pole stretches
     near: dict[str, tuple[np.ndarray, np.ndarray]] = {}
     for name, shift, inner in (("a1", -1, None), ("a2", -2, "a1"), ("b1", 0, None), ("b2", 1, "b1")):
         k = pos + shift
-        inside_k = (k >= 0) & (k < coarse.size)
-        idx = coarse[np.clip(k, 0, coarse.size - 1)]
+        inside_k = (k >= 0) & (k < nodes.size)
+        idx = nodes[np.clip(k, 0, max(nodes.size - 1, 0))] if nodes.size else np.zeros(fine.size, dtype=int)
         valid = inside_k & usable[idx] & (run_id[idx] == run_id[fine])
         if inner is not None:
             valid &= near[inner][1]
@@ -741,13 +935,22 @@ def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> Membran
             if not sel.any():
                 continue
             names = ["a2"] * with_a2 + ["a1", "b1"] + ["b2"] * with_b2
-            nodes = np.stack([near[k][0][sel] for k in names], axis=1)
-            guess[sel], guess_slope[sel] = _hermite_at(l0, fine[sel], nodes, s, tangent, slope)
+            at = np.stack([near[k][0][sel] for k in names], axis=1)
+            guess[sel], guess_slope[sel] = _hermite_at(l0, fine[sel], at, s, tangent, slope)
     inside = both & np.isfinite(guess) & (guess > roots.lo[fine]) & (guess < roots.hi[fine])
     inside &= np.isfinite(guess_slope) & (guess_slope < 0)
-    left, nxt = roots.polish(fine[inside], guess[inside], guess_slope[inside], POLISH_ROUNDS, _beyond_first_run)
-    # the rest: from one converged neighbour's tangent, else from the regula falsi point
+    left, nxt = roots.polish(
+        np.r_[fine[inside], handed_rows],
+        np.r_[guess[inside], handed_x],
+        np.r_[guess_slope[inside], handed_slope],
+        POLISH_ROUNDS,
+        _beyond_first_run,
+    )
+    # the rest: known at zero voltage first; then from one converged neighbour's tangent, else from the
+    # regula falsi point
     rest = fine[~inside]
+    late = np.r_[left, rest]
+    roots.zero(late[~roots.known[late] & ~roots.finished[late]])
     start = roots.regula_falsi(rest)
     from_a = near["a1"][1][~inside]
     from_b = near["b1"][1][~inside] & ~from_a
@@ -757,10 +960,9 @@ def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> Membran
     lo, hi = roots.lo[rest], roots.hi[rest]
     start = np.where(np.isfinite(start), np.clip(start, lo + 0.01 * (hi - lo), hi - 0.01 * (hi - lo)), np.nan)
     start = np.where(np.isfinite(start), start, roots.regula_falsi(rest))
-    rows = np.r_[left, rest]
-    if rows.size:
-        roots.newton(rows, np.r_[nxt, start], iterations, _beyond_first_run)
-    return roots.states(with_derivatives=False)
+    nxt = np.where(np.isfinite(nxt), nxt, roots.regula_falsi(left))
+    if late.size:
+        roots.newton(late, np.r_[nxt, start], iterations, _beyond_first_run)
 
 
 #: the first guess of a Φ̂–Q̂ limit point is the extremum of the polynomial through the grid values at up to
@@ -890,7 +1092,9 @@ def voltage_charge_curve(
     Traced by the pole stretch; at each ``λ0`` the voltage is the root of ``p̂(λ0, Φ̂) = p̂``, found as by
     :func:`voltage_at_pressure` (safeguarded Newton in ``s = Φ̂²`` with the exact slope), where the
     voltages of most pole stretches start from the cubic Hermite interpolant of a coarser set along the
-    curve (exact slopes ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)``) and are polished by chord steps. The voltage and
+    curve (exact slopes ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)``) and are polished by chord steps, and the
+    zero-voltage states are shot only where they decide where the curve starts or ends (see
+    :func:`_voltage_charge_states`; the states are those :func:`voltage_at_pressure` accepts). The voltage and
     charge extrema are located as roots of the exact ``dΦ̂/dλ0`` and
     ``dQ̂/dλ0 = ∂Q̂/∂λ0 + (∂Q̂/∂Φ̂) dΦ̂/dλ0``, to the solver tolerance.
 

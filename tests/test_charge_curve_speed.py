@@ -270,3 +270,62 @@ def test_default_grid_and_prestretch(prestretched):
     assert 5.0 < far.pole_stretch[0] < far.pole_stretch[-1] < 6.5
     assert "no voltage" in far.starts_because and "no voltage" in far.stopped_because
     np.testing.assert_allclose(far.p_hat, 1.5, rtol=1e-12)
+
+
+# ------------------------------------------------------------------- zero-voltage states where needed
+
+
+def test_zero_voltage_plan_shoots_only_what_decides_the_run():
+    """Given the feasibility of the coarse pole stretches (every 8th), the fine ones shot at zero voltage are
+    those before the first feasible coarse one (an isolated feasible stretch there would be the curve) and
+    those of the first interval after it that ends infeasible (where the curve ends); beyond that end none
+    matters. Between two feasible coarse ones nothing is shot."""
+    from types import SimpleNamespace
+
+    from coexist.curves import _zero_voltage_plan
+
+    coarse = np.arange(0, 57, 8)  # 0, 8, ..., 56
+    fine = lambda a, b: list(range(a + 1, b))  # noqa: E731
+    roots = SimpleNamespace(l0=np.linspace(1.01, 4.0, 57), feasible=np.zeros(57, dtype=bool))
+    roots.feasible[[16, 24, 48]] = True  # feasible at 16 and 24, not at 32 or 40, again at 48
+    rows, beyond = _zero_voltage_plan(roots, coarse)
+    assert rows.tolist() == fine(0, 8) + fine(8, 16) + fine(24, 32) and beyond == 33
+    roots.feasible[:] = False
+    rows, beyond = _zero_voltage_plan(roots, coarse)
+    assert rows.tolist() == sorted(set(range(57)) - set(coarse.tolist())) and beyond == 57
+    roots.feasible[[40, 48, 56]] = True  # feasible to the end of the grid
+    rows, beyond = _zero_voltage_plan(roots, coarse)
+    assert rows.tolist() == sorted(set(range(40)) - set(coarse.tolist())) and beyond == 57
+
+
+def test_the_curve_shoots_few_zero_voltage_states(gent, monkeypatch):
+    """The p̂ = 1.5 curve on 200 pole stretches shoots 54 zero-voltage states (26 coarse, 28 before and at its
+    start), not 200, and still starts where every zero-voltage state says it can (the first pole stretch
+    with p̂(λ0, 0) ≥ 1.5, checked on all 200); at p̂ = 1.2 on a grid to λ0 = 8, where the Gent membrane
+    carries the pressure again past the stiffening (λ0 ≈ 5.1 to 6.2), the curve is the first valid run
+    and starts and ends as voltage_at_pressure (every pole stretch solved from scratch) says."""
+    import coexist.curves as curves
+
+    shot = []
+    real = curves.solve_states
+
+    def counting(model, l0, phi, *args, **kwargs):
+        if np.ndim(phi) == 0 and float(phi) == 0.0:
+            shot.append(np.size(l0))
+        return real(model, l0, phi, *args, **kwargs)
+
+    monkeypatch.setattr(curves, "solve_states", counting)
+    c = bounded(voltage_charge_curve, gent, 1.5, GRID, SETTINGS)
+    monkeypatch.undo()
+    assert sum(shot) <= 60
+    zero = solve_states(gent, GRID, 0.0, SETTINGS)
+    first = int(np.argmax(zero.p_hat >= 1.5))
+    assert c.pole_stretch[0] == GRID[first] and "no voltage" in c.starts_because
+    grid = np.linspace(1.01, 8.0, 200)
+    far = bounded(voltage_charge_curve, gent, 1.2, grid, SETTINGS)
+    ref = bounded(voltage_at_pressure, gent, grid, 1.2, SETTINGS)
+    i0, i1 = np.searchsorted(grid, far.pole_stretch[[0, -1]])
+    assert np.all(ref.ok[i0 : i1 + 1]) and not ref.ok[i0 - 1] and not ref.ok[i1 + 1]
+    assert ref.ok[i1 + 2 :].any()  # a second stretch carries 1.2: not part of the curve
+    slope = np.abs(ref.derivatives.dp_dphi[i0 : i1 + 1])
+    assert np.all(slope * np.abs(far.phi_hat - ref.phi_hat[i0 : i1 + 1]) <= 1e-9 * 1.2)
