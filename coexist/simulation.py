@@ -914,8 +914,9 @@ class RampReport:
             ``pressure_mbar``, ``zone_volumes_ml`` and ``pole_stretches`` (per zone, least inflated first),
             ``groups`` (the same per group of identical zones: ``zones``, ``volume_ml``, ``pole_stretch``; its
             size does not grow with the number of zones), ``configuration``, ``bulged_zones``, ``stable`` and
-            ``residual_p_hat``; without a state the values are None, ``"none"`` and False, and there is no
-            ``residual_p_hat``.
+            ``residual_p_hat``; for a tension-field scene ``wrinkled_area_fraction`` (per zone, the reference
+            area fraction of its hoop-wrinkled region); without a state the values are None, ``"none"`` and
+            False, and there is no ``residual_p_hat``.
         """
         if st is None:
             return {
@@ -939,9 +940,18 @@ class RampReport:
             "bulged_zones": st.k,
             "stable": bool(st.stable),
             "residual_p_hat": float(st.residual),
+            **(
+                {
+                    "wrinkled_area_fraction": [
+                        float(x) for x, n in zip(st.wrinkled_fraction, st.configuration.counts) for _ in range(n)
+                    ]
+                }
+                if st.wrinkled_fraction
+                else {}
+            ),
         }
 
-    def to_dict(self, every: int = 1) -> dict:
+    def to_dict(self, every: int = 1, shapes: bool = False, shape_points: int = 0) -> dict:
         """The whole report, JSON-ready.
 
         Parameters
@@ -949,6 +959,15 @@ class RampReport:
         every : int, optional
             Keep every ``every``-th voltage of the path (default all), and always the first, the last and
             each where the configuration changes.
+        shapes : bool, optional
+            Add to every kept step ``shapes``: per group of identical zones (as ``groups``) its ``zones`` and
+            the shape of :meth:`coexist.shapes.Profile.to_dict` (apex height, apex curvature, radius of
+            curvature, electrode edge, wrinkled intervals; None without a state), all states of the ramp
+            profiled at once (:func:`coexist.shapes.profiles`; a hoop-wrinkled state has its apex numbers and
+            no profile points).
+        shape_points : int, optional
+            With ``shapes``: also each zone's profile with this many points (``profile``: ``r_mm``,
+            ``z_mm``); 0 (default) for none, else at least 3.
 
         Returns
         -------
@@ -962,7 +981,8 @@ class RampReport:
         Raises
         ------
         SceneError
-            If the output would pass the limits of :mod:`coexist.cost` (names the field, suggests ``every``).
+            If the output would pass the limits of :mod:`coexist.cost` (names the field, suggests ``every``),
+            the shapes' numbers included.
         """
         from .cost import ramp_cost
 
@@ -972,6 +992,7 @@ class RampReport:
         check_field = self.scene.breakdown_field is not None
         last = len(self.result.steps) - 1
         previous = None
+        kept: list = []  # the state of every kept step (for the shapes)
         for i, s in enumerate(self.result.steps):
             label = s.segment.label if s.segment is not None else "none"
             changed, previous = previous is not None and label != previous, label
@@ -989,6 +1010,9 @@ class RampReport:
             if s.note:
                 d["note"] = s.note
             steps.append(d)
+            kept.append(s.state)
+        if shapes:
+            self._add_shapes(steps, kept, shape_points, every)
         return {
             "scene": self.scene.to_dict(),
             "effects": self.effects,
@@ -999,6 +1023,62 @@ class RampReport:
             "transitions": [self.transition_dict(t) for t in self.result.transitions + self.result.equal_free_energy],
             "notes": self.result.notes,
         }
+
+    def to_xarray(self, every: int = 1):
+        """The report as an :class:`xarray.Dataset` (:func:`coexist.labelled.ramp_dataset`): dimensions ``step``
+        (coordinates ``voltage_kV``, ``direction``), ``zone`` and ``transition``, units in the attributes.
+
+        Parameters
+        ----------
+        every : int, optional
+            Keep every ``every``-th voltage, as :meth:`to_dict`.
+
+        Returns
+        -------
+        xarray.Dataset
+        """
+        from .labelled import ramp_dataset
+
+        return ramp_dataset(self, every)
+
+    def _add_shapes(self, steps: list, states: list, points: int, every: int) -> None:
+        """``shapes`` of every step dict (:meth:`to_dict`): all the states' profiles computed in one batch."""
+        from .cost import MAX_OUTPUT_NUMBERS, ramp_cost
+        from .shapes import MIN_POINTS, profiles
+
+        if points and (isinstance(points, bool) or not isinstance(points, int) or points < MIN_POINTS):
+            raise SceneError(f"must be 0 or an integer of at least {MIN_POINTS}, got {points!r}", "shape_points")
+        groups = sum(len(st.pole_stretch) for st in states if st is not None)
+        numbers = ramp_cost(self.scene, every).numbers if self.scene.voltage is not None else 0
+        numbers += groups * (8 + 2 * points)
+        if numbers > MAX_OUTPUT_NUMBERS:
+            raise SceneError(
+                f"the ramp with its shapes would print {numbers:,} numbers, more than {MAX_OUTPUT_NUMBERS:,}: "
+                "print fewer voltages (a larger --every) or fewer profile points",
+                "every",
+            )
+        lam = [x for st in states if st is not None for x in st.pole_stretch]
+        phi = [st.phi_hat for st in states if st is not None for _ in st.pole_stretch]
+        profs = iter(
+            profiles(
+                self.scene.model(),
+                lam,
+                phi,
+                zone_radius=self.scene.zone_radius,
+                points=max(points, MIN_POINTS),
+                settings=self.settings,
+                wrinkled="numbers",
+            )
+            if lam
+            else []
+        )
+        for d, st in zip(steps, states):
+            if st is None:
+                d["shapes"] = None
+                continue
+            d["shapes"] = [
+                {"zones": int(n), **next(profs).to_dict(points=bool(points))} for n in st.configuration.counts
+            ]
 
 
 def simulate_ramp(scene: Scene, settings: SolverSettings | None = None, progress=None) -> RampReport:

@@ -16,6 +16,8 @@ COMMANDS = {
     "scenes": ("scenes", "scenes"),
     "check": ("scenes", "check"),
     "accuracy": ("accuracy", "accuracy"),
+    "sweep": ("sweep", "sweep"),
+    "shape": ("shape", "shape"),
 }
 
 

@@ -15,6 +15,9 @@ from .common import (
     write_json,
 )
 
+#: points of each zone's profile in ``--shapes --json`` (sparse: for a plot, not for the numbers)
+SHAPE_POINTS = 41
+
 
 @click.command()
 @click.argument("scene", required=False, metavar="[SCENE]")
@@ -33,10 +36,16 @@ from .common import (
     show_default=True,
     help="Print (and put in --json) every n-th voltage; the first, the last and every change of configuration always.",
 )
+@click.option(
+    "--shapes",
+    is_flag=True,
+    help="Add each zone's apex height, apex curvature and electrode edge per step (with --json also its "
+    f"profile, {SHAPE_POINTS} points; see `coexist shape`).",
+)
 @click.option("--overwrite", is_flag=True, help="Replace existing output files.")
 @accuracy_option
 @library_errors
-def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
+def ramp(scene, plot, states_plot, as_json, every, shapes, overwrite, accuracy, rtol):
     """Ramp the voltage of SCENE (default: tricircle) up and back down, following a slow experiment.
 
     The zones stay in the stable state they are in until the voltage reaches the end of its stable
@@ -64,7 +73,9 @@ def ramp(scene, plot, states_plot, as_json, every, overwrite, accuracy, rtol):
         n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
         with stderr_progress(n, "ramp") as bar:
             report = sim.ramp(progress=lambda i: bar.update(1))
-        data = report.to_dict(every)
+        if shapes:
+            info("computing the zones' shapes ...")
+        data = report.to_dict(every, shapes=shapes, shape_points=SHAPE_POINTS if as_json else 0)
         if plot_path is not None:
             from coexist.plotting import plot_ramp_volumes
 
@@ -127,9 +138,22 @@ def _volumes(step) -> str:
     return " ".join(f"{g['zones']}×{g['volume_ml']:.3f}" for g in step["groups"])
 
 
+def _apex(step) -> str:
+    """The zones' apex heights in mm (and curvatures in 1/m) of one row, as :func:`_volumes` lays them out."""
+    if not step.get("shapes"):
+        return "-"
+    per_zone = [g for g in step["shapes"] for _ in range(g["zones"])]
+    if len(per_zone) <= 6:
+        return " ".join(f"{g['apex_height_mm']:.2f}/{g['apex_curvature_per_m']:.1f}" for g in per_zone)
+    return " ".join(f"{g['zones']}×{g['apex_height_mm']:.2f}/{g['apex_curvature_per_m']:.1f}" for g in step["shapes"])
+
+
 def _table(data):
+    shapes = any("shapes" in s for s in data["steps"])
+    extra = f"  {'apex_height_mm/apex_curvature_per_m'}" if shapes else ""
     click.echo(
         f"{'voltage_kV':>10} {'dir':>4} {'pressure_mbar':>13}  {'zone_volumes_ml':<28} {'configuration':<18} stable"
+        + extra
     )
     prev = None
     for s in data["steps"]:
@@ -137,9 +161,12 @@ def _table(data):
         prev = s["configuration"]
         p = "-" if s["pressure_mbar"] is None else f"{s['pressure_mbar']:.4f}"
         mark = "  <- " + s.get("note", "transition") if changed else ""
+        wrinkled = [f"{100 * f:.0f}%" if f > 0 else "taut" for f in s.get("wrinkled_area_fraction") or []]
+        if any(w != "taut" for w in wrinkled):  # a tension-field scene: which zones are wrinkled, how much
+            mark += "  wrinkled: " + " ".join(wrinkled)
         click.echo(
             f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {_volumes(s):<28} {s['configuration']:<18} "
-            f"{'yes' if s['stable'] else 'no'}{mark}"
+            f"{'yes' if s['stable'] else 'no'}{mark}" + (f"  {_apex(s)}" if shapes else "")
         )
     click.echo("")
     click.echo("transitions (voltage ± its error, measured by locating it again at rtol/100):")
