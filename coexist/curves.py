@@ -119,7 +119,8 @@ class Curve:
         dict
             Also ``family``, ``pole_stretch``, ``apex_height``, ``max_field_hat``, ``min_tension_hat``,
             ``limit_points`` (their :meth:`LimitPoint.to_dict`), ``relative_tolerance`` and, when set,
-            ``starts_because`` / ``stopped_because``; arrays as lists of floats.
+            ``starts_because`` / ``stopped_because``; for a tension-field model ``wrinkled_fraction`` and
+            ``wrinkled_radii`` per state; arrays as lists of floats.
         """
         s = self.states
         out = {
@@ -141,6 +142,9 @@ class Curve:
             out["p_hat"] = self.fixed
             out["phi_hat"] = s.phi_hat.tolist()
             out["p_hat_residual_max"] = float(np.max(np.abs(s.p_hat - self.fixed))) if s.p_hat.size else 0.0
+        if s.wrinkled_radii is not None:  # a tension-field model: where each state is wrinkled
+            out["wrinkled_fraction"] = s.wrinkled_fraction.tolist()
+            out["wrinkled_radii"] = [[list(map(float, w)) for w in ws] for ws in s.wrinkled_radii]
         if self.starts_because:
             out["starts_because"] = self.starts_because
         if self.stopped_because:

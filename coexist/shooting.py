@@ -529,11 +529,13 @@ class _Integrators:
         rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
         return self.stepper_of(kind, n, rows, getattr(self, kind), lambda: self._casadi_rhs(kind))
 
-    def stepper_of(self, kind: str, n: int, rows: int, fun, casadi_rhs):
+    def stepper_of(self, kind: str, n: int, rows: int, fun, casadi_rhs, medium: bool = False):
         """A stepper for ``n`` trajectories of ``rows`` rows: numpy's ``fun(t, y)`` for a large batch, else the
         whole DOP853 step of the CasADi function ``casadi_rhs()`` (built once per model and ``kind``, cached
-        on disk, compiled after :data:`COMPILE_AFTER` uses in a process)."""
-        if n > CASADI_BATCH_LIMIT:
+        on disk, compiled after :data:`COMPILE_AFTER` uses in a process). ``medium``: once compiled, the
+        step function also serves batches up to :data:`COMPILED_BATCH_LIMIT` (where it beats numpy)."""
+        limit = COMPILED_BATCH_LIMIT if medium else CASADI_BATCH_LIMIT
+        if n > limit:
             return _int.NumpyStepper(fun)
         from .numerics.compiled import compiled, load_cached
 
@@ -543,6 +545,7 @@ class _Integrators:
             # compiled by an earlier process, else CasADi's graph (deserialised, or built and kept)
             step = None if key is None else load_cached(name, key, f"dop853_{kind}")
             self._casadi[("stepper uses", kind)] = COMPILE_AFTER if step is not None else 0
+            self._casadi[("stepper compiled", kind)] = step is not None
 
             def make():
                 return _int.casadi_step_function(casadi_rhs(), rows, f"dop853_{kind}")
@@ -555,6 +558,9 @@ class _Integrators:
             fast = compiled(st._step, name, key=key)
             if fast is not None:
                 st = self._casadi[kind] = _int.CasadiStepper(fast, fun, rows)
+                self._casadi[("stepper compiled", kind)] = True
+        if n > CASADI_BATCH_LIMIT and not self._casadi[("stepper compiled", kind)]:
+            return _int.NumpyStepper(fun)  # the virtual machine loses to numpy here
         return st
 
     def _casadi_rhs(self, kind):

@@ -246,7 +246,7 @@ class _Equations:
         (compiled once per machine), as the taut shooting's small batches."""
         kind = ("relaxed_taut", "relaxed_wrinkled")[mode] + ("_sens" if self.lay.derivatives else "")
         return sh._integrators(self.model).stepper_of(
-            kind, n, self.lay.rows, self.rhs(mode), lambda: self._casadi_rhs(mode)
+            kind, n, self.lay.rows, self.rhs(mode), lambda: self._casadi_rhs(mode), medium=True
         )
 
     def _casadi_rhs(self, mode):
@@ -508,26 +508,56 @@ def _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from,
         if k == _CLAMP:
 
             def crossing(s, jj, j=j):
-                return at(s, j[jj])[0][1] - lam_clamp
+                ys, fs = at(s, j[jj])
+                return ys[1] - lam_clamp, fs[1]
 
         else:
 
             def crossing(s, jj, j=j):
                 ys, fs = at(s, j[jj])
-                return eqs.switching(md, ys, fs)[0]
+                g, dg, *_ = eqs.switching(md, ys, fs)
+                return g, dg
 
         # the integrator saw the crossing: its ends keep their signs (a re-evaluation may differ by roundoff)
         if k == _SWITCH:
             f_lo, f_hi = np.maximum(g_a[j], 1e-300), np.minimum(g_e[j], -1e-300)
         else:
             f_lo, f_hi = ya[1, j] - lam_clamp, np.minimum(y_end[1, j] - lam_clamp, -1e-300)
-        r = bracketed_root(crossing, np.zeros(j.size), s_hi[j], f_lo, f_hi, rtol=LOCATE_RTOL, max_iter=80)
-        ys, fs = at(r.x, j)
-        Rs = Ra[j] + r.x
+        x = _locate(crossing, s_hi[j].copy(), f_lo, f_hi)
+        ys, fs = at(x, j)
+        Rs = Ra[j] + x
         if k == _CLAMP:
             _land(eqs, md, idx[j], Rs, ys, fs, out, status, intervals, wrinkled_from)
         else:
             _switch(eqs, md, idx[j], Rs, ys, fs, R, y, h, hc[j], mode, status, switches, wrinkled_from, intervals)
+
+
+def _locate(fun, hi, g_lo, g_hi, rtol=LOCATE_RTOL, max_iter=40):
+    """Roots ``s`` in ``(0, hi)`` of ``g(s)`` given ``fun(s, idx) -> (g, dg/ds)``, ``g(0) = g_lo > 0 > g_hi =
+    g(hi)``: Newton's method kept inside the shrinking bracket (bisection where a step leaves it), from
+    the secant; converged when the Newton step is below ``rtol s`` (the point kept is then within that of
+    the root: quadratic convergence, about four evaluations)."""
+    lo = np.zeros_like(hi)
+    with np.errstate(all="ignore"):
+        x = np.clip(hi * g_lo / (g_lo - g_hi), 0.01 * hi, 0.99 * hi)
+    done = np.zeros(hi.size, dtype=bool)
+    for _ in range(max_iter):
+        o = np.flatnonzero(~done)
+        if not o.size:
+            break
+        g, dg = fun(x[o], o)
+        pos = g > 0
+        lo[o[pos]] = x[o[pos]]
+        hi[o[~pos]] = x[o[~pos]]
+        with np.errstate(all="ignore"):
+            step = g / dg
+        new = x[o] - step
+        ok = np.isfinite(new) & (new > lo[o]) & (new < hi[o])
+        conv = (ok & (np.abs(step) <= rtol * np.abs(x[o]))) | (g == 0)
+        conv |= hi[o] - lo[o] <= 4 * np.finfo(float).eps * hi[o]
+        x[o] = np.where(conv, x[o], np.where(ok, new, 0.5 * (lo[o] + hi[o])))
+        done[o[conv]] = True
+    return x
 
 
 def _land(eqs, md, idx, Rs, ys, fs, out, status, intervals, wrinkled_from):

@@ -12,6 +12,7 @@ from .common import (
     accuracy_option,
     info,
     library_errors,
+    load_scene_arg,
     material_options,  # noqa: I001
     parse_floats,
     settings_from,
@@ -24,6 +25,12 @@ from .common import (
 @click.option("--material", default=None, help="neo-hookean (default) or gent.")
 @click.option("--jlim", type=float, default=None, help="Gent limiting stretch invariant Jlim (gent only), e.g. 97.")
 @click.option("--prestretch", type=float, default=None, help="Equibiaxial prestretch λpre ≥ 1 (default 1).")
+@click.option(
+    "--wrinkling",
+    type=click.Choice(["refuse", "tension-field"]),
+    default=None,
+    help="A state whose hoop tension would turn negative: no state (refuse, default) or wrinkled (tension-field).",
+)
 @click.option(
     "--phi-hat",
     "phi_hat",
@@ -57,6 +64,7 @@ def curves(
     material,
     jlim,
     prestretch,
+    wrinkling,
     phi_hat,
     p_hat,
     pole_stretch,
@@ -82,6 +90,8 @@ def curves(
 
     settings = settings_from(accuracy, rtol)
     material, jlim, prestretch = material_options(scene, material, jlim, prestretch)
+    if wrinkling is None:
+        wrinkling = load_scene_arg(scene).wrinkling if scene is not None else "refuse"
     phis = parse_floats(phi_hat, "--phi-hat", nonnegative=True)
     pressures = [] if p_hat.strip().lower() == "none" else parse_floats(p_hat, "--p-hat", positive=True)
     lo, hi = parse_floats(pole_stretch, "--pole-stretch", positive=True, count=(2,))
@@ -92,7 +102,7 @@ def curves(
     if material != "gent" and jlim is not None:
         raise InputError("--jlim: only the gent material takes jlim")
     try:
-        model = build_model(material, jlim=jlim, voltage=True, prestretch=prestretch)
+        model = build_model(material, jlim=jlim, voltage=True, prestretch=prestretch, wrinkling=wrinkling)
     except SceneError as exc:
         raise InputError(f"--{(exc.field or 'material').replace('_', '-')}: {exc.message}") from None
     if lo <= model.prestretch:
