@@ -467,8 +467,9 @@ class _Integrators:
     independent variable (rows R̂, λ1, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ, p̂t, Φ̂).
     """
 
-    def __init__(self, model: MembraneModel):
+    def __init__(self, model: MembraneModel, compile_after: int = COMPILE_AFTER):
         self.model = model
+        self.compile_after = compile_after
         self._casadi: dict = {}
 
     # numpy right-hand sides (large batches)
@@ -509,7 +510,7 @@ class _Integrators:
                 make = lambda: attempt_function(self.model, kind, rows)  # noqa: E731
                 entry["fun"] = make() if key is None else cache.casadi_function(name, key, make)
         entry["uses"] += 1
-        if not entry["compiled"] and entry["uses"] >= COMPILE_AFTER:
+        if not entry["compiled"] and entry["uses"] >= self.compile_after:
             fast = compiled(entry["fun"], name, key=key)
             entry["compiled"] = True  # tried (whether it worked or not)
             if fast is not None:
@@ -544,7 +545,7 @@ class _Integrators:
         if st is None:
             # compiled by an earlier process, else CasADi's graph (deserialised, or built and kept)
             step = None if key is None else load_cached(name, key, f"dop853_{kind}")
-            self._casadi[("stepper uses", kind)] = COMPILE_AFTER if step is not None else 0
+            self._casadi[("stepper uses", kind)] = self.compile_after if step is not None else 0
             self._casadi[("stepper compiled", kind)] = step is not None
 
             def make():
@@ -554,7 +555,7 @@ class _Integrators:
                 step = make() if key is None else cache.casadi_function(name, key, make)
             st = self._casadi[kind] = _int.CasadiStepper(step, fun, rows)
         uses = self._casadi[("stepper uses", kind)] = self._casadi[("stepper uses", kind)] + 1
-        if uses == COMPILE_AFTER:  # used often in this process: worth compiling once per machine
+        if uses == self.compile_after:  # used often in this process: worth compiling once per machine
             fast = compiled(st._step, name, key=key)
             if fast is not None:
                 st = self._casadi[kind] = _int.CasadiStepper(fast, fun, rows)
@@ -777,6 +778,24 @@ def _integrators(model: MembraneModel) -> _Integrators:
     if "integrators" not in built:
         built["integrators"] = _Integrators(model)
     return built["integrators"]
+
+
+def fresh_integrators(model: MembraneModel, compile_after: int = COMPILE_AFTER) -> None:
+    """Give ``model`` new integrators that compile (or load compiled) code from their ``compile_after``-th use.
+
+    The small batches run in CasADi's virtual machine until then and as compiled machine code after; both
+    evaluate the same graph but round differently in the last bits. ``compile_after=1`` puts every
+    computation on the compiled path from the first call (where a C compiler is at hand), so that a result
+    does not depend on what its process computed before (:func:`coexist.sweep.same_code_path`).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The model whose integrators are replaced.
+    compile_after : int
+        Uses before compiling (default :data:`COMPILE_AFTER`).
+    """
+    model._built["integrators"] = _Integrators(model, int(compile_after))
 
 
 def solve_states(

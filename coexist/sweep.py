@@ -665,15 +665,14 @@ def same_code_path(scene: Scene):
     ------
     None
     """
-    from . import shooting
+    from .shooting import fresh_integrators
 
-    scene.model()._built.pop("integrators", None)
-    before = shooting.COMPILE_AFTER
-    shooting.COMPILE_AFTER = 1
+    model = scene.model()
+    fresh_integrators(model, compile_after=1)
     try:
         yield
     finally:
-        shooting.COMPILE_AFTER = before
+        fresh_integrators(model)
 
 
 def _one_line(text: str) -> str:
