@@ -849,21 +849,29 @@ class Tracer:
             else:
                 return None
         else:
+            # bisection on validity, RANGE_END_PROBES points per round in one batched corrector (the bracket
+            # shrinks by that plus one per round: a third of the rounds of plain bisection, each a little
+            # dearer; near an end whose states become singular, as at a pull-in, every round counts)
             lo, hi = 0.0, float(h)
             best = cur
             tol = self.system.settings.event_tol
             while hi - lo > tol:
-                mid = 0.5 * (lo + hi)
-                p = self._points_at(cur, None, h, [mid], (hi - lo) > 1e-4)[0]
-                if p is not None and p.tangent @ cur.tangent > 0:
-                    lo, best = mid, p
+                mids = lo + (hi - lo) * np.arange(1, RANGE_END_PROBES + 1) / (RANGE_END_PROBES + 1)
+                pts = self._points_at(cur, None, h, mids, (hi - lo) > 1e-4)
+                failed = self._last_failure
+                bad = [j for j, p in enumerate(pts) if p is None or not p.tangent @ cur.tangent > 0]
+                if not bad:
+                    lo, best = float(mids[-1]), pts[-1]
                     continue
-                new_codes = [
-                    c[2] for c in getattr(self._last_failure, "failed_states", {}).values() if c[2] is not None
-                ]
-                if not new_codes:
+                j = bad[0]
+                entry = failed.failed_states.get(j) if hasattr(failed, "failed_states") else None
+                if pts[j] is None and (entry is None or entry[2] is None):
                     return None  # the corrector failed on a valid state: undecided
-                hi, code = mid, new_codes[0]
+                if j > 0:
+                    lo, best = float(mids[j - 1]), pts[j - 1]
+                hi = float(mids[j])
+                if entry is not None and entry[2] is not None:
+                    code = entry[2]
             if best is cur:
                 return None
         tag, text = failure_reason(code)
@@ -879,6 +887,10 @@ class Tracer:
             stable_after=False,
             tangent=best.tangent.copy(),
         )
+
+
+#: points per round of the bisection that locates where the states stop being valid
+RANGE_END_PROBES = 7
 
 
 def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
