@@ -63,7 +63,7 @@ def main() -> None:
         for name, (l0, phi) in cases.items():
             st = solve_states(relaxed, l0, phi, derivatives=derivatives)
             wrinkled = int(np.sum(st.wrinkled_fraction > 0))
-            best, med, cpu = timed(lambda l0=l0, phi=phi: solve_states(relaxed, l0, phi, derivatives=derivatives))
+            best, med, cpu = timed(lambda l0=l0, phi=phi, d=derivatives: solve_states(relaxed, l0, phi, derivatives=d))
             results[(name, derivatives)] = cpu
             print(
                 f"{name:<15} derivatives={derivatives!s:<5}: best {best * 1e3:7.1f} ms, median {med * 1e3:7.1f} ms, "
