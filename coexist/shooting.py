@@ -497,6 +497,13 @@ class _Integrators:
         """The attempt function (:func:`attempt_function`) for ``kind``: CasADi's virtual machine at first,
         compiled machine code (:mod:`coexist.numerics.compiled`) from the :data:`COMPILE_AFTER`-th use in a process
         on (a model used that often is worth the one-time compilation; it is cached on disk)."""
+        rows = {"radius": 9, "radius_sens": 19}[kind]
+        return self.attempts_of(kind, lambda: attempt_function(self.model, kind, rows))
+
+    def attempts_of(self, kind: str, make):
+        """The attempt function ``make()`` (a CasADi function named ``attempts_{kind}``), built once per model
+        and ``kind``, cached on disk and compiled like :meth:`attempts`; returns its entry (``fun``, ``maps``,
+        ``fast``)."""
         from .numerics.compiled import compiled, load_cached
 
         entry = self._casadi.setdefault(("attempts", kind), {"fun": None, "uses": 0, "compiled": False, "maps": {}})
@@ -506,8 +513,6 @@ class _Integrators:
             if fast is not None:  # compiled by an earlier process: no symbolic graph to build at all
                 entry["fun"], entry["fast"], entry["compiled"] = fast, True, True
             else:  # the CasADi graph: deserialised if an earlier process built it, else built (and kept)
-                rows = {"radius": 9, "radius_sens": 19}[kind]
-                make = lambda: attempt_function(self.model, kind, rows)  # noqa: E731
                 entry["fun"] = make() if key is None else cache.casadi_function(name, key, make)
         entry["uses"] += 1
         if not entry["compiled"] and entry["uses"] >= self.compile_after:

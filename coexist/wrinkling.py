@@ -189,6 +189,10 @@ class _Equations:
     def __init__(self, model: MembraneModel, lay: _Layout):
         self.model, self.lay = model, lay
         self._maps: dict = {}
+        # the run's settings and tolerances (set by shoot_relaxed)
+        self.settings: SolverSettings = SolverSettings()
+        self.rtol = np.zeros(0)
+        self.atol = np.zeros((lay.rows, 0))
 
     def taut(self, R, y):
         lay, out = self.lay, np.empty_like(y)
@@ -240,6 +244,10 @@ class _Equations:
             x = ca.vertcat(l1, l2, th, w0, phi, f0, f1, fw)
             store[key] = ca.Function("switching", [x], [ca.vertcat(*out)])
         return store[key]
+
+    def attempts_kind(self, mode) -> str:
+        """The name of the attempt function of ``mode`` (its cache key's ``kind``)."""
+        return ("relaxed_taut", "relaxed_wrinkled")[mode] + ("_sens" if self.lay.derivatives else "")
 
     def stepper(self, mode, n: int):
         """DOP853 steps of ``n`` columns in ``mode``: numpy for a large batch, else one CasADi call per step
@@ -329,6 +337,7 @@ def shoot_relaxed(model: MembraneModel, settings: SolverSettings, l0, phi, deriv
     y = np.vstack([y_start[:S], y_start[1:2], y_start[S:]])
     atol = np.vstack([atol_start[:S], np.full((1, m), np.inf), atol_start[S:]])
     atol = np.where(np.isfinite(atol), atol, 1e300)
+    eqs.settings, eqs.rtol, eqs.atol = settings, rtol, atol
     R = np.full(m, R0)
     h = np.full(m, R0)
     mode = np.zeros(m, dtype=int)
@@ -409,6 +418,10 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node
         dg_last[idx[keep]] = dg[keep]
         return res
 
+    entry = sh._integrators(model).attempts_of(eqs.attempts_kind(md), lambda: _attempt_function(eqs, md))
+    if n <= (sh.COMPILED_BATCH_LIMIT if entry.get("fast") else sh.CASADI_BATCH_LIMIT):
+        _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status, steps, min_T, max_E, fail_R)
+        return
     res = _int.integrate(
         eqs.stepper(md, n),
         R[cols],
@@ -433,6 +446,149 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node
     status[cols[failed]] = st[failed] - _int.FAILED
     g_node[cols] = g_last
     dg_node[cols] = dg_last
+
+
+#: layout of the packed per-trajectory state of the relaxed attempt function (then y, f, atol)
+_HEAD = (
+    "t",
+    "h",
+    "t_end",
+    "rtol",
+    "status",
+    "steps",
+    "max_steps",
+    "g_last",
+    "dg_last",
+    "R_last",
+    "minT",
+    "maxE",
+    "failR",
+    "kind",
+    "h_cross",
+)
+_H = {k: i for i, k in enumerate(_HEAD)}
+
+
+def _attempt_function(eqs, mode, K: int = sh.ATTEMPTS_PER_CALL):
+    """``K`` DOP853 attempts of one trajectory in ``mode`` as one CasADi function of its packed state: what
+    :func:`_segment`'s numpy loop does per step (the step and its error control, then at the new node the
+    switching function, the clamp, a dip between nodes, the failures), so that a small batch costs one call
+    per ``K`` attempts instead of several numpy and CasADi calls per step. A stopped trajectory (status ≠ 0:
+    ``CROSSED`` with its ``kind`` and ``h_cross``, a failure code, ``REACHED_END``, ``STEP_LIMIT``) passes
+    through unchanged."""
+    import casadi as ca
+
+    lay, model = eqs.lay, eqs.model
+    rhs = eqs._casadi_rhs(mode)
+    R = lay.rows
+    step = _int.casadi_step_function(rhs, R, "dop853_relaxed")
+    sw = eqs._switching_function(mode)
+    o = len(_HEAD)
+    x = ca.SX.sym("x", o + 3 * R)
+    g = {k: x[i] for k, i in _H.items()}
+    y, f, atol = x[o : o + R], x[o + R : o + 2 * R], x[o + 2 * R : o + 3 * R]
+    t, h = g["t"], g["h"]
+    active = g["status"] == 0
+    span = g["t_end"] - t
+    last = h >= span
+    hs = ca.if_else(last, span, h)
+    out = step(t, hs, y)
+    y_new, f_new, e5, e3 = out[:R], out[R : 2 * R], out[2 * R : 3 * R], out[3 * R : 4 * R]
+    scale = atol + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * g["rtol"]
+    s5, s3 = ca.sumsqr(e5 / scale), ca.sumsqr(e3 / scale)
+    den = s5 + 0.01 * s3
+    err = ca.fabs(hs) * s5 / ca.sqrt(ca.if_else(den > 0, den, 1) * R)
+    total = ca.sum1(y_new) + ca.sum1(f_new)
+    finite = (total == total) * (ca.fabs(total) < 1e300)
+    accepted = active * finite * (err <= 1)
+    grow = 0.9 * ca.if_else(err > 0, err, 1) ** (-1.0 / 8)
+    factor = ca.if_else(err == 0, 10, ca.fmin(ca.fmax(grow, 0.2), 10))
+    factor = ca.if_else(accepted, factor, ca.fmin(1, factor))
+    factor = ca.if_else(finite, factor, 0.25)
+    t_new = ca.if_else(last, g["t_end"], t + hs)
+    q = sw(ca.vertcat(y_new[0], y_new[1], y_new[2], y_new[lay.W], y_new[lay.P + 1], f_new[0], f_new[1], f_new[lay.W]))
+    gg, dg, T1, E, stiff, margin, w = (q[i] for i in range(7))
+    clamp = y_new[1] <= model.prestretch
+    switch = (gg <= 0) * (g["g_last"] > 0)
+    interior = (g["dg_last"] < 0) * (dg > 0) * (g["g_last"] > 0) * (gg > 0)
+    est = sh._hermite_min(sh._CasadiOps(), g["R_last"], g["g_last"], g["dg_last"], t_new, gg, dg)
+    dip = interior * (est < 0) * (1 - switch)
+    cross = accepted * ((clamp + switch + dip) > 0)
+    kind = ca.if_else(clamp, _CLAMP, ca.if_else(switch, _SWITCH, _DIP))
+    code = ca.if_else(ca.fabs(y_new[2]) > math.pi, sh.FOLDED_BACK, 0)
+    code = ca.if_else(1 - (stiff > 0), sh.LOST_ELLIPTICITY if mode == TAUT else sh.PULL_IN, code)
+    code = ca.if_else(1 - (margin > 0), sh.LOCKED, code)
+    code = ca.if_else(1 - (T1 > 0), sh.SLACK, code)
+    if mode == WRINKLED:
+        code = ca.if_else(w != w, sh.PULL_IN, code)
+    move = accepted * (1 - cross)
+    bad = move * (code != 0)
+    status = ca.if_else(cross, _int.CROSSED, g["status"])
+    status = ca.if_else(bad, code, status)
+    status = ca.if_else(move * last * (code == 0), _int.REACHED_END, status)
+    steps = g["steps"] + active
+    status = ca.if_else((status == 0) * (steps >= g["max_steps"]), _int.STEP_LIMIT, status)
+    node_min = ca.fmin(T1, gg) if mode == TAUT else T1
+    new = {
+        "t": ca.if_else(move, t_new, t),
+        "h": ca.if_else(active, hs * factor, h),
+        "t_end": g["t_end"],
+        "rtol": g["rtol"],
+        "status": status,
+        "steps": steps,
+        "max_steps": g["max_steps"],
+        "g_last": ca.if_else(move, gg, g["g_last"]),
+        "dg_last": ca.if_else(move, dg, g["dg_last"]),
+        "R_last": ca.if_else(move, t_new, g["R_last"]),
+        "minT": ca.if_else(move, ca.fmin(g["minT"], node_min), g["minT"]),
+        "maxE": ca.if_else(move, ca.fmax(g["maxE"], E), g["maxE"]),
+        "failR": ca.if_else(bad, t_new, g["failR"]),
+        "kind": ca.if_else(cross, kind, g["kind"]),
+        "h_cross": ca.if_else(cross, hs, g["h_cross"]),
+    }
+    head = ca.vertcat(*[new[k] for k in _HEAD])
+    x_new = ca.vertcat(head, ca.if_else(move, y_new, y), ca.if_else(move, f_new, f), atol)
+    name = f"attempts_{eqs.attempts_kind(mode)}"
+    one = ca.Function(name + "_one", [x], [ca.cse(x_new)])
+    acc = one.mapaccum(name + "_acc", K)
+    xm = ca.MX.sym("x", o + 3 * R)
+    return ca.Function(name, [xm], [acc(xm)[:, K - 1]])
+
+
+def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status, steps, min_T, max_E, fail_R):
+    """:func:`_segment` for a small batch: the attempt function, :data:`coexist.shooting.ATTEMPTS_PER_CALL`
+    attempts per call, until every column stops; the same outcome as the numpy loop."""
+    lay, settings = eqs.lay, eqs.settings
+    n, rows = cols.size, lay.rows
+    o = len(_HEAD)
+    X = np.zeros((o + 3 * rows, n))
+    X[_H["t"]], X[_H["h"]], X[_H["t_end"]] = R[cols], h[cols], settings.max_radius_factor
+    X[_H["rtol"]], X[_H["max_steps"]] = eqs.rtol[cols], settings.max_steps
+    X[_H["g_last"]], X[_H["dg_last"]], X[_H["R_last"]] = g_last, dg_last, R[cols]
+    X[_H["minT"]], X[_H["maxE"]], X[_H["failR"]], X[_H["h_cross"]] = min_T[cols], max_E[cols], np.nan, np.nan
+    X[o : o + rows], X[o + rows : o + 2 * rows], X[o + 2 * rows :] = y[:, cols], f0, eqs.atol[:, cols]
+    active = np.arange(n)
+    while active.size:
+        k = active.size
+        fun = entry["maps"].get(k)
+        if fun is None:
+            fun = entry["maps"][k] = entry["fun"].map(k, "serial") if k > 1 else entry["fun"]
+        X[:, active] = fun(X[:, active]).full()
+        active = active[X[_H["status"], active] == 0]
+    st = X[_H["status"]].astype(int)
+    steps[cols] += X[_H["steps"]].astype(int)
+    R[cols] = X[_H["t"]]
+    y[:, cols] = X[o : o + rows]
+    min_T[cols] = X[_H["minT"]]
+    max_E[cols] = X[_H["maxE"]]
+    crossed = st == _int.CROSSED
+    status[cols[crossed]] = -2 - X[_H["kind"], crossed].astype(int)
+    h[cols[crossed]] = X[_H["h_cross"], crossed]
+    status[cols[st == _int.REACHED_END]] = sh.NO_CLAMP
+    status[cols[st == _int.STEP_LIMIT]] = sh.STEP_LIMIT
+    failed = st >= _int.FAILED
+    status[cols[failed]] = st[failed]
+    fail_R[cols[failed]] = X[_H["failR"], failed]
 
 
 def _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, rtol, atol):
