@@ -817,6 +817,39 @@ class Tracer:
             return cur.z + h * cur.tangent
         return hermite(prev.z, prev.tangent, cur.z, cur.tangent, 1.0 + h / L)
 
+    def validity_bisection(self, cur: Point, h, lo: float, hi: float):
+        """Where the states stop being valid along ``cur``'s tangent between the offsets ``lo`` (valid, or ``cur``
+        itself at 0) and ``hi`` (not): :data:`RANGE_END_PROBES` points per round in one batched corrector, until
+        the bracket is below ``event_tol`` (near an end whose states become singular, as at a pull-in, every
+        round counts).
+
+        Returns
+        -------
+        tuple or None
+            ``(best, lo, hi, code)``: the last valid point (``cur`` if none beyond it), the final bracket and
+            the failure code met; None when the corrector fails on a valid state (undecided).
+        """
+        best, code = cur, None
+        tol = self.system.settings.event_tol
+        while hi - lo > tol:
+            mids = lo + (hi - lo) * np.arange(1, RANGE_END_PROBES + 1) / (RANGE_END_PROBES + 1)
+            pts = self._points_at(cur, None, h, mids, (hi - lo) > 1e-4)
+            failed = self._last_failure
+            bad = [j for j, p in enumerate(pts) if p is None or not p.tangent @ cur.tangent > 0]
+            if not bad:
+                lo, best = float(mids[-1]), pts[-1]
+                continue
+            j = bad[0]
+            entry = failed.failed_states.get(j) if hasattr(failed, "failed_states") else None
+            if pts[j] is None and (entry is None or entry[2] is None):
+                return None  # the corrector failed on a valid state: undecided
+            if j > 0:
+                lo, best = float(mids[j - 1]), pts[j - 1]
+            hi = float(mids[j])
+            if entry is not None and entry[2] is not None:
+                code = entry[2]
+        return best, lo, hi, code
+
     def _range_end(self, prev, cur: Point, h, failure):
         """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or
         return None when the failure was the corrector's (the caller then shortens the step).
@@ -852,26 +885,11 @@ class Tracer:
             # bisection on validity, RANGE_END_PROBES points per round in one batched corrector (the bracket
             # shrinks by that plus one per round: a third of the rounds of plain bisection, each a little
             # dearer; near an end whose states become singular, as at a pull-in, every round counts)
-            lo, hi = 0.0, float(h)
-            best = cur
-            tol = self.system.settings.event_tol
-            while hi - lo > tol:
-                mids = lo + (hi - lo) * np.arange(1, RANGE_END_PROBES + 1) / (RANGE_END_PROBES + 1)
-                pts = self._points_at(cur, None, h, mids, (hi - lo) > 1e-4)
-                failed = self._last_failure
-                bad = [j for j, p in enumerate(pts) if p is None or not p.tangent @ cur.tangent > 0]
-                if not bad:
-                    lo, best = float(mids[-1]), pts[-1]
-                    continue
-                j = bad[0]
-                entry = failed.failed_states.get(j) if hasattr(failed, "failed_states") else None
-                if pts[j] is None and (entry is None or entry[2] is None):
-                    return None  # the corrector failed on a valid state: undecided
-                if j > 0:
-                    lo, best = float(mids[j - 1]), pts[j - 1]
-                hi = float(mids[j])
-                if entry is not None and entry[2] is not None:
-                    code = entry[2]
+            found = self.validity_bisection(cur, h, 0.0, float(h))
+            if found is None:
+                return None
+            best, lo, hi, new_code = found
+            code = new_code if new_code is not None else code
             if best is cur:
                 return None
         tag, text = failure_reason(code)
@@ -937,6 +955,26 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
         change = abs(bp["phi"] - event.phi_hat)
     elif event.tangent is None:
         return event.error
+    elif event.kind == "range_end" and not event.note.startswith("wrinkling"):
+        # an end without a smooth event function (Gent locking, pull-in, no equilibrium): the same validity
+        # bisection with the tight tracer, in a bracket of ±δ around the loose end
+        change = None
+        base = Point(event.z.copy(), event.tangent, event.eq, np.zeros(M), np.zeros(M), (0,) * M, True)
+        for delta in (1e-5, 1e-4, 1e-3):
+            pts = tight._points_at(base, None, 0.0, [-delta, delta], False)
+            beyond = pts[1] is None or not pts[1].tangent @ event.tangent > 0
+            if pts[0] is None or not beyond:
+                continue
+            found = tight.validity_bisection(base, 2 * delta, -delta, delta)
+            if found is None:
+                continue
+            best, lo, hi, _ = found
+            if best is base:
+                best = pts[0]
+            change = abs(best.phi - event.phi_hat) + abs(best.tangent[M]) * abs(hi - lo) / tight.w
+            break
+        if change is None:
+            return event.error
     else:
         key = event.kind if event.group is None else f"{event.kind}:{event.group}"
         t = event.tangent

@@ -213,11 +213,25 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
                 zorder=3 if direction == "up" else 2,
                 label=f"ramp {direction}" if j == 0 else None,
             )
+    # zones in a hoop-wrinkled state (a tension-field scene): ringed
+    wr = [
+        (report.voltage_kV(s.phi_hat), report.volume_ml(v))
+        for s in res.steps
+        if s.state is not None and s.state.wrinkled_fraction
+        for v, f in zip(s.state.zone_volumes, _per_zone(s.state.wrinkled_fraction, s.state.configuration.counts))
+        if f > 0
+    ]
+    if wr:
+        ax.plot(*zip(*wr), "o", mfc="none", mec="k", ms=6, mew=0.8, zorder=4, label="wrinkled zone")
+    top = ax.get_ylim()[1]
     for t in res.transitions:
         if t.kind in ("spinodal", "no_stable_state", "merge", "breakdown"):
-            ax.axvline(
-                report.voltage_kV(t.phi_hat), color="tab:red" if t.direction == "up" else "tab:blue", ls=":", lw=1
-            )
+            kv = report.voltage_kV(t.phi_hat)
+            ax.axvline(kv, color="tab:red" if t.direction == "up" else "tab:blue", ls=":", lw=1)
+            if t.kind == "no_stable_state" and t.direction == "up":  # why the states end there
+                parts = (t.reason or "").split(": ")
+                why = (parts[1] if len(parts) > 1 else parts[0]).replace("_", " ")
+                ax.text(kv, top, f" {kv:.4f} kV: {why}", fontsize=7, va="top", ha="left", rotation=90)
     for t in res.equal_free_energy:
         ax.axvline(report.voltage_kV(t.phi_hat), color="k", ls="-.", lw=0.8)
     ax.plot([], [], "-", color="0.55", label="stable equilibria")
@@ -231,6 +245,11 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
     if title:
         ax.set_title(title, fontsize=10)
     return save_figure(fig, path)
+
+
+def _per_zone(values, counts):
+    """Per-group values repeated for every zone of the group."""
+    return [v for v, n in zip(values, counts) for _ in range(n)]
 
 
 def plot_coexisting_states(curve, state, scale_title, path):
