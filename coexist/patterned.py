@@ -1,0 +1,1219 @@
+"""Patterned and layered zones: a clamped disc of concentric regions, each with its own electrode and layers.
+
+A zone is made, from the pole out, of regions ``0 ≤ R̂ < f1 < f2 < … < fK = 1`` (radius fractions in the
+reference state). Region ``k`` is a stack of ``nk`` identical layers (a thickness multiple of the one-layer
+membrane) and carries an electrode on the outer faces of its stack or none. A region of ``n`` layers is the
+one-layer membrane with ``p̂ → p̂/n`` and ``Φ̂ → Φ̂/n`` (``Φ̂ → 0`` without electrode); its charge per reference
+area is ``q̂(λ1, λ2; Φ̂/n)`` and its free energy ``n W*(λ1, λ2; Φ̂/n)`` (docs/physics.md, section 12).
+
+At an interface ``R̂i`` the radius, the height and the slope are continuous, so ``λ2 = r̂/R̂`` and ``θ`` are;
+the meridional force per reference hoop length is continuous, ``n⁻ T̂1(λ1⁻, λ2; Φ̂⁻) = n⁺ T̂1(λ1⁺, λ2; Φ̂⁺)``,
+which fixes ``λ1⁺`` (:func:`interface_stretch`, a safeguarded vectorised Newton iteration).
+
+**Shooting.** The ``R → cR, p → p/c`` invariance of the equations holds region by region, but it moves the
+interfaces with the clamp: one integration at a trial pressure ``p̂t`` gives a clamped membrane whose interfaces
+sit where they were put, not at their fractions of the clamp radius ``R*``. So the interfaces are put at
+``R̂i = s fi`` and ``s`` is solved for, per state, until ``R*(s) = s`` (then the interface lands at ``fi R*``,
+and the unit membrane carries ``p̂ = p̂t R*`` as for a uniform zone). By the scaling this is the same as a
+Newton iteration on the trial pressure with the interfaces held at ``fi``; solving for ``s`` at fixed ``p̂t``
+keeps the pole region's series start fixed. The residual ``G(σ) = ln R*(e^σ) − σ`` has the slope ``−1`` for a
+uniform zone; its exact slope ``(s/R*) dR*/ds − 1`` comes from the sensitivity ``S = ∂(λ1, λ2, θ)/∂s`` of the
+trajectory, which is zero in the pole region, gets ``S⁺ = D(S⁻ + f⁻ fi) − f⁺ fi`` at every interface (``D`` the
+Jacobian of the jump, ``f∓`` the right-hand sides on the two sides) and is carried by the variational equations
+``S' = (∂f/∂y) S`` in between; at the clamp ``dR*/ds = −S_λ2/λ2'``. All states of a call are iterated together
+(vectorised DOP853, :func:`coexist.numerics.dop853.integrate`); a state whose iterate fails (a trajectory that
+turns back, a jump without a stable root, no clamp) backtracks towards its last good iterate.
+
+A pattern with one region is a uniform zone: it is :func:`coexist.shooting.solve_states` with the scaled
+pressure and voltage (``p̂ = n p̂1``, ``Ψ̂ = n Ψ̂1``).
+
+Validity is checked on the converged state only (its iterates may pass through compressed states): a tension
+that is not positive anywhere — notably the hoop tension on the electrode side of an electrode edge, where
+the passive membrane holds back the active one at low inflation — gives status ``WRINKLED`` and a sentence
+saying which tension, where and how negative (:attr:`PatternedStates.failure_detail`); a patterned zone
+refuses wrinkled states whatever the model's ``wrinkling`` mode.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import validation
+from .curves import Curve, _trace
+from .errors import SceneError
+from .model import QUADRATURE_FACTORS, MembraneModel
+from .numerics import dop853 as _int
+from .settings import SolverSettings
+from .shooting import (
+    BELOW_RESOLUTION,
+    FLAT_LIMIT,
+    FOLDED_BACK,
+    LOCKED,
+    LOCKING_LIMIT,
+    LOST_ELLIPTICITY,
+    NO_CLAMP,
+    NOT_FINITE,
+    OK,
+    ROUNDOFF_TOLERANCE,
+    STEP_LIMIT,
+    WRINKLED,
+    WRINKLED_AT_POLE,
+    MembraneStates,
+    _check_inputs,
+    _integrators,
+    reason_tag,
+    reason_text,
+    solve_states,
+    start_rows,
+    trial_pressure,
+)
+
+__all__ = [
+    "PatternedStates",
+    "Region",
+    "ZonePattern",
+    "interface_stretch",
+    "patterned_pressure_volume_curve",
+    "solve_patterned_states",
+]
+
+#: most layers a region may have (a stack of more is no longer a membrane of this model's kind)
+MAX_LAYERS = 100
+#: Newton iterations on the interface scale ``σ = ln s`` per state at most (failed iterates included)
+MAX_SCALE_ITERATIONS = 30
+#: largest change of ``σ`` in one Newton step (a factor e^0.5 of the interface scale)
+MAX_SCALE_STEP = 1.0
+#: the last region is integrated to at most this many times the interface scale ``s`` (the converged clamp is
+#: at ``R* = s``; a trajectory that has not reached the clamp there tells the iteration to grow ``s``)
+LAST_REGION_REACH = 8.0
+#: internal codes of an iterate (never a state's status): the clamp stretch reached before the last region
+#: (``s`` too large), the clamp not reached within LAST_REGION_REACH·s (``s`` too small)
+_EARLY_CLAMP = 90
+_FAR_CLAMP = 91
+#: a slope ``dG/dσ`` above this is not trusted (the step uses ``−1``, the uniform zone's slope)
+SLOPE_CEILING = -0.05
+#: iterates of one state that may fail (a trajectory that stops: no meridional tension, loss of ellipticity, ...)
+#: before the state is given up with that failure
+MAX_FAILED_TRIALS = 6
+#: Newton iterations of the interface jump ``λ1⁺`` at most
+JUMP_ITERATIONS = 60
+
+
+# --- the pattern ----------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Region:
+    """One annulus of a patterned zone (or its central disc).
+
+    Parameters
+    ----------
+    outer : float
+        Outer radius as a fraction of the zone radius ``A`` in the reference state, in ``(0, 1]``.
+    layers : int
+        Number of identical layers of the stack (its thickness is ``layers · H``), 1 to :data:`MAX_LAYERS`.
+    electrode : bool
+        Whether the region carries the electrode (on the outer faces of its stack) and so the voltage.
+    """
+
+    outer: float
+    layers: int = 1
+    electrode: bool = True
+
+    def describe(self) -> str:
+        """A few words about the region.
+
+        Returns
+        -------
+        str
+            ``"electrode, 1 layer"``, ``"passive, 2 layers"``, ...
+        """
+        kind = "electrode" if self.electrode else "passive"
+        return f"{kind}, {self.layers} layer{'s' if self.layers != 1 else ''}"
+
+
+def _region(value, i: int) -> Region:
+    name = f"pattern.regions[{i}]"
+    if isinstance(value, Region):
+        outer, layers, electrode = value.outer, value.layers, value.electrode
+    elif isinstance(value, (tuple, list)) and len(value) == 3:
+        outer, layers, electrode = value
+    else:
+        raise SceneError(f"must be a Region or a tuple (outer, layers, electrode), got {value!r}", name)
+    outer = validation.real(outer, f"{name}.outer", lo=0.0, lo_open=True, hi=1.0)
+    if isinstance(layers, (bool, np.bool_)) or not isinstance(layers, numbers.Integral):
+        raise SceneError(f"must be a whole number of layers, got {layers!r}", f"{name}.layers")
+    if not 1 <= int(layers) <= MAX_LAYERS:
+        raise SceneError(f"must lie in 1..{MAX_LAYERS}, got {layers!r}", f"{name}.layers")
+    if not isinstance(electrode, (bool, np.bool_)):
+        raise SceneError(f"must be True or False, got {electrode!r}", f"{name}.electrode")
+    return Region(outer, int(layers), bool(electrode))
+
+
+@dataclass(frozen=True)
+class ZonePattern:
+    """Concentric regions of a zone, from the pole out, each with its layers and electrode.
+
+    Parameters
+    ----------
+    regions : sequence of Region or of (outer, layers, electrode)
+        Outer radius fractions strictly increasing, the last exactly 1 (the clamp).
+
+    Raises
+    ------
+    SceneError
+        Naming the field (``pattern.regions[i].outer`` etc.) when a fraction is not in ``(0, 1]``, the
+        fractions do not increase or do not end at 1, a layer count is not a whole number in
+        ``1..MAX_LAYERS``, or an electrode flag is not a bool.
+
+    Examples
+    --------
+    >>> ZonePattern.inner_circle(0.5, passive_layers=2).regions
+    (Region(outer=0.5, layers=1, electrode=True), Region(outer=1.0, layers=2, electrode=False))
+    """
+
+    regions: tuple
+
+    def __post_init__(self):
+        raw = self.regions
+        if isinstance(raw, (str, bytes)) or not hasattr(raw, "__len__") or len(raw) == 0:
+            raise SceneError(f"must be a non-empty sequence of regions, got {raw!r}", "pattern.regions")
+        regions = tuple(_region(r, i) for i, r in enumerate(raw))
+        for i in range(1, len(regions)):
+            if regions[i].outer <= regions[i - 1].outer:
+                raise SceneError(
+                    f"outer radius fractions must increase from the pole out: {regions[i].outer:g} follows "
+                    f"{regions[i - 1].outer:g}",
+                    f"pattern.regions[{i}].outer",
+                )
+        if regions[-1].outer != 1.0:
+            raise SceneError(
+                f"the last region must reach the clamp (outer = 1), got {regions[-1].outer:g}",
+                f"pattern.regions[{len(regions) - 1}].outer",
+            )
+        object.__setattr__(self, "regions", regions)
+
+    # --- constructors ------------------------------------------------------------------------------
+    @classmethod
+    def full(cls, layers: int = 1) -> ZonePattern:
+        """The electrode over the whole zone, ``layers`` layers everywhere (today's uniform zone for 1).
+
+        Parameters
+        ----------
+        layers : int
+            Layers of the stack.
+
+        Returns
+        -------
+        ZonePattern
+        """
+        return cls(((1.0, layers, True),))
+
+    @classmethod
+    def no_electrode(cls, layers: int = 1) -> ZonePattern:
+        """No electrode anywhere: the passive membrane of ``layers`` layers.
+
+        Parameters
+        ----------
+        layers : int
+            Layers of the stack.
+
+        Returns
+        -------
+        ZonePattern
+        """
+        return cls(((1.0, layers, False),))
+
+    @classmethod
+    def inner_circle(cls, fraction: float, passive_layers: int = 1) -> ZonePattern:
+        """An electrode disc of radius ``fraction · A`` at the centre (one layer), passive around it.
+
+        Parameters
+        ----------
+        fraction : float
+            Electrode radius over the zone radius, in ``(0, 1]`` (1: the full electrode).
+        passive_layers : int
+            Layers of the passive annulus (2: the paper's two-layer design, the top layer cut through
+            at the active zone).
+
+        Returns
+        -------
+        ZonePattern
+            One region for ``fraction = 1``, else two.
+        """
+        fraction = validation.real(fraction, "pattern.inner_fraction", lo=0.0, lo_open=True, hi=1.0)
+        if fraction == 1.0:
+            return cls(((1.0, 1, True),))
+        return cls(((fraction, 1, True), (1.0, passive_layers, False)))
+
+    @classmethod
+    def ring(cls, inner: float, outer: float, passive_layers: int = 1) -> ZonePattern:
+        """An electrode annulus ``inner · A < R < outer · A`` (one layer), passive inside and outside.
+
+        Parameters
+        ----------
+        inner, outer : float
+            Radius fractions with ``0 < inner < outer ≤ 1``.
+        passive_layers : int
+            Layers of the passive regions.
+
+        Returns
+        -------
+        ZonePattern
+            Three regions, or two when the ring reaches the clamp.
+
+        Raises
+        ------
+        SceneError
+            Unless ``0 < inner < outer ≤ 1`` (naming ``pattern.ring_inner`` or ``pattern.ring_outer``).
+        """
+        inner = validation.real(inner, "pattern.ring_inner", lo=0.0, lo_open=True, hi=1.0)
+        outer = validation.real(outer, "pattern.ring_outer", lo=0.0, lo_open=True, hi=1.0)
+        if outer <= inner:
+            raise SceneError(f"must exceed the ring's inner fraction {inner:g}, got {outer:g}", "pattern.ring_outer")
+        regions = [(inner, passive_layers, False), (outer, 1, True)]
+        if outer < 1.0:
+            regions.append((1.0, passive_layers, False))
+        return cls(tuple(regions))
+
+    # --- description -------------------------------------------------------------------------------
+    @property
+    def interfaces(self) -> tuple:
+        """The interface radius fractions ``f1 … f(K−1)`` (empty for one region)."""
+        return tuple(r.outer for r in self.regions[:-1])
+
+    @property
+    def electrode_area_fraction(self) -> float:
+        """Reference area of the electrode over the zone's, ``Σ (fk² − f(k−1)²)`` over electroded regions."""
+        inner = 0.0
+        total = 0.0
+        for r in self.regions:
+            if r.electrode:
+                total += r.outer**2 - inner**2
+            inner = r.outer
+        return total
+
+    def describe(self) -> str:
+        """One line: every region with its radii, electrode and layers.
+
+        Returns
+        -------
+        str
+            E.g. ``"0..0.5: electrode, 1 layer; 0.5..1: passive, 2 layers"``.
+        """
+        parts, inner = [], 0.0
+        for r in self.regions:
+            parts.append(f"{inner:g}..{r.outer:g}: {r.describe()}")
+            inner = r.outer
+        return "; ".join(parts)
+
+
+# --- states -----------------------------------------------------------------------------------------------
+
+
+class PatternedStates(MembraneStates):
+    """:class:`~coexist.shooting.MembraneStates` of a patterned zone, with a sentence per failed state.
+
+    The fields are those of :class:`~coexist.shooting.MembraneStates`, with these meanings for a stack:
+    ``q_hat`` is the charge on the electrode only, ``max_field`` the largest true field ``Ê = (Φ̂/n) λ1 λ2``
+    in an electroded region, ``min_tension`` the smallest nominal tension of a stack ``n T̂`` (over ``μH``),
+    one-sided values at the interfaces included. ``derivatives``, ``shapes`` and ``wrinkled_radii`` are None.
+
+    ``failure_detail`` (one entry per state, None where OK) says for a failed state which tension, where
+    (``R/A``, which region, which side of an edge) and how negative, or why the iteration failed.
+    ``interfaces``, an array of shape ``(states, K − 1, 2, 5)``, holds at every interface its two sides (pole
+    side first) as ``(R̂, r̂, ẑ, θ, n T̂1)`` of the unit membrane: reference radius, radius, height above the
+    pole (``ẑ`` grows from the pole towards the clamp here), slope angle and meridional force per reference
+    hoop length over ``μH`` (NaN for failed states). Both are kept outside the dataclass fields, so the curve
+    helpers that copy states treat these as plain :class:`~coexist.shooting.MembraneStates`.
+    """
+
+    __slots__ = ("failure_detail", "interfaces")
+    failure_detail: list
+    interfaces: np.ndarray
+
+    def require_ok(self) -> PatternedStates:
+        """Raise :class:`~coexist.errors.ModelRangeError` naming the first failed input and the failure detail.
+
+        Returns
+        -------
+        PatternedStates
+            ``self``, when every state is OK.
+
+        Raises
+        ------
+        ModelRangeError
+        """
+        from .errors import ModelRangeError
+
+        bad = np.flatnonzero(~self.ok)
+        if bad.size:
+            i = bad[0]
+            detail = self.failure_detail[i]
+            raise ModelRangeError(
+                f"no valid state at pole stretch {self.pole_stretch[i]:.6g}, Φ̂ = {self.phi_hat[i]:.6g}: "
+                f"{reason_text(self.status[i])}" + (f" ({detail})" if detail else ""),
+                reason_tag(self.status[i]),
+            )
+        return self
+
+
+def _patterned(states: MembraneStates, detail: list, edges: np.ndarray | None = None) -> PatternedStates:
+    out = PatternedStates(**{k: v for k, v in states.__dict__.items()})
+    out.failure_detail = detail
+    out.interfaces = np.full((states.status.size, 0, 2, 5), np.nan) if edges is None else edges
+    return out
+
+
+# --- the interface jump ------------------------------------------------------------------------------------
+
+
+def interface_stretch(model: MembraneModel, l1_in, l2, phi_in, n_in, phi_out, n_out):
+    """The meridional stretch ``λ1⁺`` across an interface: ``n⁺ T̂1(λ1⁺, λ2; Φ̂⁺) = n⁻ T̂1(λ1⁻, λ2; Φ̂⁻)``.
+
+    The root on the stable branch (``∂T̂1/∂λ1 > 0``), by Newton's method safeguarded by a bracket: from
+    ``λ1⁻`` the bracket ``[lo, hi]`` is widened (halving ``lo``, doubling ``hi`` while ``∂T̂1/∂λ1 > 0``) until
+    ``T̂1(lo) < target < T̂1(hi)``; a Newton step that leaves it is replaced by bisection. Equal sides return
+    ``λ1⁻`` exactly.
+
+    Parameters
+    ----------
+    model : MembraneModel
+    l1_in, l2 : ndarray
+        ``λ1⁻`` and the (continuous) hoop stretch.
+    phi_in, phi_out : ndarray
+        The per-layer voltages ``Φ̂/n`` on the two sides (0 without electrode).
+    n_in, n_out : ndarray
+        Layer counts on the two sides.
+
+    Returns
+    -------
+    l1_out : ndarray
+        ``λ1⁺``; NaN where no root with ``∂T̂1/∂λ1 > 0`` exists (the outer side would be beyond its
+        electromechanical instability).
+    ok : ndarray of bool
+    """
+    l1_in, l2, phi_in, n_in, phi_out, n_out = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (l1_in, l2, phi_in, n_in, phi_out, n_out))
+    )
+    target = n_in * np.asarray(model.tensions(l1_in, l2, phi_in)[0]) / n_out
+
+    def t1(x):
+        T = model.tensions(x, l2, phi_out)
+        return np.asarray(T[0]) * np.ones_like(x) - target, np.asarray(T[2]) * np.ones_like(x)
+
+    x = l1_in.copy()
+    g, d = t1(x)
+    lo = np.where(g < 0, x, 0.5 * x)
+    hi = np.where(g > 0, x, 2.0 * x)
+    ok = np.ones(x.shape, dtype=bool)
+    for _ in range(80):  # widen the bracket
+        g_lo = t1(lo)[0]
+        g_hi, d_hi = t1(hi)
+        low_bad = g_lo >= 0
+        high_bad = (g_hi <= 0) & (d_hi > 0)
+        if not (low_bad.any() or high_bad.any()):
+            break
+        lo = np.where(low_bad, 0.5 * lo, lo)
+        hi = np.where(high_bad, 2.0 * hi, hi)
+    g_lo = t1(lo)[0]
+    g_hi, d_hi = t1(hi)
+    ok &= (g_lo < 0) & (g_hi > 0) & (d_hi > 0) & np.isfinite(g_lo) & np.isfinite(g_hi)
+    exact = g == 0
+    x = np.where(exact, x, np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi)))
+    for _ in range(JUMP_ITERATIONS):
+        g, d = t1(x)
+        lo = np.where(g < 0, x, lo)
+        hi = np.where(g > 0, x, hi)
+        with np.errstate(all="ignore"):
+            nxt = x - g / d
+        bad = ~np.isfinite(nxt) | (nxt <= lo) | (nxt >= hi) | (d <= 0)
+        nxt = np.where(bad, 0.5 * (lo + hi), nxt)
+        nxt = np.where(g == 0, x, nxt)
+        done = np.abs(nxt - x) <= 4e-16 * np.abs(x)
+        x = nxt
+        if done.all():
+            break
+    g, d = t1(x)
+    ok &= np.isfinite(x) & (d > 0) & (np.abs(g) <= 1e-13 * np.maximum(1.0, np.abs(target)))
+    return np.where(ok, x, np.nan), ok
+
+
+# --- one pass over the regions ------------------------------------------------------------------------------
+
+
+@dataclass
+class _Layout:
+    """Per-state region parameters: layers ``n[k]``, per-layer voltage ``phi[k]`` and fraction ``f[k]``."""
+
+    n: np.ndarray  # (K, m)
+    phi: np.ndarray  # (K, m)
+    f: np.ndarray  # (K,)
+    electrode: tuple
+
+
+class _Tracker:
+    """The smallest stack tension ``n T̂`` (nodes, and the cubic Hermite estimate between two nodes from the
+    exact slopes ``dT/dR``, as in :mod:`coexist.shooting`), where it is, and the largest true field."""
+
+    def __init__(self, m):
+        self.min_T = np.full(m, np.inf)
+        self.where_R = np.full(m, np.nan)
+        self.kind = np.zeros(m, dtype=int)
+        self.region = np.zeros(m, dtype=int)
+        self.side = np.zeros(m, dtype=int)  # −1 clamp side of an edge (region start), +1 pole side (end)
+        self.max_E = np.zeros(m)
+        self.node = np.full((5, m), np.nan)  # R, T1, T2, dT1/dR, dT2/dR of the last node
+        self.edges = np.empty(0)  # both sides of the interfaces (set by the pass)
+
+    def values(self, model, R, y, f, n, phi):
+        T1, T2, T11, T12, _, E, T22 = (np.asarray(a) * np.ones_like(R) for a in model.tensions(y[0], y[1], phi))
+        d1 = T11 * f[0] + T12 * f[1]
+        d2 = T12 * f[0] + T22 * f[1]
+        return np.vstack([R, n * T1, n * T2, n * d1, n * d2]), np.abs(E)
+
+    def start(self, cols, node, E, region):
+        """A region's first node (its interface, clamp side)."""
+        self.node[:, cols] = node
+        self._record(cols, node, region, -1)
+        self.max_E[cols] = np.maximum(self.max_E[cols], E)
+
+    def add(self, cols, node, E, region, side=0):
+        """An accepted node: the step's minimum (Hermite) and the node itself."""
+        from .shooting import hermite_minimum
+
+        a = self.node[:, cols]
+        for k in (1, 2):
+            interior = (a[2 + k] < 0) & (node[2 + k] > 0)
+            if interior.any():
+                est = np.full(cols.size, np.inf)
+                with np.errstate(all="ignore"):
+                    est[interior] = hermite_minimum(
+                        a[0][interior],
+                        a[k][interior],
+                        a[2 + k][interior],
+                        node[0][interior],
+                        node[k][interior],
+                        node[2 + k][interior],
+                    )
+                lower = est < self.min_T[cols]
+                if lower.any():
+                    c = cols[lower]
+                    self.min_T[c] = est[lower]
+                    self.where_R[c] = 0.5 * (a[0][lower] + node[0][lower])
+                    self.kind[c] = k
+                    self.region[c] = region
+                    self.side[c] = 0
+        self._record(cols, node, region, side)
+        self.node[:, cols] = node
+        self.max_E[cols] = np.maximum(self.max_E[cols], E)
+
+    def _record(self, cols, node, region, side):
+        for k in (1, 2):
+            lower = node[k] < self.min_T[cols]
+            if lower.any():
+                c = cols[lower]
+                self.min_T[c] = node[k][lower]
+                self.where_R[c] = node[0][lower]
+                self.kind[c] = k
+                self.region[c] = region
+                self.side[c] = side if np.ndim(side) == 0 else side[lower]
+
+
+_ROWS = {"radius": 9, "radius_sens": 19, "hoop": 9}
+
+
+def _stepper(fns, kind: str, n: int):
+    """The shooting's DOP853 stepper for ``n`` trajectories of ``kind``; once compiled (cached per machine) the
+    whole-step function serves batches up to a few hundred, where it beats numpy."""
+    return fns.stepper_of(kind, n, _ROWS[kind], getattr(fns, kind), lambda: fns._casadi_rhs(kind), medium=True)
+
+
+def _failure_codes(y, T1, T11, margin):
+    """Status per column of a node (0: fine): a trajectory stops where the meridional tension or its stiffness
+    is gone, the chains lock or the meridian folds back (the hoop tension is judged on the converged state)."""
+    code = np.zeros(y.shape[1], dtype=int)
+    code[T1 <= 0] = WRINKLED
+    code[(code == 0) & (margin <= 0)] = LOCKED
+    code[(code == 0) & (T11 <= 0)] = LOST_ELLIPTICITY
+    code[(code == 0) & (np.abs(y[2]) > math.pi)] = FOLDED_BACK
+    return code
+
+
+def _region_params(y, lay, k, cols, p_t):
+    """Set the pressure and voltage rows of a region-``k`` state (``p̂t/nk``, ``Φ̂/nk`` or 0)."""
+    y[-2] = p_t[cols] / lay.n[k, cols]
+    y[-1] = lay.phi[k, cols]
+
+
+def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
+    """One shooting of every state with the interfaces at ``s fi`` (``s = e^σ``): the clamp radius ``R*``, the
+    slope ``dR*/ds``, the quadratures, the tracked tensions, and a status per state (0 where it reached the
+    clamp)."""
+    fns = _integrators(model)
+    K = lay.f.size
+    m = l0.size
+    s = np.exp(sigma)
+    lam_clamp = model.prestretch
+    status = np.zeros(m, dtype=int)
+    steps = np.zeros(m, dtype=int)
+    tracker = _Tracker(m)
+    # both sides of every interface: (R̂, r̂, ẑ from the pole, θ, n T̂1), in the trial membrane's units
+    edges = np.full((m, K - 1, 2, 5), np.nan)
+    P9 = 7  # rows of the plain integration: 0–6 the state, 7 p, 8 Φ̂
+    phi1 = lay.phi[0]
+    _, y0, atol0, _ = start_rows(model, settings, l0, phi1, False)
+    # absolute tolerances from the largest of the regions' own sizes (a passive pole region has no charge,
+    # and a charge row that starts from 0 at an electrode edge must not be held to 1e-30)
+    for k in range(1, K):
+        atol0 = np.maximum(atol0, start_rows(model, settings, l0, lay.phi[k], False)[2])
+    y0[P9] = p_t / lay.n[0]
+    # the series start is in the region's own pressure p̂t/n1: start_rows' trial pressure is replaced, so
+    # the series is evaluated again at the region-1 pressure
+    series = model.series_start(l0, y0[P9], phi1, settings.series_radius)
+    for i in range(7):
+        y0[i] = series[i]
+    R0 = settings.series_radius
+    T0 = np.asarray(model.pole(l0, phi1)[0]) * np.ones(m)
+    tracker.node[:, :] = np.vstack([np.full(m, R0), lay.n[0] * T0, lay.n[0] * T0, np.zeros(m), np.zeros(m)])
+    tracker.min_T[:] = lay.n[0] * T0
+    tracker.where_R[:] = 0.0
+    tracker.kind[:] = 1
+    tracker.max_E[:] = np.abs(np.asarray(model.tensions(l0, l0, phi1)[5])) * np.ones(m)
+    atol_state = atol0[:7]
+
+    def make_event(region, cols_all, check_clamp, t_end):
+        def event(R, y, cols, f):
+            c = cols_all[cols]
+            side = np.where(R >= t_end[cols], 1, 0)
+            T1, T2, T11, T12, margin, E, T22 = (
+                np.asarray(a) * np.ones_like(R) for a in model.tensions(y[0], y[1], y[-1])
+            )
+            below = y[1] <= lam_clamp
+            crossed = below if check_clamp else np.zeros(R.size, dtype=bool)
+            code = _failure_codes(y, T1, T11, margin)
+            code[crossed] = 0
+            if not check_clamp:  # the clamp stretch reached before the last region: the interfaces lie too far out
+                code[(code == 0) & below] = _EARLY_CLAMP
+            keep = ~crossed
+            if track and keep.any():
+                n = lay.n[region, c]
+                node = np.vstack([R, n * T1, n * T2, n * (T11 * f[0] + T12 * f[1]), n * (T12 * f[0] + T22 * f[1])])
+                tracker.add(c[keep], node[:, keep], np.abs(E)[keep], region, side[keep])
+            res = np.where(code != 0, _int.FAILED + code, _int.CONTINUE)
+            res[crossed] = _int.CROSSED
+            return res
+
+        return event
+
+    # region 1: from the pole to s f1 (no sensitivity: the pole region does not depend on s)
+    live = np.arange(m)
+    res = _int.integrate(
+        _stepper(fns, "radius", m),
+        np.full(m, R0),
+        y0,
+        s * lay.f[0],
+        rtol,
+        np.vstack([atol_state, np.full((2, m), np.inf)]),
+        settings.max_steps,
+        event=make_event(0, live, False, s * lay.f[0]),
+    )
+    steps += res.steps
+    status[res.status == _int.STEP_LIMIT] = STEP_LIMIT
+    failed = res.status >= _int.FAILED
+    status[failed] = res.status[failed] - _int.FAILED
+    stop_R = np.where(failed, res.t, np.nan)
+    status[(status == 0) & (res.status != _int.REACHED_END)] = NOT_FINITE
+    y = res.y
+    # the sensitivity rows S = ∂(λ1, λ2, θ, V̂/π, Q̂/2π)/∂s (rows 7–11 of the 19-row layout; rows 12–16 unused)
+    Y = np.zeros((19, m))
+    Y[:7] = y[:7]
+    Y[17] = y[7]
+    Y[18] = y[8]
+    psi_n = lay.n[0].copy()  # the Ψ̂ row holds Ψ̂/(2π n) of the current region
+    dRs = np.full(m, np.nan)
+    R_star = np.full(m, np.nan)
+    quad = np.full((4, m), np.nan)
+    for k in range(1, K):
+        go = np.flatnonzero(status == 0)
+        if go.size == 0:
+            break
+        R_i = s[go] * lay.f[k - 1]
+        Yg = Y[:, go]
+        n_in, n_out = lay.n[k - 1, go], lay.n[k, go]
+        phi_in, phi_out = lay.phi[k - 1, go], lay.phi[k, go]
+        f_in = np.asarray(model.rhs(R_i, Yg[0], Yg[1], Yg[2], Yg[17], phi_in))
+        l1p, ok = interface_stretch(model, Yg[0], Yg[1], phi_in, n_in, phi_out, n_out)
+        status[go[~ok]] = LOST_ELLIPTICITY
+        # the jump's Jacobian on (λ1, λ2, θ): λ1⁺ = g(λ1⁻, λ2)
+        _, _, T11i, T12i = (np.asarray(a) * np.ones_like(R_i) for a in model.tensions(Yg[0], Yg[1], phi_in)[:4])
+        _, _, T11o, T12o = (np.asarray(a) * np.ones_like(R_i) for a in model.tensions(l1p, Yg[1], phi_out)[:4])
+        g1 = n_in * T11i / (n_out * T11o)
+        g2 = (n_in * T12i - n_out * T12o) / (n_out * T11o)
+        S_in = Yg[7:10] + f_in[:3] * lay.f[k - 1]
+        Yn = Yg.copy()
+        Yn[0] = l1p
+        Yn[17] = p_t[go] / n_out
+        Yn[18] = phi_out
+        Yn[5] = Yg[5] * n_in / n_out
+        psi_n[go] = n_out
+        f_out = np.asarray(model.rhs(R_i, Yn[0], Yn[1], Yn[2], Yn[17], phi_out))
+        Yn[7] = g1 * S_in[0] + g2 * S_in[1] - f_out[0] * lay.f[k - 1]
+        Yn[8] = S_in[1] - f_out[1] * lay.f[k - 1]
+        Yn[9] = S_in[2] - f_out[2] * lay.f[k - 1]
+        Yn[10:17] = 0.0
+        Y[:, go] = Yn
+        N_in = n_in * np.asarray(model.tensions(Yg[0], Yg[1], phi_in)[0])
+        N_out = n_out * np.asarray(model.tensions(l1p, Yg[1], phi_out)[0])
+        for side, (YY, N) in enumerate(((Yg, N_in), (Y[:, go], N_out))):
+            edges[go, k - 1, side] = np.stack([R_i, YY[1] * R_i, YY[6], YY[2], N * np.ones_like(R_i)], axis=-1)
+        go_ok = go[ok]
+        if go_ok.size == 0:
+            break
+        Yn = Y[:, go_ok]
+        R_i = s[go_ok] * lay.f[k - 1]
+        if track:
+            node, E = tracker.values(model, R_i, Yn, f_out[:, ok], lay.n[k, go_ok], Yn[18])
+            # the pole side of the edge: the last node of region k−1 (already recorded), re-marked as an edge
+            tracker.start(go_ok, node, E, k)
+        last = k == K - 1
+        t_end = s[go_ok] * (min(LAST_REGION_REACH, settings.max_radius_factor) if last else lay.f[k])
+        atol = np.vstack([atol_state[:, go_ok], np.full((10, go_ok.size), np.inf), np.full((2, go_ok.size), np.inf)])
+        res = _int.integrate(
+            _stepper(fns, "radius_sens", go_ok.size),
+            R_i,
+            Yn,
+            t_end,
+            rtol[go_ok],
+            atol,
+            settings.max_steps,
+            event=make_event(k, go_ok, last, t_end),
+        )
+        steps[go_ok] += res.steps
+        st = np.zeros(go_ok.size, dtype=int)
+        st[res.status == _int.STEP_LIMIT] = STEP_LIMIT
+        fl = res.status >= _int.FAILED
+        st[fl] = res.status[fl] - _int.FAILED
+        stop_R[go_ok[fl]] = res.t[fl]
+        if last:
+            st[res.status == _int.REACHED_END] = _FAR_CLAMP
+            st[(st == 0) & (res.status != _int.CROSSED)] = NOT_FINITE
+        else:
+            st[(st == 0) & (res.status != _int.REACHED_END)] = NOT_FINITE
+        status[go_ok] = st
+        Y[:, go_ok] = res.y
+        if last:
+            land = np.flatnonzero(st == 0)
+            if land.size:
+                _land(
+                    fns,
+                    model,
+                    settings,
+                    go_ok[land],
+                    res.t[land],
+                    res.y[:, land],
+                    rtol,
+                    atol[:, land],
+                    status,
+                    steps,
+                    R_star,
+                    dRs,
+                    quad,
+                    psi_n,
+                    tracker if track else None,
+                    lay,
+                    K - 1,
+                )
+    if K == 1:  # not used (one region is a uniform zone), kept for completeness
+        raise AssertionError("a one-region pattern is shot by solve_states")
+    tracker.edges = edges
+    return R_star, dRs, quad, status, steps, tracker, stop_R
+
+
+def _land(fns, model, settings, idx, R_h, y_h, rtol, atol, status, steps, R_star, dRs, quad, psi_n, tracker, lay, k):
+    """The last step onto the clamp with ``λ2`` as the independent variable, then the sensitivity carried to
+    ``R*`` (one step in ``R̂``) and ``dR*/ds = −S_λ2/λ2'``."""
+    lam_clamp = model.prestretch
+    z0 = np.vstack([R_h, y_h[0], y_h[2:7], y_h[17:19]])
+    atol_h = np.vstack([np.full(idx.size, settings.atol), atol[0], atol[2:7], np.full((2, idx.size), np.inf)])
+    hoop = _stepper(fns, "hoop", idx.size)
+    zf, err = _int.single_step(hoop, y_h[1], z0, lam_clamp - y_h[1], rtol[idx][None, :], atol_h)
+    landed = err <= 1.0
+    steps[idx] += 1
+    redo = np.flatnonzero(~landed)
+    if redo.size:
+        hop = _int.integrate(
+            _stepper(fns, "hoop", redo.size),
+            y_h[1][redo],
+            z0[:, redo],
+            np.full(redo.size, lam_clamp),
+            rtol[idx][redo],
+            atol_h[:, redo],
+            settings.max_steps,
+            h0=0.5 * np.abs(y_h[1][redo] - lam_clamp),
+        )
+        steps[idx[redo]] += hop.steps
+        zf[:, redo] = hop.y
+        landed[redo] = hop.status == _int.REACHED_END
+    bad = ~landed | np.any(~np.isfinite(zf), axis=0) | (zf[0] <= R_h)
+    status[idx[bad]] = NOT_FINITE
+    good = ~bad
+    if not good.any():
+        return
+    gi = idx[good]
+    zg = zf[:, good]
+    R = zg[0]
+    # the sensitivity at the clamp: one step in R̂ from the last node (its state rows are not used)
+    stepper = _stepper(fns, "radius_sens", gi.size)
+    y_end, err = _int.single_step(stepper, R_h[good], y_h[:, good], R - R_h[good], rtol[gi][None, :], atol[:, good])
+    steps[gi] += 1
+    again = np.flatnonzero(~(err <= 1.0))
+    if again.size:
+        hop = _int.integrate(
+            _stepper(fns, "radius_sens", again.size),
+            R_h[good][again],
+            y_h[:, good][:, again],
+            R[again],
+            rtol[gi][again],
+            atol[:, good][:, again],
+            settings.max_steps,
+            h0=0.5 * (R[again] - R_h[good][again]),
+        )
+        y_end[:, again] = hop.y
+        steps[gi[again]] += hop.steps
+    f = np.asarray(model.rhs(R, zg[1], lam_clamp, zg[2], zg[7], zg[8]))
+    R_star[gi] = R
+    dRs[gi] = -y_end[8] / f[1]
+    fV, fQ, fPsi, _ = QUADRATURE_FACTORS
+    quad[0, gi] = fV * zg[3]
+    quad[1, gi] = fQ * zg[4]
+    quad[2, gi] = fPsi * zg[5] * psi_n[gi]
+    quad[3, gi] = zg[6]
+    if tracker is not None:
+        y_clamp = np.vstack([zg[1], np.full(gi.size, lam_clamp), zg[2]])
+        node, E = tracker.values(model, R, y_clamp, f, lay.n[k, gi], zg[8])
+        tracker.add(gi, node, E, k, side=1)
+
+
+# --- the states -------------------------------------------------------------------------------------------
+
+
+def _layout(pattern: ZonePattern, phi: np.ndarray) -> _Layout:
+    n = np.array([[r.layers] for r in pattern.regions], dtype=float) * np.ones((1, phi.size))
+    on = np.array([[1.0 if r.electrode else 0.0] for r in pattern.regions])
+    return _Layout(
+        n=n,
+        phi=on * phi[None, :] / n,
+        f=np.array([r.outer for r in pattern.regions]),
+        electrode=tuple(r.electrode for r in pattern.regions),
+    )
+
+
+def _uniform(model, pattern, l0, phi, settings) -> PatternedStates:
+    """A one-region pattern: :func:`~coexist.shooting.solve_states` at ``Φ̂/n`` (or 0), scaled to the stack."""
+    region = pattern.regions[0]
+    n = float(region.layers)
+    per_layer = phi / n if region.electrode else np.zeros_like(phi)
+    st = solve_states(model, l0, per_layer, settings)
+    detail = [None if s == OK else reason_text(s) for s in st.status]
+    return _patterned(
+        MembraneStates(
+            pole_stretch=l0,
+            phi_hat=phi,
+            p_hat=n * st.p_hat,
+            v_hat=st.v_hat,
+            q_hat=st.q_hat,
+            psi_hat=n * st.psi_hat,
+            apex_height=st.apex_height,
+            max_field=st.max_field,
+            min_tension=n * st.min_tension,
+            clamp_radius=st.clamp_radius,
+            status=st.status,
+            fail_radius=st.fail_radius,
+            steps=st.steps,
+            wrinkled_radii=st.wrinkled_radii,
+        ),
+        detail,
+    )
+
+
+def _detail_of_tension(pattern, T, R_rel, kind, region, side) -> str:
+    reg = pattern.regions[region]
+    name = "hoop" if kind == 2 else "meridional"
+    where = f"at R/A = {R_rel:.6g} in region {region + 1} ({reg.describe()})"
+    if side == -1 and region > 0:
+        where += f", on its side of the edge at R/A = {pattern.regions[region - 1].outer:g}"
+    elif side == 1 and region < len(pattern.regions) - 1:
+        where += f", on its side of the edge at R/A = {reg.outer:g}"
+    elif side == 1:
+        where += ", at the clamp"
+    return f"the {name} tension of the stack falls to {T:.4g} μH {where}: the membrane wrinkles"
+
+
+def solve_patterned_states(
+    model: MembraneModel,
+    pattern: ZonePattern,
+    pole_stretch,
+    phi_hat=0.0,
+    settings: SolverSettings | None = None,
+    scale_guess=None,
+) -> PatternedStates:
+    """Equilibrium states of a patterned, layered zone at the given pole stretches and voltage.
+
+    Region ``k`` (``nk`` layers, electrode or not) obeys the one-layer equations with ``p̂/nk`` and ``Φ̂/nk``
+    (``0`` without electrode); at the interfaces ``r, z, θ, λ2`` are continuous and ``λ1`` jumps so that the
+    meridional force per reference hoop length ``nk T̂1`` is continuous. The interface scale ``s`` is found by
+    Newton's method per state (module docstring); the result is the unit membrane
+    ``p̂ = p̂t R*``, ``V̂ = V̂t/R*³``, ``Q̂ = Q̂t/R*²``, ``Ψ̂ = Ψ̂t/R*²``, ``ẑ = ẑt/R*`` with ``Q̂`` over the
+    electrode only and ``Ψ̂ = Σ nk ∫ W*(λ1, λ2; Φ̂/nk) dA``.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane material (every layer is one such membrane).
+    pattern : ZonePattern
+        The regions.
+    pole_stretch : array_like
+        Pole stretches ``λ0 > λpre``.
+    phi_hat : float or array_like
+        Normalised voltage ``Φ̂ = (Φ/H)√(ε/μ)`` of the electrode (``H`` one layer's thickness), ``≥ 0``,
+        broadcast against ``pole_stretch``.
+    settings : SolverSettings, optional
+        Tolerances (``rtol``) and limits; default ``SolverSettings()``.
+    scale_guess : array_like, optional
+        Starting ``ln s`` per state (e.g. from converged neighbours along a curve); default 0.
+
+    Returns
+    -------
+    PatternedStates
+        Failed states are flagged by ``status`` (with ``failure_detail``); a state with a non-positive
+        tension anywhere is ``WRINKLED``, never returned as a state.
+
+    Raises
+    ------
+    SceneError
+        If the pattern is not a :class:`ZonePattern`, a pole stretch is not above ``λpre``, a voltage is
+        negative or not finite, or not zero for a model without electrostatics.
+
+    Examples
+    --------
+    >>> from coexist import MembraneModel
+    >>> st = solve_patterned_states(MembraneModel(), ZonePattern.full(layers=2), [2.0], 0.0)
+    >>> round(float(st.p_hat[0]) / 2, 6)  # two layers carry twice the pressure of one
+    1.869555
+    """
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
+    l0, phi = validation.broadcastable(
+        "pole_stretch, phi_hat",
+        validation.real_array(pole_stretch, "pole_stretch"),
+        validation.real_array(phi_hat, "phi_hat", lo=0.0),
+    )
+    l0 = np.array(l0, dtype=float).ravel()
+    phi = np.array(phi, dtype=float).ravel()
+    _check_inputs(model, l0, phi)
+    if len(pattern.regions) == 1:
+        return _uniform(model, pattern, l0, phi, settings)
+    n_states = l0.size
+    sigma0 = np.zeros(n_states)
+    if scale_guess is not None:
+        g = validation.real_array(scale_guess, "scale_guess")
+        sigma0 = np.broadcast_to(g, (n_states,)).astype(float).copy()
+    lay = _layout(pattern, phi)
+    status = np.zeros(n_states, dtype=int)
+    with np.errstate(all="ignore"):
+        T0, alpha, _, _, _ = (np.asarray(x, dtype=float) * np.ones(n_states) for x in model.pole(l0, lay.phi[0]))
+        margin0 = np.asarray(model.tensions(l0, l0, lay.phi[0])[4]) * np.ones(n_states)
+    status[l0 - model.prestretch < FLAT_LIMIT * model.prestretch] = BELOW_RESOLUTION
+    status[(status == OK) & (margin0 <= LOCKING_LIMIT)] = LOCKED
+    status[(status == OK) & ((T0 <= 0) | ~np.isfinite(T0))] = WRINKLED_AT_POLE
+    status[(status == OK) & (alpha <= 0)] = LOST_ELLIPTICITY
+    detail: list = [None] * n_states
+    edges = np.full((n_states, len(pattern.regions) - 1, 2, 5), np.nan)
+    for i in np.flatnonzero(status != OK):
+        detail[i] = f"{reason_text(status[i])} (at the pole)"
+    out = {k: np.full(n_states, np.nan) for k in ("R", "p", "V", "Q", "Psi", "z", "minT", "maxE", "failR")}
+    steps = np.zeros(n_states, dtype=int)
+    live = np.flatnonzero(status == OK)
+    if live.size:
+        with np.errstate(all="ignore"):
+            _newton(model, pattern, settings, lay, l0, phi, sigma0, live, status, out, steps, detail, edges)
+    bad = status != OK
+    R = out["R"]
+    states = MembraneStates(
+        pole_stretch=l0,
+        phi_hat=phi,
+        p_hat=np.where(bad, np.nan, out["p"] * R),
+        v_hat=np.where(bad, np.nan, out["V"] / R**3),
+        q_hat=np.where(bad, np.nan, out["Q"] / R**2),
+        psi_hat=np.where(bad, np.nan, out["Psi"] / R**2),
+        apex_height=np.where(bad, np.nan, out["z"] / R),
+        max_field=np.where(bad, np.nan, out["maxE"]),
+        min_tension=np.where(bad, np.nan, out["minT"]),
+        clamp_radius=np.where(bad, np.nan, R),
+        status=status,
+        fail_radius=np.where(bad, out["failR"], np.inf),
+        steps=steps,
+    )
+    edges[bad] = np.nan
+    return _patterned(states, detail, edges)
+
+
+def _newton(model, pattern, settings, lay_all, l0_all, phi_all, sigma0, live, status, out, steps, detail, edges_out):
+    """Newton's method on ``σ = ln s`` for the live states; fills ``status``, ``out``, ``steps``, ``detail``."""
+    m = live.size
+    l0 = l0_all[live]
+    lay = _Layout(n=lay_all.n[:, live], phi=lay_all.phi[:, live], f=lay_all.f, electrode=lay_all.electrode)
+    # trial pressure: the area-weighted spherical-cap estimate of the stack
+    area = np.diff(np.concatenate([[0.0], lay.f**2]))
+    p_t = sum(area[k] * lay.n[k] * trial_pressure(model, l0, lay.phi[k]) for k in range(lay.f.size))
+    rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / model.prestretch - 1))
+    # |G| is the relative misplacement of the interfaces of the returned state (it is the exact state of a
+    # pattern whose fractions are off by that much): held to the integration's own tolerance
+    tol = np.maximum(rtol, 4e-16)
+    sigma = sigma0[live].copy()
+    good_sigma = np.full(m, np.nan)
+    lo = np.full(m, -np.inf)
+    hi = np.full(m, np.inf)
+    last_code = np.zeros(m, dtype=int)
+    failures = np.zeros(m, dtype=int)
+    open_ = np.ones(m, dtype=bool)
+    G_prev = np.full(m, np.inf)
+    result = {k: np.full(m, np.nan) for k in out}
+    final = np.zeros(m, dtype=int)
+    for _ in range(MAX_SCALE_ITERATIONS):
+        idx = np.flatnonzero(open_)
+        if idx.size == 0:
+            break
+        sub = _Layout(n=lay.n[:, idx], phi=lay.phi[:, idx], f=lay.f, electrode=lay.electrode)
+        R_star, dRs, quad, st, nsteps, tr, stop_R = _pass(
+            model, settings, sub, l0[idx], p_t[idx], sigma[idx], rtol[idx], True
+        )
+        steps[live[idx]] += nsteps
+        s = np.exp(sigma[idx])
+        okp = st == 0
+        G = np.where(okp, np.log(R_star) - sigma[idx], np.nan)
+        slope = np.where(okp, s / R_star * dRs - 1.0, np.nan)
+        conv = okp & ((np.abs(G) <= tol[idx]) | ((np.abs(G) >= 0.5 * G_prev[idx]) & (np.abs(G) <= 100 * tol[idx])))
+        # converged states: record
+        for j in np.flatnonzero(conv):
+            i = idx[j]
+            result["R"][i] = R_star[j]
+            result["p"][i] = p_t[i]
+            result["V"][i], result["Q"][i], result["Psi"][i], result["z"][i] = quad[:, j]
+            result["minT"][i] = tr.min_T[j]
+            result["maxE"][i] = tr.max_E[j]
+            result["failR"][i] = tr.where_R[j] / R_star[j]
+            edge = tr.edges[j].copy()
+            edge[..., :3] /= R_star[j]  # lengths of the unit membrane (θ and the force per length are scale-free)
+            edges_out[live[i]] = edge
+            if not tr.min_T[j] > 0:
+                final[i] = WRINKLED
+                detail[live[i]] = _detail_of_tension(
+                    pattern, tr.min_T[j], tr.where_R[j] / R_star[j], tr.kind[j], tr.region[j], tr.side[j]
+                )
+            open_[i] = False
+        # the others: a Newton step kept inside the bracket [lo, hi] of σ (G > 0 at lo, G < 0 or an iterate
+        # whose interfaces lie too far out at hi), bisection where it would leave it
+        for j in np.flatnonzero(~conv):
+            i = idx[j]
+            code = int(st[j])
+            if okp[j]:
+                G_prev[i] = abs(G[j])
+                good_sigma[i] = sigma[i]
+                if G[j] > 0:
+                    lo[i] = sigma[i]
+                else:
+                    hi[i] = sigma[i]
+                d = slope[j] if slope[j] < SLOPE_CEILING and np.isfinite(slope[j]) else -1.0
+                nxt = sigma[i] + float(np.clip(-G[j] / d, -MAX_SCALE_STEP, MAX_SCALE_STEP))
+            elif code == _EARLY_CLAMP and np.isfinite(stop_R[j]):
+                # the trajectory met the clamp stretch at stop_R inside the interfaces (s too large): with the
+                # uniform slope −1, G ≈ ln(stop_R) − σ, so the next s is stop_R
+                hi[i] = sigma[i]
+                nxt = math.log(stop_R[j])
+            elif code == _FAR_CLAMP:
+                lo[i] = sigma[i]  # R* > LAST_REGION_REACH·s: G > ln 8
+                nxt = sigma[i] + MAX_SCALE_STEP
+            else:
+                last_code[i] = code
+                failures[i] += 1
+                if failures[i] >= MAX_FAILED_TRIALS:
+                    final[i] = code
+                    detail[live[i]] = (
+                        f"{reason_text(code)} (at every one of {MAX_FAILED_TRIALS} placements of the interfaces tried, "
+                        f"the last at interface scale {math.exp(sigma[i]):.6g})"
+                    )
+                    open_[i] = False
+                    continue
+                if np.isfinite(good_sigma[i]) and good_sigma[i] > sigma[i]:
+                    lo[i] = sigma[i]
+                else:
+                    hi[i] = sigma[i]
+                nxt = sigma[i] + (MAX_SCALE_STEP if hi[i] > sigma[i] else -MAX_SCALE_STEP)
+            if not lo[i] < nxt < hi[i]:
+                if np.isfinite(lo[i]) and np.isfinite(hi[i]):
+                    nxt = 0.5 * (lo[i] + hi[i])
+                elif np.isfinite(lo[i]):
+                    nxt = lo[i] + MAX_SCALE_STEP
+                else:
+                    nxt = hi[i] - MAX_SCALE_STEP
+            if np.isfinite(hi[i]) and hi[i] - lo[i] <= 1e-12 * max(1.0, abs(hi[i])):
+                # the bracket closed on the edge of the iterates' domain, not on a root: no state here
+                final[i] = last_code[i] if last_code[i] else NO_CLAMP
+                detail[live[i]] = (
+                    f"{reason_text(final[i])} (no placement of the interfaces at their fractions of the clamp "
+                    f"radius gives a state: the trials fail beyond interface scale {math.exp(hi[i]):.6g})"
+                )
+                open_[i] = False
+            sigma[i] = nxt
+    for i in np.flatnonzero(open_):
+        final[i] = last_code[i] if last_code[i] else NO_CLAMP
+        detail[live[i]] = (
+            f"{reason_text(final[i])} (the interfaces were not placed at their fractions of the clamp radius "
+            f"within {MAX_SCALE_ITERATIONS} Newton iterations)"
+        )
+    status[live] = final
+    for k in out:
+        out[k][live] = result[k]
+
+
+# --- curves ---------------------------------------------------------------------------------------------------
+
+#: a curve's grid is first solved on every COARSE_STRIDE-th pole stretch, the rest started from a cubic through
+#: the converged interface scales
+COARSE_STRIDE = 8
+
+
+def _scale_guess(known_l0: list, known_sigma: list, x: np.ndarray) -> np.ndarray:
+    """Starting ``ln s`` at pole stretches ``x``: the not-a-knot cubic through the converged ones (constant
+    outside them; linear with fewer than four)."""
+    from scipy.interpolate import CubicSpline
+
+    kl = np.concatenate(known_l0)
+    ks = np.concatenate(known_sigma)
+    kl, first = np.unique(kl, return_index=True)
+    ks = ks[first]
+    inside = np.clip(x, kl[0], kl[-1])
+    if kl.size < 4:
+        return np.interp(inside, kl, ks)
+    return CubicSpline(kl, ks)(inside)
+
+
+def _take_patterned(st: PatternedStates, mask) -> PatternedStates:
+    """The states of ``st`` where ``mask`` holds."""
+    kw: dict = {k: (v[mask] if isinstance(v, np.ndarray) else None) for k, v in st.__dict__.items()}
+    return _patterned(
+        MembraneStates(**kw), [d for d, keep in zip(st.failure_detail, mask) if keep], st.interfaces[mask]
+    )
+
+
+def _merge(x, first_mask, first: PatternedStates, rest: PatternedStates) -> PatternedStates:
+    """The states of ``first`` (at ``x[first_mask]``) and ``rest`` (at the others) in the order of ``x``."""
+    kw: dict = {}
+    for name, a in first.__dict__.items():
+        b = rest.__dict__[name]
+        if isinstance(a, np.ndarray):
+            merged = np.empty(x.size, dtype=a.dtype)
+            merged[first_mask] = a
+            merged[~first_mask] = b
+            kw[name] = merged
+        else:
+            kw[name] = None
+    detail: list = [None] * x.size
+    for i, d in zip(np.flatnonzero(first_mask), first.failure_detail):
+        detail[i] = d
+    for i, d in zip(np.flatnonzero(~first_mask), rest.failure_detail):
+        detail[i] = d
+    edges = np.empty((x.size, *first.interfaces.shape[1:]))
+    edges[first_mask] = first.interfaces
+    edges[~first_mask] = rest.interfaces
+    return _patterned(MembraneStates(**kw), detail, edges)
+
+
+def patterned_pressure_volume_curve(
+    model: MembraneModel,
+    pattern: ZonePattern,
+    phi_hat: float = 0.0,
+    pole_stretch=None,
+    settings: SolverSettings | None = None,
+) -> Curve:
+    """The ``p̂–V̂`` curve of a patterned zone at fixed ``Φ̂``, traced by the pole stretch, limit points located.
+
+    As :func:`coexist.curves.pressure_volume_curve` (the same grid, valid run and limit-point search), with
+    every state from :func:`solve_patterned_states`. The states of a call start their interface scale from
+    the converged scales of the states already solved (linear interpolation in ``λ0``), so the limit-point
+    search costs about one Newton iteration per state.
+
+    Parameters
+    ----------
+    model : MembraneModel
+    pattern : ZonePattern
+    phi_hat : float
+        ``Φ̂`` of the electrode.
+    pole_stretch : array_like, optional
+        Increasing pole stretches; default ``settings.curve_points`` from ``1.01 λpre`` to ``max(4, 1.5 λpre)``.
+    settings : SolverSettings, optional
+
+    Returns
+    -------
+    Curve
+        ``states`` are plain :class:`~coexist.shooting.MembraneStates`; ``starts_because`` /
+        ``stopped_because`` say why the valid run is shorter than the grid (e.g. the electrode edge wrinkling
+        at low inflation).
+
+    Raises
+    ------
+    SceneError
+        Bad pattern, grid or voltage.
+    ModelRangeError
+        No valid state anywhere on the grid.
+    SolverError
+        No valid state near a limit point while refining it.
+    """
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
+    phi_hat = validation.real(phi_hat, "phi_hat", lo=0.0)
+    known_l0: list = []
+    known_sigma: list = []
+
+    def solve(x, guess):
+        st = solve_patterned_states(model, pattern, x, phi_hat, settings, scale_guess=guess)
+        again = ~st.ok
+        if guess is not None and again.any():  # a start from neighbours that failed: once more from the cap
+            retry = solve_patterned_states(model, pattern, x[again], phi_hat, settings)
+            st = _merge(x, ~again, _take_patterned(st, ~again), retry)
+        ok = st.ok & np.isfinite(st.clamp_radius)
+        if ok.any():
+            known_l0.append(x[ok])
+            known_sigma.append(np.log(st.clamp_radius[ok]))
+        return st
+
+    def evaluate(x):
+        x = np.asarray(x, dtype=float)
+        if not known_l0 and x.size >= 4 * COARSE_STRIDE:
+            # a coarse subset first, from the crude start; the rest from the interpolated scales
+            coarse = np.zeros(x.size, dtype=bool)
+            coarse[::COARSE_STRIDE] = True
+            coarse[-1] = True
+            first = solve(x[coarse], None)
+            rest = solve(x[~coarse], _scale_guess(known_l0, known_sigma, x[~coarse]))
+            return _merge(x, coarse, first, rest)
+        return solve(x, _scale_guess(known_l0, known_sigma, x) if known_l0 else None)
+
+    return _trace(
+        "pressure_volume",
+        phi_hat,
+        model,
+        pole_stretch,
+        settings.curve_points,
+        evaluate,
+        {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
+        settings,
+    )
