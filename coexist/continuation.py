@@ -823,6 +823,15 @@ class Tracer:
         the bracket is below ``event_tol`` (near an end whose states become singular, as at a pull-in, every
         round counts).
 
+        Parameters
+        ----------
+        cur : Point
+            The point the offsets are measured from (along its tangent).
+        h : float
+            The predictor's reference step (for :meth:`_points_at`).
+        lo, hi : float
+            The bracket: arclength offsets of a valid point (or 0) and of an invalid one.
+
         Returns
         -------
         tuple or None
