@@ -840,20 +840,24 @@ class Tracer:
         """
         best, code = cur, None
         tol = self.system.settings.event_tol
+        base = lo  # the offset of ``best``: each round predicts from the last valid point, so that the
+        # predictor's error shrinks with the bracket and no Newton iterate is carried past the end (where
+        # it would refuse a point that converges inside)
         while hi - lo > tol:
-            mids = lo + (hi - lo) * np.arange(1, RANGE_END_PROBES + 1) / (RANGE_END_PROBES + 1)
-            pts = self._points_at(cur, None, h, mids, (hi - lo) > 1e-4)
+            steps = (hi - lo) * np.arange(1, RANGE_END_PROBES + 1) / (RANGE_END_PROBES + 1) + (lo - base)
+            pts = self._points_at(best, None, h, steps, (hi - lo) > 1e-4)
             failed = self._last_failure
-            bad = [j for j, p in enumerate(pts) if p is None or not p.tangent @ cur.tangent > 0]
+            bad = [j for j, p in enumerate(pts) if p is None or not p.tangent @ best.tangent > 0]
+            mids = base + steps
             if not bad:
-                lo, best = float(mids[-1]), pts[-1]
+                lo, best, base = float(mids[-1]), pts[-1], float(mids[-1])
                 continue
             j = bad[0]
             entry = failed.failed_states.get(j) if hasattr(failed, "failed_states") else None
             if pts[j] is None and (entry is None or entry[2] is None):
                 return None  # the corrector failed on a valid state: undecided
             if j > 0:
-                lo, best = float(mids[j - 1]), pts[j - 1]
+                lo, best, base = float(mids[j - 1]), pts[j - 1], float(mids[j - 1])
             hi = float(mids[j])
             if entry is not None and entry[2] is not None:
                 code = entry[2]

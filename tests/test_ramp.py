@@ -75,7 +75,7 @@ def test_tricircle_equal_at_3_8_kV_and_one_bulged_at_4_kV(tricircle):
 def test_tricircle_transitions_measured(tricircle):
     """The default scene's transitions, each with its measured error (re-located at rtol/100):
     up 3.90003086 kV (the homogeneous state's symmetric branch point, a jump to one bulged zone),
-    the bulged zone, wrinkled near its clamp above 4.3318063 kV, pulls in at 4.3365921 kV (the scene relaxes
+    the bulged zone, wrinkled near its clamp above 4.3318063 kV, pulls in at 4.336629 kV (the scene relaxes
     wrinkled states by tension-field theory), back down at 3.5492408 kV (a fold), equal free energy
     at 3.5802558 kV. The asserted values are this code's, re-measured; the tolerance 1e-6 kV is 100×
     the largest measured error (the pull-in end: 2e-4 kV, 3× its measured error)."""
@@ -83,14 +83,13 @@ def test_tricircle_transitions_measured(tricircle):
     t = transitions(report)
     expected = {
         ("spinodal", "up", "homogeneous", "1 of 3 bulged"): 3.90003086,
-        ("no_stable_state", "up", "1 of 3 bulged", "none"): 4.33659213,
+        ("no_stable_state", "up", "1 of 3 bulged", "none"): 4.33662899,
         ("spinodal", "down", "1 of 3 bulged", "homogeneous"): 3.54924082,
         ("equal_free_energy", "either", "homogeneous", "1 of 3 bulged"): 3.58025579,
     }
-    # the pull-in end is located by bisection on validity, where a Newton iterate that steps past the end
-    # refuses a point that would converge inside it: re-located at rtol/100 (a different Newton path) it moves
-    # by 3.5e-5 kV, and its measured error says so (7e-5 kV)
-    loose = {("no_stable_state", "up", "1 of 3 bulged", "none"): 2e-4}
+    # the pull-in end is located by bisection on validity, its states approaching a singular meridian:
+    # re-located at rtol/100 it moves by 1.7e-5 kV, and its measured error says so (3.3e-5 kV)
+    loose = {("no_stable_state", "up", "1 of 3 bulged", "none"): 1e-4}
     for key, kv in expected.items():
         assert t[key][0] == pytest.approx(kv, abs=loose.get(key, 1e-6)), key
         assert 0 < t[key][1] < loose.get(key, 1e-7), (key, t[key][1])  # a measured, small error
