@@ -622,6 +622,53 @@ _HEAD = (
 _H = {k: i for i, k in enumerate(_HEAD)}
 
 
+def attempt_step(step, g: dict, y, atol, R: int):
+    """One DOP853 attempt of an attempt function, in CasADi: the step of size ``min(h, t_end − t)`` by ``step``
+    (:func:`coexist.numerics.dop853.casadi_step_function`), its blended error norm, acceptance (finite and
+    error ≤ 1, only while ``status`` is 0) and the factor of the next step size, as
+    :func:`coexist.numerics.dop853.integrate` does them.
+
+    Parameters
+    ----------
+    step : casadi.Function
+        The whole DOP853 step ``(t, h, y) -> (y_new, f_new, e5, e3)`` stacked.
+    g : dict
+        The packed state's scalars (``t``, ``h``, ``t_end``, ``rtol``, ``status``) as CasADi expressions.
+    y, atol : casadi.SX
+        The state and its absolute tolerances (``R`` rows).
+    R : int
+        Rows of the state.
+
+    Returns
+    -------
+    tuple
+        ``(hs, last, y_new, f_new, accepted, factor, t_new)``: the step taken, whether it ends the range, the
+        new state and its derivative, acceptance, the step-size factor and the new independent variable.
+    """
+    import casadi as ca
+
+    t, h = g["t"], g["h"]
+    span = g["t_end"] - t
+    last = h >= span
+    hs = ca.if_else(last, span, h)
+    out = step(t, hs, y)
+    y_new, f_new, e5, e3 = out[:R], out[R : 2 * R], out[2 * R : 3 * R], out[3 * R : 4 * R]
+    scale = atol + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * g["rtol"]
+    s5 = ca.sumsqr(e5 / scale)
+    s3 = ca.sumsqr(e3 / scale)
+    den = s5 + 0.01 * s3
+    err = ca.fabs(hs) * s5 / ca.sqrt(ca.if_else(den > 0, den, 1) * R)
+    total = ca.sum1(y_new) + ca.sum1(f_new)
+    finite = (total == total) * (ca.fabs(total) < 1e300)
+    accepted = (g["status"] == 0) * finite * (err <= 1)
+    grow = 0.9 * ca.if_else(err > 0, err, 1) ** (-1.0 / 8)
+    factor = ca.if_else(err == 0, 10, ca.fmin(ca.fmax(grow, 0.2), 10))
+    factor = ca.if_else(accepted, factor, ca.fmin(1, factor))
+    factor = ca.if_else(finite, factor, 0.25)
+    t_new = ca.if_else(last, g["t_end"], t + hs)
+    return hs, last, y_new, f_new, accepted, factor, t_new
+
+
 def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMPTS_PER_CALL):
     """``K`` DOP853 attempts of one trajectory as one CasADi function of its packed state.
 
@@ -670,24 +717,7 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     # the first attempt of a trajectory computes the derivative at its start (the caller leaves it unset)
     f = ca.if_else(g["steps"] == 0, rhs(t, y), f)
     active = g["status"] == 0
-    span = g["t_end"] - t
-    last = h >= span
-    hs = ca.if_else(last, span, h)
-    out = step(t, hs, y)
-    y_new, f_new, e5, e3 = out[:R], out[R : 2 * R], out[2 * R : 3 * R], out[3 * R : 4 * R]
-    scale = atol + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * g["rtol"]
-    s5 = ca.sumsqr(e5 / scale)
-    s3 = ca.sumsqr(e3 / scale)
-    den = s5 + 0.01 * s3
-    err = ca.fabs(hs) * s5 / ca.sqrt(ca.if_else(den > 0, den, 1) * R)
-    total = ca.sum1(y_new) + ca.sum1(f_new)
-    finite = (total == total) * (ca.fabs(total) < 1e300)
-    accepted = active * finite * (err <= 1)
-    grow = 0.9 * ca.if_else(err > 0, err, 1) ** (-1.0 / 8)
-    factor = ca.if_else(err == 0, 10, ca.fmin(ca.fmax(grow, 0.2), 10))
-    factor = ca.if_else(accepted, factor, ca.fmin(1, factor))
-    factor = ca.if_else(finite, factor, 0.25)
-    t_new = ca.if_else(last, g["t_end"], t + hs)
+    hs, last, y_new, f_new, accepted, factor, t_new = attempt_step(step, g, y, atol, R)
     P = R - 2
     T1, T2, T11, T12, margin, E, T22 = aux(y_new[0], y_new[1], y_new[P + 1])
     d1 = T11 * f_new[0] + T12 * f_new[1]

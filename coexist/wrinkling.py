@@ -489,23 +489,7 @@ def _attempt_function(eqs, mode, K: int = sh.ATTEMPTS_PER_CALL):
     y, f, atol = x[o : o + R], x[o + R : o + 2 * R], x[o + 2 * R : o + 3 * R]
     t, h = g["t"], g["h"]
     active = g["status"] == 0
-    span = g["t_end"] - t
-    last = h >= span
-    hs = ca.if_else(last, span, h)
-    out = step(t, hs, y)
-    y_new, f_new, e5, e3 = out[:R], out[R : 2 * R], out[2 * R : 3 * R], out[3 * R : 4 * R]
-    scale = atol + ca.fmax(ca.fabs(y), ca.fabs(y_new)) * g["rtol"]
-    s5, s3 = ca.sumsqr(e5 / scale), ca.sumsqr(e3 / scale)
-    den = s5 + 0.01 * s3
-    err = ca.fabs(hs) * s5 / ca.sqrt(ca.if_else(den > 0, den, 1) * R)
-    total = ca.sum1(y_new) + ca.sum1(f_new)
-    finite = (total == total) * (ca.fabs(total) < 1e300)
-    accepted = active * finite * (err <= 1)
-    grow = 0.9 * ca.if_else(err > 0, err, 1) ** (-1.0 / 8)
-    factor = ca.if_else(err == 0, 10, ca.fmin(ca.fmax(grow, 0.2), 10))
-    factor = ca.if_else(accepted, factor, ca.fmin(1, factor))
-    factor = ca.if_else(finite, factor, 0.25)
-    t_new = ca.if_else(last, g["t_end"], t + hs)
+    hs, last, y_new, f_new, accepted, factor, t_new = sh.attempt_step(step, g, y, atol, R)
     q = sw(ca.vertcat(y_new[0], y_new[1], y_new[2], y_new[lay.W], y_new[lay.P + 1], f_new[0], f_new[1], f_new[lay.W]))
     gg, dg, T1, E, stiff, margin, w = (q[i] for i in range(7))
     clamp = y_new[1] <= model.prestretch
