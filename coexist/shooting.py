@@ -1276,6 +1276,30 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
         _collect_shapes(trace, live, out, shapes, lam_clamp)
 
 
+def run_attempts(entry: dict, X: np.ndarray, status_row: int) -> None:
+    """Call the attempt function of ``entry`` (:meth:`_Integrators.attempts_of`) on the packed states ``X`` (one
+    column per trajectory), mapped over the columns still running (``X[status_row] == 0``), until none is;
+    ``X`` is updated in place.
+
+    Parameters
+    ----------
+    entry : dict
+        The attempt function's entry (``fun`` and its ``maps`` by batch size).
+    X : ndarray
+        Packed states.
+    status_row : int
+        Row of the status in ``X``.
+    """
+    active = np.arange(X.shape[1])
+    while active.size:
+        n = active.size
+        fun = entry["maps"].get(n)
+        if fun is None:
+            fun = entry["maps"][n] = entry["fun"].map(n, "serial") if n > 1 else entry["fun"]
+        X[:, active] = fun(X[:, active]).full()
+        active = active[X[status_row, active] == 0]
+
+
 def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal, T0, max_E, min_T, fail_R, code):
     """Integrate a small batch with the attempt function, :data:`ATTEMPTS_PER_CALL` attempts per call, until
     every trajectory stops. Fills ``min_T``, ``max_E``, ``fail_R`` and ``code`` in place and returns an
@@ -1296,14 +1320,7 @@ def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal,
     X[H["Ra"]], X[H["T1a"]], X[H["T2a"]] = t0, T0, T0
     X[H["minT"]], X[H["maxE"]], X[H["failR"]], X[H["cand_est"]] = min_T, max_E, np.nan, np.inf
     X[o : o + R], X[o + R : o + 2 * R], X[o + 2 * R : o + 3 * R] = y0, f0, np.where(np.isfinite(atol), atol, 1e300)
-    active = np.arange(m)
-    while active.size:
-        n = active.size
-        fun = entry["maps"].get(n)
-        if fun is None:
-            fun = entry["maps"][n] = entry["fun"].map(n, "serial") if n > 1 else entry["fun"]
-        X[:, active] = fun(X[:, active]).full()
-        active = active[X[H["status"], active] == 0]
+    run_attempts(entry, X, H["status"])
     status = X[H["status"]].astype(int)
     min_T[:] = X[H["minT"]]
     max_E[:] = X[H["maxE"]]

@@ -551,14 +551,7 @@ def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status
     X[_H["g_last"]], X[_H["dg_last"]], X[_H["R_last"]] = g_last, dg_last, R[cols]
     X[_H["minT"]], X[_H["maxE"]], X[_H["failR"]], X[_H["h_cross"]] = min_T[cols], max_E[cols], np.nan, np.nan
     X[o : o + rows], X[o + rows : o + 2 * rows], X[o + 2 * rows :] = y[:, cols], f0, eqs.atol[:, cols]
-    active = np.arange(n)
-    while active.size:
-        k = active.size
-        fun = entry["maps"].get(k)
-        if fun is None:
-            fun = entry["maps"][k] = entry["fun"].map(k, "serial") if k > 1 else entry["fun"]
-        X[:, active] = fun(X[:, active]).full()
-        active = active[X[_H["status"], active] == 0]
+    sh.run_attempts(entry, X, _H["status"])
     st = X[_H["status"]].astype(int)
     steps[cols] += X[_H["steps"]].astype(int)
     R[cols] = X[_H["t"]]
