@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import SceneError
-from .scene_format import DEFAULTS, did_you_mean, read_document
+from .scene_format import DEFAULTS, PATTERNS, did_you_mean, read_document
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -132,6 +132,14 @@ class Scene:
         marks them.
     controlled_pressure_field : str
         The controlled pressure's key as written in the file (for messages), e.g. ``[zones].pressure_kPa``.
+    electrode_pattern : str
+        ``"full"`` (the electrode covers each zone), ``"inner-circle"`` or ``"ring"`` (``[electrodes] pattern``);
+        :meth:`zone_pattern` gives the :class:`~coexist.patterned.ZonePattern`.
+    inner_fraction, outer_fraction : float or None
+        Radius fractions of the reference state: the electrode disc's radius (inner-circle) or the ring's
+        inner edge, and the ring's outer edge; None where the pattern has no such edge.
+    passive_layers : int
+        Layers of the regions without electrode (``[layers] passive``); the electrode regions are one layer.
 
     Examples
     --------
@@ -161,6 +169,10 @@ class Scene:
     source: str = "<string>"
     defaulted: tuple = ()
     controlled_pressure_field: str = field(default="[zones].pressure_mbar", repr=False, compare=False)
+    electrode_pattern: str = "full"
+    inner_fraction: float | None = None
+    outer_fraction: float | None = None
+    passive_layers: int = 1
 
     # --- scales (docs/physics.md, seed eqs. 3-4) ------------------------------------------------------
     @property
@@ -378,6 +390,49 @@ class Scene:
                 self.chamber.closing_pressure_field,
             )
 
+    # --- the electrode pattern --------------------------------------------------------------------
+    @property
+    def patterned(self) -> bool:
+        """Whether a zone is patterned (an electrode that does not cover the whole zone)."""
+        return self.electrode_pattern != "full"
+
+    def zone_pattern(self):
+        """The regions of one zone, from the pole out (imports :mod:`coexist.patterned`, hence CasADi).
+
+        ``"full"``: one region, electrode, one layer; ``"inner-circle"``: an electrode disc ``0 ≤ R < fA``
+        (one layer) in a passive annulus of :attr:`passive_layers` layers; ``"ring"``: an electrode annulus
+        ``fi A < R < fo A`` (one layer), passive inside and outside (the outside only when ``fo < 1``).
+
+        Returns
+        -------
+        ZonePattern
+            :meth:`ZonePattern.full`, :meth:`ZonePattern.inner_circle` or :meth:`ZonePattern.ring`.
+        """
+        return zone_pattern(self.electrode_pattern, self.inner_fraction, self.outer_fraction, self.passive_layers)
+
+    def require_uniform(self, what: str) -> None:
+        """Raise :class:`SceneError` naming ``[electrodes].pattern`` if the zones are patterned.
+
+        The N-zone computations (equilibria, continuation, ramp, fit, sweep, shapes) take uniform zones only
+        so far: a patterned zone has no state derivatives yet.
+
+        Parameters
+        ----------
+        what : str
+            The computation, for the message (e.g. ``"the ramp"``).
+
+        Raises
+        ------
+        SceneError
+            If :attr:`patterned`.
+        """
+        if self.patterned:
+            raise SceneError(
+                f'patterned zones (pattern "{self.electrode_pattern}") are supported by `coexist curves` '
+                f"(coexist.patterned) only so far: {what} takes zones with a full electrode",
+                "[electrodes].pattern",
+            )
+
     # --- effects and model -----------------------------------------------------------------------
     def effects(self) -> list[str]:
         """Names of the effects this scene calls for; nothing else is simulated.
@@ -388,12 +443,18 @@ class Scene:
         -------
         list of str
             ``elasticity:<material>``, then ``electrostatics:ideal-dielectric`` with a voltage,
-            ``prestretch`` when ``λpre ≠ 1``, ``gas:isothermal-ideal-gas`` with a chamber (else
-            ``pressure-control``), and ``breakdown-check`` when a breakdown field is given.
+            ``prestretch`` when ``λpre ≠ 1``, ``electrodes:<pattern>`` and ``layers:<n>`` for a patterned
+            zone (``electrodes:inner-circle``, ``layers:2``; the passive layers only when not 1),
+            ``gas:isothermal-ideal-gas`` with a chamber (else ``pressure-control``), and ``breakdown-check``
+            when a breakdown field is given.
         """
         names = [f"elasticity:{self.material}"]
         if self.voltage is not None:
             names.append("electrostatics:ideal-dielectric")
+        if self.patterned:
+            names.append(f"electrodes:{self.electrode_pattern}")
+        if self.passive_layers != 1:
+            names.append(f"layers:{self.passive_layers}")
         if self.prestretch != 1.0:
             names.append("prestretch")
         if self.wrinkling == "tension-field":
@@ -461,6 +522,10 @@ class Scene:
             ("[chamber].volume", None if c is None else f"{c.volume * 1e6:g} ml"),
             ("[chamber].closing_pressure", None if c is None else f"{c.closing_pressure / 100:g} mbar"),
             ("[chamber].atmospheric_pressure", None if c is None else f"{c.atmospheric_pressure / 1e3:g} kPa"),
+            ("[electrodes].pattern", self.electrode_pattern if self.patterned else None),
+            ("[electrodes].inner_fraction", None if self.inner_fraction is None else f"{self.inner_fraction:g}"),
+            ("[electrodes].outer_fraction", None if self.outer_fraction is None else f"{self.outer_fraction:g}"),
+            ("[layers].passive", f"{self.passive_layers}" if self.patterned else None),
         ]
         if v is not None and v.kind == "ramp":
             rows += [(f"[voltage].{k}", f"{getattr(v, k) / 1e3:g} kV") for k in ("start", "stop", "step")]
@@ -475,8 +540,10 @@ class Scene:
         -------
         dict
             Keys ``name``, ``description``, ``source``, ``membrane``, ``zones``, ``chamber`` and ``voltage``
-            (``None`` when absent), ``effects`` (:meth:`effects`), ``dimensionless_groups``
-            (:meth:`dimensionless_groups`) and ``fitted`` (dates as ISO strings, non-finite floats as strings).
+            (``None`` when absent), ``electrodes`` (``pattern``, ``inner_fraction``, ``outer_fraction``; None
+            where the pattern has no such edge), ``layers`` (``passive``), ``effects`` (:meth:`effects`),
+            ``dimensionless_groups`` (:meth:`dimensionless_groups`) and ``fitted`` (dates as ISO strings,
+            non-finite floats as strings).
         """
         membrane = {
             "material": self.material,
@@ -519,11 +586,54 @@ class Scene:
             "zones": {"count": self.zone_count, "controlled_pressure_Pa": self.controlled_pressure},
             "chamber": chamber,
             "voltage": voltage,
+            "electrodes": {
+                "pattern": self.electrode_pattern,
+                "inner_fraction": self.inner_fraction,
+                "outer_fraction": self.outer_fraction,
+            },
+            "layers": {"passive": self.passive_layers},
             "effects": self.effects(),
             "dimensionless_groups": self.dimensionless_groups(),
             "fitted": _json_safe(self.fitted),
             "defaulted": list(self.defaulted),
         }
+
+
+def zone_pattern(electrode_pattern: str, inner_fraction=None, outer_fraction=None, passive_layers: int = 1):
+    """The :class:`~coexist.patterned.ZonePattern` of a scene's pattern fields (imports :mod:`coexist.patterned`).
+
+    Parameters
+    ----------
+    electrode_pattern : str
+        ``"full"``, ``"inner-circle"`` or ``"ring"`` (:data:`coexist.scene_format.PATTERNS`).
+    inner_fraction, outer_fraction : float or None
+        The electrode disc's radius (inner-circle) or the ring's edges, over the zone radius.
+    passive_layers : int
+        Layers of the regions without electrode.
+
+    Returns
+    -------
+    ZonePattern
+        :meth:`~coexist.patterned.ZonePattern.full`, :meth:`~coexist.patterned.ZonePattern.inner_circle` or
+        :meth:`~coexist.patterned.ZonePattern.ring`.
+
+    Raises
+    ------
+    SceneError
+        For an unknown pattern, or fractions and layers the pattern does not accept.
+    """
+    from .patterned import ZonePattern
+
+    if electrode_pattern == "inner-circle":
+        return ZonePattern.inner_circle(inner_fraction, passive_layers=passive_layers)
+    if electrode_pattern == "ring":
+        return ZonePattern.ring(inner_fraction, outer_fraction, passive_layers=passive_layers)
+    if electrode_pattern == "full":
+        return ZonePattern.full()
+    raise SceneError(
+        f"unknown pattern {electrode_pattern!r}{did_you_mean(str(electrode_pattern), PATTERNS)}",
+        "pattern",
+    )
 
 
 @functools.lru_cache(maxsize=32)

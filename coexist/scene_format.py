@@ -19,6 +19,14 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
               ``atmospheric_pressure_*`` [101.325 kPa]; absent: the pressure is controlled directly
 [voltage]     a ramp ``start_*`` [0], ``stop_*`` (required), ``step_*`` [(stop − start)/100], which goes
               up from start to stop and back down to start; or a list ``values_*``; absent: no voltage
+[electrodes]  ``pattern`` ["full": the electrode covers the whole zone; "inner-circle": a disc of radius
+              ``inner_fraction`` · zone radius at the centre; "ring": the annulus from ``inner_fraction`` to
+              ``outer_fraction`` · zone radius], radius fractions of the reference state, inner in (0, 1),
+              outer in (inner, 1]; absent: "full". Patterned zones (coexist.patterned) are computed by
+              ``coexist curves`` only so far: the N-zone commands refuse them
+[layers]      ``passive`` [1]: layers (whole number 1..100) of the regions without electrode, whose stack
+              is that many times the membrane; the electrode regions are one layer; only with a pattern
+              that has such regions ("inner-circle", "ring")
 [fitted]      free-form notes of fitted parameters, carried through unchanged
 top level     ``name``, ``description``
 ============  ===========================================================================================
@@ -45,6 +53,11 @@ from .effects import MATERIALS, canonical_material
 from .errors import SceneError
 
 MAX_ZONES = 1000
+#: most layers of a passive region (equal to :data:`coexist.patterned.MAX_LAYERS`, tested; not imported here
+#: so that reading a scene does not import the solver)
+MAX_LAYERS = 100
+#: the electrode patterns of ``[electrodes] pattern`` (:class:`coexist.patterned.ZonePattern`)
+PATTERNS = ("full", "inner-circle", "ring")
 MAX_VOLTAGE_POINTS = 100_000
 #: Dimensional values must lie in this range in SI units (keeps every scale finite and non-zero).
 SI_RANGE = (1e-30, 1e30)
@@ -104,12 +117,20 @@ SCHEMA = {
         "step": _Key("voltage", "positive", "kV"),
         "values": _Key("voltage", "nonnegative", "kV", many=True),
     },
+    "electrodes": {
+        "pattern": _Key("string"),
+        "inner_fraction": _Key("number", "open_fraction"),
+        "outer_fraction": _Key("number", "fraction"),
+    },
+    "layers": {"passive": _Key("integer")},
 }
 TOP_LEVEL = ("name", "description", "fitted", *SCHEMA)
 _RULES = {
     "positive": (lambda x: x > 0, "positive"),
     "nonnegative": (lambda x: x >= 0, "zero or positive"),
     "at_least_one": (lambda x: x >= 1, "at least 1"),
+    "open_fraction": (lambda x: 0 < x < 1, "a fraction strictly between 0 and 1"),
+    "fraction": (lambda x: 0 < x <= 1, "a fraction above 0 and at most 1"),
 }
 
 
@@ -292,7 +313,8 @@ def read_document(doc: dict, source: str) -> dict:
             "zone_radius_mm) and [zones] count",
             "[membrane]",
         )
-    membrane, zones, chamber, voltage = (_Section(doc, s) for s in SCHEMA)
+    sections = {s: _Section(doc, s) for s in SCHEMA}
+    membrane, zones, chamber, voltage = (sections[s] for s in ("membrane", "zones", "chamber", "voltage"))
     defaulted: list[str] = []
 
     def optional(section: _Section, key: str, default=None):
@@ -335,6 +357,8 @@ def read_document(doc: dict, source: str) -> dict:
             "the chamber's gas sets the pressure: give either [chamber] or a controlled pressure, not both",
             zones.where("pressure"),
         )
+    chamber_fields, voltage_fields = _chamber(chamber, optional), _voltage(voltage, optional)
+    pattern = _pattern(sections["electrodes"], sections["layers"])
     return dict(
         shear_modulus=shear_modulus,
         relative_permittivity=permittivity,
@@ -348,8 +372,9 @@ def read_document(doc: dict, source: str) -> dict:
         zone_count=count,
         controlled_pressure=pressure,
         controlled_pressure_field=zones.where("pressure"),
-        chamber=_chamber(chamber, optional),
-        voltage=_voltage(voltage, optional),
+        chamber=chamber_fields,
+        voltage=voltage_fields,
+        **pattern,
         name=name if name is not None else Path(source).stem,
         description=description or "",
         fitted=copy.deepcopy(fitted),
@@ -412,6 +437,118 @@ def _chamber(chamber: _Section, optional) -> dict | None:
         atmospheric_pressure=optional(chamber, "atmospheric_pressure", DEFAULTS["atmospheric_pressure"]),
         closing_pressure_field=chamber.where("closing_pressure"),
     )
+
+
+def _pattern(electrodes: _Section, layers: _Section) -> dict:
+    """``[electrodes]`` and ``[layers]`` as the Scene's pattern fields (:func:`pattern_fields`); a present
+    ``[electrodes]`` needs its ``pattern``, a present ``[layers]`` its ``passive``."""
+
+    def where(name):
+        return layers.where(name) if name == "passive" else electrodes.where(name)
+
+    passive = (
+        layers.require("passive", "the number of layers of the regions without electrode") if layers.present else 1
+    )
+    return pattern_fields(
+        electrodes.get("pattern"),
+        electrodes.get("inner_fraction"),
+        electrodes.get("outer_fraction"),
+        passive,
+        where,
+        pattern_required=electrodes.present,
+    )
+
+
+def pattern_fields(pattern, inner_fraction, outer_fraction, passive, where, pattern_required: bool = False) -> dict:
+    """Check an electrode pattern and return the :class:`~coexist.scene.Scene` fields that describe it.
+
+    ``"full"``: the electrode covers the zone (no fraction, one layer); ``"inner-circle"``: an electrode disc of
+    radius ``inner_fraction · A``, ``0 < inner_fraction < 1``; ``"ring"``: an electrode annulus from
+    ``inner_fraction · A`` to ``outer_fraction · A``, ``0 < inner_fraction < outer_fraction ≤ 1`` (radii of
+    the reference state). ``passive``: the layers of the regions without electrode, a whole number
+    ``1..MAX_LAYERS``, other than 1 only when there are such regions.
+
+    Parameters
+    ----------
+    pattern : str or None
+        One of :data:`PATTERNS`; None: not given (``"full"``, unless ``pattern_required``).
+    inner_fraction, outer_fraction : float or None
+        The edges' radius fractions; None: not given.
+    passive : int
+        Layers of the passive regions.
+    where : callable
+        ``where(name)`` names the field or option of ``"pattern"``, ``"inner_fraction"``,
+        ``"outer_fraction"`` or ``"passive"`` in messages (``[electrodes].inner_fraction``, ``--inner-fraction``).
+    pattern_required : bool
+        Whether a missing pattern is an error (a present ``[electrodes]`` section).
+
+    Returns
+    -------
+    dict
+        ``electrode_pattern``, ``inner_fraction``, ``outer_fraction`` (None where the pattern has no such
+        edge) and ``passive_layers``.
+
+    Raises
+    ------
+    SceneError
+        Naming the field: an unknown pattern (the closest suggested), a fraction the pattern does not take,
+        a missing or out-of-range fraction, a ring whose outer edge is not outside its inner edge, a layer
+        count that is not a whole number in ``1..MAX_LAYERS``, passive layers without a passive region.
+    """
+    if pattern is not None and pattern not in PATTERNS:
+        raise SceneError(
+            f"unknown pattern {pattern!r}{did_you_mean(str(pattern).strip(), PATTERNS)}; use one of "
+            + ", ".join(f'"{p}"' for p in PATTERNS),
+            where("pattern"),
+        )
+    uses = {"inner_fraction": ("inner-circle", "ring"), "outer_fraction": ("ring",)}
+    given = {"inner_fraction": inner_fraction, "outer_fraction": outer_fraction}
+    for name, patterns in uses.items():
+        if given[name] is not None and pattern not in patterns:
+            shown = " and ".join(f'"{p}"' for p in patterns)
+            takes = "patterns take" if len(patterns) > 1 else "pattern takes"
+            got = f'the pattern is "{pattern}"' if pattern is not None else "no pattern is given"
+            raise SceneError(f"only the {shown} {takes} {name} ({got})", where(name))
+    if pattern is None and pattern_required:
+        raise SceneError('missing: the electrode pattern, "full", "inner-circle" or "ring"', where("pattern"))
+    pattern = pattern or "full"
+    inner = outer = None
+    for name in uses:
+        value = given[name]
+        if pattern in uses[name] and value is None:
+            what = {
+                "inner-circle": "the electrode disc's radius",
+                "ring": "the ring's inner radius" if name == "inner_fraction" else "the ring's outer radius",
+            }[pattern]
+            raise SceneError(
+                f'missing: the "{pattern}" pattern needs {what} over the zone radius (reference state)', where(name)
+            )
+        if value is None:
+            continue
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+            raise SceneError(f"expected a finite number, got {_describe(value)}", where(name))
+        rule = "open_fraction" if name == "inner_fraction" else "fraction"
+        ok, words = _RULES[rule]
+        if not ok(value):
+            raise SceneError(f"must be {words}, got {value!r}", where(name))
+    if pattern in uses["inner_fraction"]:
+        inner = float(given["inner_fraction"])
+    if pattern == "ring" and inner is not None:
+        outer = float(given["outer_fraction"])
+        if not outer > inner:
+            raise SceneError(
+                f"the ring's outer edge must lie outside its inner edge (inner_fraction = {inner:g}), got {outer:g}",
+                where("outer_fraction"),
+            )
+    if isinstance(passive, bool) or not isinstance(passive, int) or not 1 <= passive <= MAX_LAYERS:
+        raise SceneError(f"must be a whole number from 1 to {MAX_LAYERS}, got {passive!r}", where("passive"))
+    if passive != 1 and pattern == "full":
+        raise SceneError(
+            'the "full" electrode pattern has no region without electrode, so no passive layers (patterns with '
+            'such regions: "inner-circle", "ring"; a thicker membrane is a larger thickness)',
+            where("passive"),
+        )
+    return dict(electrode_pattern=pattern, inner_fraction=inner, outer_fraction=outer, passive_layers=passive)
 
 
 def _voltage(voltage: _Section, optional) -> dict | None:

@@ -257,7 +257,8 @@ class Simulation:
         ------
         SceneError
             If the zones cannot hold the closing (or controlled) pressure, or the scene has neither a
-            chamber nor a controlled pressure (names the field). Also if that pressure is below the
+            chamber nor a controlled pressure (names the field), or its zones are patterned (not yet
+            supported here, :meth:`coexist.scene.Scene.require_uniform`). Also if that pressure is below the
             smallest computed state's.
         SolverError
             If the state at the closing pressure does not converge.
@@ -271,6 +272,7 @@ class Simulation:
         """
         settings = validation.settings_or_default(settings)
         validation.scene(scene)
+        scene.require_uniform("a Simulation (N zones on one gas)")
         model = model if model is not None else scene.model()
         lam_max = pole_stretch_max(scene, settings)
         if snap is None:  # at zero voltage a model with electrostatics gives the passive numbers (tested)

@@ -353,7 +353,13 @@ def scene_document(scene: Scene) -> dict:
     Returns
     -------
     dict
+
+    Raises
+    ------
+    SceneError
+        For a patterned scene (:meth:`coexist.scene.Scene.require_uniform`): its pattern has no place here yet.
     """
+    scene.require_uniform("a sweep")  # a patterned scene's document would lose its pattern
     membrane: dict = {
         "material": scene.material,
         "shear_modulus_Pa": scene.shear_modulus,
@@ -570,13 +576,21 @@ def make_spec(scene, vary, settings: SolverSettings | None = None) -> SweepSpec:
     ------
     SceneError
         For a bad key or value, a scene with no voltage (and none swept), or when the scene cannot be built at
-        any corner of the grid (the first corner's error).
+        any corner of the grid (the first corner's error); for a patterned scene or a swept ``electrodes.*`` or
+        ``layers.*`` key (patterned zones: ``coexist curves`` only so far).
     """
     from . import validation
 
     sc = scene if isinstance(scene, Scene) else load_scene(scene)
     settings = validation.settings_or_default(settings)
     axes = make_axes(vary)
+    for ax in axes:
+        if ax.section in ("electrodes", "layers"):
+            raise SceneError(
+                f"{ax.key}: patterned zones are supported by `coexist curves` only so far: a sweep takes zones with "
+                "a full electrode",
+                "--vary",
+            )
     spec = SweepSpec(scene_document(sc), sc.source, axes, settings)
     if spec.size > MAX_POINTS:
         raise SceneError(f"{spec.size:,} points; a sweep takes at most {MAX_POINTS:,}", "--vary")

@@ -432,6 +432,10 @@ _GOOD = {
     "values": [0, 1, 2],
     "pressure": 15,
     "wrinkling": "tension-field",
+    "pattern": "inner-circle",
+    "inner_fraction": 0.5,
+    "outer_fraction": 0.8,
+    "passive": 2,
 }
 #: keys that make a consistent section, where not any subset does
 _NAMES = {

@@ -10,9 +10,9 @@ from .common import (
     accuracy_option,
     info,
     library_errors,
-    load_scene_arg,
     parse_floats,
     settings_from,
+    uniform_scene_arg,
     write_json,
 )
 
@@ -57,7 +57,7 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
     from coexist.shapes import equilibrium_profiles
     from coexist.simulation import Simulation
 
-    sc = load_scene_arg(scene)
+    sc = uniform_scene_arg(scene, "shape")
     settings = settings_from(accuracy, rtol)
     kv = parse_floats(voltages, "--voltage-kV", nonnegative=True)
     if sc.voltage is None:
