@@ -101,7 +101,10 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
             out = model.tensions(l1a, x, phia)
             T2 = np.broadcast_to(np.asarray(out[1], dtype=float), x.shape)
             T22 = np.broadcast_to(np.asarray(out[6], dtype=float), x.shape)
-            bad = ~np.isfinite(T2)  # beyond Gent locking: too far
+            margin = np.broadcast_to(np.asarray(out[4], dtype=float), x.shape)
+            # beyond Gent locking: too far (the tensions there can be finite, with T̂2 < 0, and would move
+            # the bracket's lower end past the root)
+            bad = ~np.isfinite(T2) | ~(margin > 0)
             hi = np.where(~done & (bad | (T2 > 0)), np.minimum(hi, x), hi)
             lo = np.where(~done & ~bad & (T2 <= 0), np.maximum(lo, x), lo)
             step = np.where(bad, np.nan, T2 / T22)
