@@ -26,7 +26,13 @@ from .common import InputError, Outputs, accuracy_option, info, library_errors, 
     show_default=True,
     help="The quantity the design map colours by (e.g. hysteresis_kV, equal_free_energy_kV).",
 )
-@click.option("--workers", type=click.IntRange(1, 256), default=1, show_default=True, help="Local worker processes.")
+@click.option(
+    "--workers",
+    type=click.IntRange(1, 256),
+    default=None,
+    help="Local worker processes. Default: a pool over the machine's cores, as many as give each worker at least "
+    "two points (a worker costs about 1.5 s to start, a point about a second); 1 computes in this process.",
+)
 @click.option("--scheduler", default=None, metavar="ADDRESS", help="Compute on this Dask scheduler (tcp://host:8786).")
 @click.option(
     "--resume", is_flag=True, help="Continue an interrupted sweep from OUTPUT.parts (computes only what is missing)."
@@ -67,6 +73,8 @@ def sweep(scene, vary, output, plot, variable, workers, scheduler, resume, overw
                 f"-o: {folder} holds an interrupted sweep: --resume continues it (--overwrite discards it)"
             )
         client = _client(scheduler)
+        if workers is None:
+            workers = default_workers(spec.size)
         try:
             n_workers = workers if client is None else sum(client.nthreads().values())
             cost = sw.sweep_cost(spec, n_workers)
@@ -139,3 +147,21 @@ def _report(result):
         f"{result.retried_chunks} chunk(s) retried; {result.seconds:.1f} s on {result.workers} worker(s) "
         f"({result.executor})"
     )
+
+
+def default_workers(points: int) -> int:
+    """The local pool's default size: the machine's cores, but no more workers than half the points.
+
+    Parameters
+    ----------
+    points : int
+        Points of the sweep.
+
+    Returns
+    -------
+    int
+        At least 1.
+    """
+    import os
+
+    return max(1, min(os.cpu_count() or 1, points // 2))
