@@ -63,8 +63,8 @@ from .shooting import (
     WRINKLED,
     WRINKLED_AT_POLE,
     MembraneStates,
-    _check_inputs,
     _integrators,
+    checked_state_inputs,
     reason_tag,
     reason_text,
     solve_states,
@@ -906,17 +906,9 @@ def solve_patterned_states(
     >>> round(float(st.p_hat[0]) / 2, 6)  # two layers carry twice the pressure of one
     1.869555
     """
-    settings = validation.settings_or_default(settings)
     validation.membrane_model(model)
     validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
-    l0, phi = validation.broadcastable(
-        "pole_stretch, phi_hat",
-        validation.real_array(pole_stretch, "pole_stretch"),
-        validation.real_array(phi_hat, "phi_hat", lo=0.0),
-    )
-    l0 = np.array(l0, dtype=float).ravel()
-    phi = np.array(phi, dtype=float).ravel()
-    _check_inputs(model, l0, phi)
+    settings, l0, phi = checked_state_inputs(model, pole_stretch, phi_hat, settings)
     if len(pattern.regions) == 1:
         return _uniform(model, pattern, l0, phi, settings)
     n_states = l0.size

@@ -34,7 +34,7 @@ from .errors import ModelRangeError, SceneError, SolverError
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
 from .settings import SolverSettings
-from .shooting import ROUNDOFF_TOLERANCE, solve_states, trial_pressure
+from .shooting import ROUNDOFF_TOLERANCE, _integrators, solve_states, trial_pressure
 
 #: the re-integrated state must agree with the shooting's (clamp radius, apex height, volume) to this many
 #: of its relative tolerances; beyond it something is wrong and the profile is refused
@@ -179,30 +179,6 @@ def apex_curvature_hat(model: MembraneModel, pole_stretch, phi_hat, p_hat):
     T0 = np.asarray(model.pole(l0, phi_hat)[0], dtype=float)
     out = np.asarray(p_hat, dtype=float) * l0 / (2 * T0)
     return float(out) if out.ndim == 0 else out
-
-
-class _Equations:
-    """The right-hand sides of one model for :func:`coexist.numerics.dop853.integrate`."""
-
-    def __init__(self, model: MembraneModel):
-        self.model = model
-
-    def radius(self, R, y):
-        # rows λ1, λ2, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ, then p̂t and Φ̂ (constant)
-        out = np.empty_like(y)
-        out[7:] = 0.0
-        return self.model.rhs_into(R, y[0], y[1], y[2], y[7], y[8], out)
-
-    def hoop(self, l2, z):
-        # λ2 as the independent variable: rows R̂, λ1, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ, p̂t, Φ̂
-        d = np.empty((7, l2.size))
-        d[:] = self.model.rhs(z[0], z[1], l2, z[2], z[7], z[8])
-        inv = 1.0 / d[1]
-        out = np.zeros_like(z)
-        out[0] = inv
-        out[1] = d[0] * inv
-        out[2:7] = d[2:] * inv
-        return out
 
 
 def _flat(model, phi, zone_radius, s):
@@ -420,7 +396,7 @@ def _points(model, l0, phi, s, settings, st) -> list:
     """``(R̂, r̂, ẑ)`` at the output radii ``s`` of the taut states ``(l0, phi)`` shot as ``st``."""
     m = l0.size
     lam = model.prestretch
-    eq = _Equations(model)
+    eq = _integrators(model)
     pt = np.asarray(trial_pressure(model, l0, phi), dtype=float) * np.ones(m)
     R0 = settings.series_radius
     # the shooting's start and tolerances: series at R0 (and at R̂ = 1 for the size of every row)

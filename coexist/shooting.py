@@ -833,6 +833,43 @@ def fresh_integrators(model: MembraneModel, compile_after: int = COMPILE_AFTER) 
     model._built["integrators"] = _Integrators(model, int(compile_after))
 
 
+def checked_state_inputs(model: MembraneModel, pole_stretch, phi_hat, settings: SolverSettings | None):
+    """The inputs of a batch of states, checked and flattened (shared by :func:`solve_states` and
+    :func:`coexist.patterned.solve_patterned_states`).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane.
+    pole_stretch, phi_hat : array_like
+        Pole stretches and voltages, broadcast against each other.
+    settings : SolverSettings or None
+        Default ``SolverSettings()``.
+
+    Returns
+    -------
+    tuple
+        ``(settings, l0, phi)`` with ``l0`` and ``phi`` flat float arrays of one size.
+
+    Raises
+    ------
+    SceneError
+        If a pole stretch is not finite or not above ``λpre``, a voltage is negative or not finite, or a
+        voltage is not zero for a model without electrostatics.
+    """
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    l0, phi = validation.broadcastable(
+        "pole_stretch, phi_hat",
+        validation.real_array(pole_stretch, "pole_stretch"),
+        validation.real_array(phi_hat, "phi_hat", lo=0.0),
+    )
+    l0 = np.array(l0, dtype=float).ravel()
+    phi = np.array(phi, dtype=float).ravel()
+    _check_inputs(model, l0, phi)
+    return settings, l0, phi
+
+
 def solve_states(
     model: MembraneModel,
     pole_stretch,
@@ -877,16 +914,7 @@ def solve_states(
         If a pole stretch is not finite or not above ``λpre``, a voltage is negative or not finite,
         or a voltage is not zero for a model without electrostatics.
     """
-    settings = validation.settings_or_default(settings)
-    validation.membrane_model(model)
-    l0, phi = validation.broadcastable(
-        "pole_stretch, phi_hat",
-        validation.real_array(pole_stretch, "pole_stretch"),
-        validation.real_array(phi_hat, "phi_hat", lo=0.0),
-    )
-    l0 = np.array(l0, dtype=float).ravel()
-    phi = np.array(phi, dtype=float).ravel()
-    _check_inputs(model, l0, phi)
+    settings, l0, phi = checked_state_inputs(model, pole_stretch, phi_hat, settings)
     n = l0.size
     lam_clamp = model.prestretch
     status = np.zeros(n, dtype=int)
