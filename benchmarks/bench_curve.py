@@ -32,7 +32,11 @@ boundary value method in ``tests/test_second_method.py``), and
 last with its spiral of nine turning points) on ``λ0 = linspace(1.01, 4, 200)``, against
 :func:`coexist.curves.pressure_volume_curve` of the same model at ``Φ̂ = 0.1`` on the same grid, default
 settings (rtol 1e-10), all in one process and interleaved (after a warm-up), ``CHARGE_REPEATS`` runs
-each: best and median wall time, and process CPU time (the machine is shared).
+each: best and median wall time, and process CPU time (the machine is shared). Interleaved with them, what
+a shot costs: :func:`coexist.shooting.solve_states` on the states of the ``p̂ = 1.5`` curve (one batch) and on
+one of them alone, without and with derivatives (``derivatives=True``, the variational equations); and,
+from one further untimed run of each curve, its shots: calls and states, at zero voltage, without and
+with derivatives.
 
 Run with ``.venv/bin/python benchmarks/bench_curve.py`` (add ``--json`` for machine-readable
 output on stdout; the progress then goes to stderr; ``--charge-only`` for the voltage–charge part alone).
@@ -387,9 +391,20 @@ def bench_charge(repeats: int = CHARGE_REPEATS, log=print) -> dict:
     runs = {"pressure_volume": lambda: pressure_volume_curve(model, CHARGE_PHI_HAT, POLE_STRETCHES, settings)}
     for p in CHARGE_PRESSURES:
         runs[f"voltage_charge p̂={p:g}"] = lambda p=p: voltage_charge_curve(model, p, POLE_STRETCHES, settings)
+    last = {k: fn() for k, fn in runs.items()}  # warm-up (compiled code, caches)
+    on_curve = last[f"voltage_charge p̂={CHARGE_PRESSURES[0]:g}"].states
+    l0, phi = on_curve.pole_stretch, on_curve.phi_hat
+    shots = {
+        "shot, all states": lambda: solve_states(model, l0, phi, settings),
+        "shot+derivatives, all": lambda: solve_states(model, l0, phi, settings, derivatives=True),
+        "shot, one state": lambda: solve_states(model, l0[:1], phi[:1], settings),
+        "shot+derivatives, one": lambda: solve_states(model, l0[:1], phi[:1], settings, derivatives=True),
+    }
+    for k, fn in shots.items():
+        last[k] = fn()
+    runs.update(shots)
     wall: dict[str, list] = {k: [] for k in runs}
     cpu: dict[str, list] = {k: [] for k in runs}
-    last = {k: fn() for k, fn in runs.items()}  # warm-up (compiled code, caches)
     for _ in range(repeats):
         for k, fn in runs.items():
             w, c = time.perf_counter(), time.process_time()
@@ -401,6 +416,8 @@ def bench_charge(repeats: int = CHARGE_REPEATS, log=print) -> dict:
     out = {}
     log(f"voltage–charge curves against a p̂–V̂ curve (Gent Jlim 97, 200 states, rtol 1e-10, {repeats} runs):")
     for k in runs:
+        if k in shots:
+            continue
         entry = {
             "wall_s": spread(wall[k]),
             "cpu_s": spread(cpu[k]),
@@ -422,6 +439,51 @@ def bench_charge(repeats: int = CHARGE_REPEATS, log=print) -> dict:
             )
         log(line)
         out[k] = entry
+    log(f"  what a shot costs ({l0.size} states of the p̂={CHARGE_PRESSURES[0]:g} curve in one batch, and one alone):")
+    for plain, with_derivatives in (
+        ("shot, all states", "shot+derivatives, all"),
+        ("shot, one state", "shot+derivatives, one"),
+    ):
+        a, b = spread(wall[plain])["best"], spread(wall[with_derivatives])["best"]
+        out[plain], out[with_derivatives] = spread(wall[plain]), spread(wall[with_derivatives])
+        out[f"{with_derivatives} / {plain}"] = b / a
+        log(f"    {plain:<18} best {a * 1e3:6.2f} ms, with derivatives {b * 1e3:6.2f} ms: {b / a:.2f}x")
+    out["shots"] = _count_shots(model, settings, log)
+    return out
+
+
+def _count_shots(model, settings, log) -> dict:
+    """Calls of :func:`coexist.shooting.solve_states` and states shot by one (untimed) run of each ``Φ̂–Q̂``
+    curve, at zero voltage, at a voltage without derivatives and with them (counted by wrapping the
+    function :mod:`coexist.curves` calls; restored afterwards)."""
+    import coexist.curves as curves_module
+
+    real = curves_module.solve_states
+    counts: dict = {}
+
+    def counting(m, pole_stretch, phi_hat=0.0, *args, **kwargs):
+        if kwargs.get("derivatives"):
+            kind = "with derivatives"
+        elif np.ndim(phi_hat) == 0 and float(phi_hat) == 0.0:
+            kind = "zero voltage"
+        else:
+            kind = "without derivatives"
+        calls, states = counts.setdefault(kind, [0, 0])
+        counts[kind] = [calls + 1, states + int(np.size(pole_stretch))]
+        return real(m, pole_stretch, phi_hat, *args, **kwargs)
+
+    out = {}
+    log("  shots per curve (calls / states):")
+    try:
+        curves_module.solve_states = counting
+        for p in CHARGE_PRESSURES:
+            counts = {}
+            voltage_charge_curve(model, p, POLE_STRETCHES, settings)
+            out[f"p̂={p:g}"] = {k: {"calls": v[0], "states": v[1]} for k, v in counts.items()}
+            parts = ", ".join(f"{k} {v[0]} / {v[1]}" for k, v in sorted(counts.items()))
+            log(f"    p̂={p:g}: {parts}")
+    finally:
+        curves_module.solve_states = real
     return out
 
 
