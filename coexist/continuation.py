@@ -317,7 +317,10 @@ def _gather(items):
     from .equilibria import GroupStates, Residual
 
     def pick(attr_get):
-        return np.stack([attr_get(r)[j] for r, j, _ in items])
+        values = [attr_get(r) for r, _, _ in items]
+        if any(v is None for v in values):  # an optional field (None for a model that refuses wrinkling)
+            return None
+        return np.stack([v[j] for v, (_, j, _) in zip(values, items)])
 
     st_fields = {k: pick(lambda r, k=k: getattr(r.states, k)) for k in GroupStates.__dataclass_fields__}
     states = GroupStates(**st_fields)
@@ -865,6 +868,117 @@ class Tracer:
                 code = entry[2]
         return best, lo, hi, code
 
+    def pull_in_end(self, cur: Point, h, lo: float, hi: float, end_guess: float | None = None):
+        """Where a wrinkled band reaches its pull-in, between the offsets ``lo`` (valid, or ``cur`` itself at 0)
+        and ``hi`` (not) along ``cur``'s tangent, by extrapolating a smooth function of the valid states.
+
+        At the pull-in of a hoop-wrinkled band the meridian's stiffness along the natural width,
+        ``K = dT̂1ʷ/dλ1``, reaches zero where the band ends (``λ1`` falls along the band, towards the minimum of
+        ``T̂1ʷ``; docs/physics.md, section 10). Its value there relative to ``T̂11`` (each state's
+        ``wrinkled_stiffness``) is a smooth function of the states that falls to zero at the end, but there
+        are no states beyond it to bracket the root with: it is extrapolated from the valid side. A round of
+        :data:`RANGE_END_PROBES` states locates the end within ``(lo, hi)``; then rounds of three tightly
+        converged states at ``σ* − δ, σ* − 2δ, σ* − 3δ`` (``δ`` a quarter of the distance from the last
+        state to the estimate ``σ*``) give the next ``σ*`` by the quadratic through them, whose error falls
+        like ``δ³`` (about 64 times per round), until two estimates agree to :data:`PULL_IN_BRACKET`. The
+        end's voltage comes from the same quadratic extrapolation of the states' ``z``; its error is the
+        last change (an overestimate: the last estimate is better than the one before by about that factor).
+
+        Parameters
+        ----------
+        cur : Point
+            The last valid point (offsets are measured along its tangent).
+        h : float
+            The predictor's reference step.
+        lo, hi : float
+            The bracket: offsets of a valid point (or 0) and of an invalid one.
+        end_guess : float, optional
+            An estimate of the end's offset (a located end, re-located at a tighter tolerance): the first
+            round is then three tight states below it instead of the bracketing round.
+
+        Returns
+        -------
+        tuple or None
+            ``(best, z_end, error, lo, hi)``: the valid state nearest the end, the extrapolated ``z`` of the
+            end, the error of its offset (arclength) and the final validity bracket; None where the states
+            carry no wrinkled stiffness or the extrapolation does not settle inside the bracket (the caller
+            then bisects on validity).
+        """
+        from dataclasses import replace
+
+        def stiffness(p):
+            values = getattr(p.eq, "wrinkled_stiffness", ())
+            return min(values) if values else np.inf
+
+        samples = []  # (offset, stiffness, z) of valid states with a wrinkled band
+        if lo == 0.0 and np.isfinite(stiffness(cur)):
+            samples.append((0.0, stiffness(cur), cur.z, cur))
+        best, best_offset = cur, 0.0
+        if end_guess is None:
+            offsets = lo + (hi - lo) * np.arange(1, RANGE_END_PROBES + 1) / (RANGE_END_PROBES + 1)
+        else:
+            offsets = lo + (float(end_guess) - lo) * np.array([0.25, 0.5, 0.75])
+        star = None
+        rough: list = []  # (offset, stiffness) of loosely converged states
+        for _round in range(PULL_IN_ROUNDS):
+            # predicted from the valid state nearest the end, on the hyperplanes of cur's tangent (one
+            # parametrisation for every round: offset o is t·(z − z_cur) = o)
+            frame = replace(best, tangent=cur.tangent)
+            # the first round only brackets the end (loose states while the bracket is wide, as the validity
+            # bisection's); the extrapolation's states are tight
+            loose = _round == 0 and end_guess is None and hi - lo > 1e-4
+            pts = self._points_at(frame, None, h, offsets - best_offset, loose)
+            for o, p in zip(offsets, pts):
+                if p is None or not p.tangent @ cur.tangent > 0:
+                    hi = min(hi, float(o))
+                    continue
+                if o < hi:
+                    if o > lo:
+                        lo = float(o)
+                    if o > best_offset:
+                        best, best_offset = p, float(o)
+                    g = stiffness(p)
+                    if np.isfinite(g) and g > 0 and not loose:
+                        samples.append((float(o), g, p.z, p))
+                    elif np.isfinite(g) and g > 0:
+                        rough.append((float(o), g))
+            samples = sorted((x for x in samples if x[0] <= lo), key=lambda x: x[0])
+            if len(samples) < 3:
+                # too few tight states to extrapolate from: the next round's three, placed below the end
+                # estimated from the rough (loose) ones, or in the bracket's upper half
+                pairs = sorted([(x[0], x[1]) for x in samples] + rough)[-2:]
+                guess = hi
+                if len(pairs) == 2 and pairs[1][1] < pairs[0][1]:
+                    (s0, g0), (s1, g1) = pairs
+                    guess = min(hi, s1 + g1 * (s1 - s0) / (g0 - g1))
+                offsets = lo + (guess - lo) * np.array([0.25, 0.5, 0.75])
+                continue
+            sig = np.array([x[0] for x in samples[-3:]])
+            gs = np.array([x[1] for x in samples[-3:]])
+            roots = np.roots(np.polyfit(sig, gs, 2))
+            roots = roots[np.isreal(roots)].real
+            roots = roots[roots > sig[-1]]
+            if not roots.size:
+                return None
+            new = float(roots.min())
+            if not new <= hi + (hi - lo):
+                return None  # the extrapolated end lies well beyond an invalid state: not this kind of end
+            change = abs(new - star) if star is not None else np.inf
+            star = new
+            if change <= PULL_IN_BRACKET:
+                break
+            delta = 0.25 * (star - sig[-1])
+            offsets = star - delta * np.array([3.0, 2.0, 1.0])
+        else:
+            if star is None:
+                return None
+            change = abs(star - samples[-1][0])
+        sig = np.array([x[0] for x in samples[-3:]])
+        zs = np.array([x[2] for x in samples[-3:]])
+        coef = np.polyfit(sig, zs, 2)
+        z_end = coef[0] * star**2 + coef[1] * star + coef[2]
+        return samples[-1][3], z_end, float(change), lo, hi
+
     def _range_end(self, prev, cur: Point, h, failure):
         """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or
         return None when the failure was the corrector's (the caller then shortens the step).
@@ -897,6 +1011,24 @@ class Tracer:
             else:
                 return None
         else:
+            if _is_pull_in(code):
+                # a wrinkled band's pull-in: a smooth function of the states falls to zero there
+                ext = self.pull_in_end(cur, h, 0.0, float(h))
+                if ext is not None:
+                    best, z_end, err, lo, hi = ext
+                    tag, text = failure_reason(code)
+                    return Event(
+                        kind="range_end",
+                        phi_hat=float(z_end[self.M] / self.w),
+                        eq=best.eq,
+                        z=z_end,
+                        s=best.s + float(np.linalg.norm(z_end - best.z)),
+                        error=abs(best.tangent[self.M]) * err / self.w,
+                        note=f"{tag}: {text}",
+                        stable_before=best.stable,
+                        stable_after=False,
+                        tangent=best.tangent.copy(),
+                    )
             # bisection on validity, RANGE_END_PROBES points per round in one batched corrector (the bracket
             # shrinks by that plus one per round: a third of the rounds of plain bisection, each a little
             # dearer; near an end whose states become singular, as at a pull-in, every round counts)
@@ -924,19 +1056,26 @@ class Tracer:
 
 #: points per round of the bisection that locates where the states stop being valid
 RANGE_END_PROBES = 7
-#: bracket (arclength) at which a pull-in end stops being bisected: its states approach a singular meridian
-#: and the end itself moves by ~1e-5 in the voltage with the tolerance (measured, and reported as its error),
-#: so a bracket of 1e-7 adds nothing visible and saves a third of the rounds of the dearest states
+#: rounds of the pull-in extrapolation (:meth:`Tracer.pull_in_end`) before it gives up
+PULL_IN_ROUNDS = 6
+#: a pull-in end (arclength) counts as located when two extrapolations agree to this
+#: (:meth:`Tracer.pull_in_end`; the error then left is about 64 times smaller), or, where it falls back to
+#: bisection on validity, when the bracket is this narrow (its states approach a singular meridian: every
+#: round counts)
 PULL_IN_BRACKET = 1e-7
+
+
+def _is_pull_in(code_or_note) -> bool:
+    """Is an end of this kind (a failure code, or an event's note) the pull-in of a wrinkled band?"""
+    from .shooting import PULL_IN, reason_tag
+
+    tag = reason_tag(int(code_or_note)) if isinstance(code_or_note, (int, np.integer)) else str(code_or_note)
+    return bool(code_or_note == PULL_IN or tag.startswith("electromechanical_instability: a wrinkled"))
 
 
 def _validity_tol(code_or_note) -> float | None:
     """The validity bisection's bracket for an end of this kind (a failure code, or an event's note)."""
-    from .shooting import PULL_IN, reason_tag
-
-    tag = reason_tag(int(code_or_note)) if isinstance(code_or_note, (int, np.integer)) else str(code_or_note)
-    pull_in = code_or_note == PULL_IN or tag.startswith("electromechanical_instability: a wrinkled")
-    return PULL_IN_BRACKET if pull_in else None
+    return PULL_IN_BRACKET if _is_pull_in(code_or_note) else None
 
 
 def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
@@ -985,7 +1124,8 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
         return event.error
     elif event.kind == "range_end" and not event.note.startswith("wrinkling"):
         # an end without a smooth event function (Gent locking, pull-in, no equilibrium): the same validity
-        # bisection with the tight tracer, in a bracket of ±δ around the loose end
+        # bisection with the tight tracer, in a bracket of ±δ around the loose end; a pull-in is extrapolated
+        # again from the tight states on the valid side
         change = None
         base = Point(event.z.copy(), event.tangent, event.eq, np.zeros(M), np.zeros(M), (0,) * M, True)
         for delta in (1e-5, 1e-4, 1e-3):
@@ -993,6 +1133,12 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
             beyond = pts[1] is None or not pts[1].tangent @ event.tangent > 0
             if pts[0] is None or not beyond:
                 continue
+            if _is_pull_in(event.note):
+                ext = tight.pull_in_end(pts[0], 2 * delta, 0.0, 2 * delta, end_guess=delta)
+                if ext is not None:
+                    best, z_end, err, _, _ = ext
+                    change = abs(float(z_end[M]) / tight.w - event.phi_hat) + abs(best.tangent[M]) * err / tight.w
+                    break
             found = tight.validity_bisection(base, 2 * delta, -delta, delta, _validity_tol(event.note))
             if found is None:
                 continue

@@ -145,6 +145,8 @@ class GroupStates:
     min_tension: np.ndarray
     status: np.ndarray
     wrinkled_fraction: np.ndarray
+    #: per group ``K/T̂11`` at the outer ends of its wrinkled bands (``inf`` taut; None: refuses wrinkling)
+    wrinkled_stiffness: np.ndarray | None = None
 
     @property
     def ok(self) -> np.ndarray:
@@ -223,6 +225,7 @@ def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: boo
         min_tension=shaped(st.min_tension),
         status=status,
         wrinkled_fraction=shaped(st.wrinkled_fraction),
+        wrinkled_stiffness=None if st.wrinkled_stiffness is None else shaped(st.wrinkled_stiffness),
     )
 
 
@@ -631,6 +634,9 @@ class Equilibrium:
     wrinkled_fraction : tuple
         Per group, the reference area fraction of its hoop-wrinkled region (tension-field models; empty
         for a model that refuses wrinkling).
+    wrinkled_stiffness : tuple
+        Per group, ``K/T̂11`` at the outer ends of its wrinkled bands (``inf`` when taut; empty for a model
+        that refuses wrinkling): it falls to zero where a band pulls in.
     """
 
     configuration: Configuration
@@ -649,6 +655,7 @@ class Equilibrium:
     residual: float
     notes: list = field(default_factory=list)
     wrinkled_fraction: tuple = ()
+    wrinkled_stiffness: tuple = ()
 
     @property
     def zones(self) -> int:
@@ -830,4 +837,7 @@ def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> 
         zone_index=idx,
         residual=float(np.max(np.abs(res.r[i]))) if res.r.size else 0.0,
         wrinkled_fraction=tuple(float(x) for x in st.wrinkled_fraction[i, order]) if system.model.tension_field else (),
+        wrinkled_stiffness=(
+            tuple(float(x) for x in st.wrinkled_stiffness[i, order]) if st.wrinkled_stiffness is not None else ()
+        ),
     )

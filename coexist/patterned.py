@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -63,6 +63,7 @@ from .shooting import (
     WRINKLED,
     WRINKLED_AT_POLE,
     MembraneStates,
+    StateDerivatives,
     _integrators,
     checked_state_inputs,
     reason_tag,
@@ -73,6 +74,7 @@ from .shooting import (
 )
 
 __all__ = [
+    "PatternedModel",
     "PatternedStates",
     "Region",
     "ZonePattern",
@@ -280,6 +282,37 @@ class ZonePattern:
             regions.append((1.0, passive_layers, False))
         return cls(tuple(regions))
 
+    def with_layers(self, layers) -> ZonePattern:
+        """The same regions with every region's layers given, from the pole out (``[layers] regions``).
+
+        Parameters
+        ----------
+        layers : sequence of int
+            One whole number ``1..MAX_LAYERS`` per region.
+
+        Returns
+        -------
+        ZonePattern
+            The regions' radii and electrodes unchanged, their layers ``layers``.
+
+        Raises
+        ------
+        SceneError
+            Naming ``layers.regions`` when the count differs from the regions', or ``pattern.regions[i].layers``
+            for a layer count that is not a whole number in ``1..MAX_LAYERS``.
+
+        Examples
+        --------
+        >>> ZonePattern.inner_circle(0.5).with_layers([2, 3]).describe()
+        '0..0.5: electrode, 2 layers; 0.5..1: passive, 3 layers'
+        """
+        if isinstance(layers, (str, bytes)) or not hasattr(layers, "__len__") or len(layers) != len(self.regions):
+            raise SceneError(
+                f"must give one layer count per region ({len(self.regions)}, from the pole out), got {layers!r}",
+                "layers.regions",
+            )
+        return ZonePattern(tuple((r.outer, n, r.electrode) for r, n in zip(self.regions, layers)))
+
     # --- description -------------------------------------------------------------------------------
     @property
     def interfaces(self) -> tuple:
@@ -310,6 +343,128 @@ class ZonePattern:
             parts.append(f"{inner:g}..{r.outer:g}: {r.describe()}")
             inner = r.outer
         return "; ".join(parts)
+
+
+# --- the zone's model ------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class PatternedModel(MembraneModel):
+    """The model of a patterned zone: the membrane's effects and the zone's :class:`ZonePattern`.
+
+    Wherever a zone is shot through :func:`coexist.shooting.solve_states` (the zone curves, the N-zone
+    equilibria, their continuation and the ramp), a model carrying a pattern is shot region by region
+    (:func:`solve_patterned_states`, with its exact derivatives): the pattern travels with the model every
+    stage already receives, so no stage needs to know of it. The numeric methods it inherits
+    (:meth:`~coexist.model.MembraneModel.tensions`, ``pole``, ``rhs`` …) are those of one layer of the
+    membrane (:attr:`uniform`), not of the zone.
+
+    Parameters
+    ----------
+    elasticity, electrostatics, prestretch, wrinkling
+        As for :class:`~coexist.model.MembraneModel`; ``wrinkling`` must be ``"refuse"`` (the tension-field
+        relaxation is not carried across interfaces).
+    pattern : ZonePattern
+        The regions of every zone.
+
+    Raises
+    ------
+    SceneError
+        If ``pattern`` is not a :class:`ZonePattern` (field ``pattern``) or ``wrinkling`` is not
+        ``"refuse"`` (field ``wrinkling``).
+
+    Examples
+    --------
+    >>> from coexist import MembraneModel, solve_states
+    >>> zone = PatternedModel.of(MembraneModel(), ZonePattern.full(layers=2))
+    >>> round(float(solve_states(zone, [2.0]).p_hat[0]) / 2, 6)  # shot as the two-layer zone it is
+    1.869555
+    """
+
+    pattern: ZonePattern = field(default_factory=ZonePattern.full)
+
+    def __post_init__(self):
+        validation.instance(self.pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
+        if self.wrinkling != "refuse":
+            raise SceneError(
+                f"a patterned zone refuses wrinkled states (the tension-field relaxation is not carried across "
+                f'its interfaces): wrinkling must be "refuse", not {self.wrinkling!r}',
+                "wrinkling",
+            )
+        super().__post_init__()
+
+    @classmethod
+    def of(cls, model: MembraneModel, pattern: ZonePattern) -> PatternedModel:
+        """``model``'s effects with ``pattern``.
+
+        Parameters
+        ----------
+        model : MembraneModel
+        pattern : ZonePattern
+
+        Returns
+        -------
+        PatternedModel
+        """
+        validation.membrane_model(model)
+        return cls(model.elasticity, model.electrostatics, model.prestretch, model.wrinkling, pattern)
+
+    @property
+    def uniform(self) -> MembraneModel:
+        """One layer of the membrane (the same effects, no pattern), built once."""
+        plain = self._built.get("uniform membrane")
+        if plain is None:
+            plain = self._built["uniform membrane"] = MembraneModel(
+                self.elasticity, self.electrostatics, self.prestretch, self.wrinkling
+            )
+        return plain
+
+    def describe(self) -> dict:
+        """:meth:`MembraneModel.describe` with ``pattern``: its regions (``outer``, ``layers``, ``electrode``).
+
+        Returns
+        -------
+        dict
+        """
+        out = super().describe()
+        out["pattern"] = {
+            "regions": [{"outer": r.outer, "layers": r.layers, "electrode": r.electrode} for r in self.pattern.regions]
+        }
+        return out
+
+
+def shoot_zone(model: MembraneModel, pole_stretch, phi_hat, settings, shape=False, derivatives=False, formal=False):
+    """:func:`coexist.shooting.solve_states` of a :class:`PatternedModel`: :func:`solve_patterned_states` of its
+    membrane and pattern (the dispatch :func:`~coexist.shooting.solve_states` makes for a model with a pattern).
+
+    Parameters
+    ----------
+    model : PatternedModel
+        The zone (any other model is refused: field ``model``).
+    pole_stretch, phi_hat, settings, derivatives, formal
+        As for :func:`~coexist.shooting.solve_states`.
+    shape : bool
+        Must be False: the meridian of a patterned zone is not returned.
+
+    Returns
+    -------
+    PatternedStates
+
+    Raises
+    ------
+    SceneError
+        For ``shape=True`` (field ``[electrodes].pattern``), and as :func:`solve_patterned_states`.
+    """
+    zone: PatternedModel = validation.instance(
+        model, PatternedModel, "model", "a PatternedModel (PatternedModel.of(model, pattern))"
+    )
+    if shape:
+        raise SceneError(
+            "the meridian of a patterned zone is not computed (solve_states(..., shape=True))", "[electrodes].pattern"
+        )
+    return solve_patterned_states(
+        zone.uniform, zone.pattern, pole_stretch, phi_hat, settings, derivatives=derivatives, formal=formal
+    )
 
 
 # --- states -----------------------------------------------------------------------------------------------
@@ -533,6 +688,59 @@ def _stepper(fns, kind: str, n: int):
     return fns.stepper_of(kind, n, _ROWS[kind], getattr(fns, kind), lambda: fns._casadi_rhs(kind), medium=True)
 
 
+def _dT1_dphi(model: MembraneModel, l1, l2, phi) -> np.ndarray:
+    """``∂T̂1/∂Φ̂`` at ``(λ1, λ2; Φ̂)`` (the CasADi derivative of the model's ``T̂1``, built once per model)."""
+    fn = model._built.get("patterned dT1/dphi")
+    if fn is None:
+        import casadi as ca
+
+        sym = model.symbols
+        fn = model._built["patterned dT1/dphi"] = ca.Function(
+            "dT1_dphi", [sym["l1"], sym["l2"], sym["phi"]], [ca.densify(ca.jacobian(sym["T1"], sym["phi"]))]
+        )
+    a, b, c = np.broadcast_arrays(*(np.asarray(x, dtype=float) for x in (l1, l2, phi)))
+    if a.size == 0:
+        return np.zeros(a.shape)
+    return np.asarray(fn(a.reshape(1, -1), b.reshape(1, -1), c.reshape(1, -1))).reshape(a.shape)
+
+
+def _jump_sensitivities(model, lay, k, go, lam_cols, Yg, Yn, f_in, f_out, g1, g2, T11o, l1p, u_q):
+    """The sensitivity rows across the interface into region ``k`` (columns ``go``), written into ``Yn``.
+
+    With ``x = (λ1, λ2, θ)``, the quadratures ``w = (V̂/π, Q̂/2π)`` and the jump ``λ1⁺ = g(λ1⁻, λ2; Φ̂)``
+    (``λ2, θ, w`` continuous), for the interface at ``R̂i = s fi``:
+
+    * ``a = s`` (it moves the interface): ``Z⁺ = D (Z⁻ + f⁻ fi) − f⁺ fi`` on all five rows;
+    * ``a = λ0``: ``Z⁺ = D Z⁻``;
+    * ``a = Φ̂``: ``Z⁺ = D Z⁻ + (∂g/∂Φ̂) e_λ1`` with ``∂g/∂Φ̂ = (e⁻ ∂T̂1⁻/∂φ − e⁺ ∂T̂1⁺/∂φ)/(n⁺ ∂T̂1⁺/∂λ1)``
+      (``e = 1`` on an electrode, ``φ = Φ̂/n`` the per-layer voltage), carried as ``U = n Z``.
+
+    ``D`` is the jump's Jacobian (``∂λ1⁺/∂λ1⁻ = g1``, ``∂λ1⁺/∂λ2 = g2``, the identity on the other rows).
+    ``u_q`` (all columns) holds ``U_Q`` through a region without electrode (see :func:`_pass`).
+    """
+    fi = lay.f[k - 1]
+    fs = np.where(lam_cols[go], 0.0, fi)
+    Z = Yg[7:12] + f_in[:5] * fs
+    Yn[7] = g1 * Z[0] + g2 * Z[1] - f_out[0] * fs
+    for r in range(1, 5):
+        Yn[7 + r] = Z[r] - f_out[r] * fs
+    n_in, n_out = lay.n[k - 1, go], lay.n[k, go]
+    U = Yg[12:17].copy()
+    if not lay.electrode[k - 1]:
+        U[4] = u_q[go]
+    Z = U / n_in
+    g_phi = np.zeros(go.size)
+    if lay.electrode[k - 1]:
+        g_phi += _dT1_dphi(model, Yg[0], Yg[1], lay.phi[k - 1, go])
+    if lay.electrode[k]:
+        g_phi -= _dT1_dphi(model, l1p, Yg[1], lay.phi[k, go])
+    g_phi /= n_out * T11o
+    Z[0] = g1 * Z[0] + g2 * Z[1] + g_phi
+    Yn[12:17] = n_out * Z
+    if not lay.electrode[k]:
+        u_q[go] = Yn[16]
+
+
 def _failure_codes(y, T1, T11, margin):
     """Status per column of a node (0: fine): a trajectory stops where the meridional tension or its stiffness
     is gone, the chains lock or the meridian folds back (the hoop tension is judged on the converged state)."""
@@ -550,10 +758,17 @@ def _region_params(y, lay, k, cols, p_t):
     y[-1] = lay.phi[k, cols]
 
 
-def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
+def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool, lam_cols=None):
     """One shooting of every state with the interfaces at ``s fi`` (``s = e^σ``): the clamp radius ``R*``, the
     slope ``dR*/ds``, the quadratures, the tracked tensions, and a status per state (0 where it reached the
-    clamp)."""
+    clamp).
+
+    ``lam_cols`` (bool per column, or None): the derivative pass (:func:`_derivative_pass`). Every region is
+    then integrated with the variational equations: rows 7–11 carry ``Z = ∂(λ1, λ2, θ, V̂/π, Q̂/2π)/∂a`` at
+    fixed ``R̂`` for ``a = λ0`` (columns where ``lam_cols``, from the pole's series) or ``a = s`` (the others,
+    zero in the pole region), rows 12–16 carry ``U = nk ∂(…)/∂Φ̂`` (``U' = (∂f/∂y)U + ∂f/∂φ`` at the
+    region's ``φ = Φ̂/nk``), and the last return value holds, per column, ``Z`` and ``U/nK`` at the clamp and
+    the right-hand side there (``(15, m)``: rows 0–4 ``Z``, 5–9 ``∂/∂Φ̂``, 10–14 ``f``)."""
     fns = _integrators(model)
     K = lay.f.size
     m = l0.size
@@ -566,6 +781,8 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
     edges = np.full((m, K - 1, 2, 5), np.nan)
     P9 = 7  # rows of the plain integration: 0–6 the state, 7 p, 8 Φ̂
     phi1 = lay.phi[0]
+    deriv = lam_cols is not None
+    ends = np.full((15, m), np.nan)
     _, y0, atol0, _ = start_rows(model, settings, l0, phi1, False)
     # absolute tolerances from the largest of the regions' own sizes (a passive pole region has no charge,
     # and a charge row that starts from 0 at an electrode edge must not be held to 1e-30)
@@ -585,6 +802,16 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
     tracker.kind[:] = 1
     tracker.max_E[:] = np.abs(np.asarray(model.tensions(l0, l0, phi1)[5])) * np.ones(m)
     atol_state = atol0[:7]
+    if deriv:
+        # the sensitivities start from the series (to λ0; to s: zero), U = n1 ∂/∂Φ̂ = ∂/∂φ1 (0 without electrode)
+        e1 = 1.0 if lay.electrode[0] else 0.0
+        y0 = np.vstack([y0[:7], np.zeros((10, m)), y0[7:9]])
+        for i in range(5):
+            y0[7 + i] = np.where(lam_cols, series[7 + i], 0.0)
+            y0[12 + i] = e1 * series[12 + i]
+    # a region without electrode: its charge row does not change (φ = 0), but U's charge row would gain
+    # ∂(q̂R̂)/∂φ = λ1²λ2²R̂ there; U_Q is held at its value from the region's start (u_q)
+    u_q = np.zeros(m)
 
     def make_event(region, cols_all, check_clamp, t_end):
         def event(R, y, cols, f):
@@ -613,12 +840,12 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
     # region 1: from the pole to s f1 (no sensitivity: the pole region does not depend on s)
     live = np.arange(m)
     res = _int.integrate(
-        _stepper(fns, "radius", m),
+        _stepper(fns, "radius_sens" if deriv else "radius", m),
         np.full(m, R0),
         y0,
         s * lay.f[0],
         rtol,
-        np.vstack([atol_state, np.full((2, m), np.inf)]),
+        np.vstack([atol_state, np.full((y0.shape[0] - 7, m), np.inf)]),
         settings.max_steps,
         event=make_event(0, live, False, s * lay.f[0]),
     )
@@ -630,10 +857,13 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
     status[(status == 0) & (res.status != _int.REACHED_END)] = NOT_FINITE
     y = res.y
     # the sensitivity rows S = ∂(λ1, λ2, θ, V̂/π, Q̂/2π)/∂s (rows 7–11 of the 19-row layout; rows 12–16 unused)
-    Y = np.zeros((19, m))
-    Y[:7] = y[:7]
-    Y[17] = y[7]
-    Y[18] = y[8]
+    if deriv:
+        Y = y.copy()
+    else:
+        Y = np.zeros((19, m))
+        Y[:7] = y[:7]
+        Y[17] = y[7]
+        Y[18] = y[8]
     psi_n = lay.n[0].copy()  # the Ψ̂ row holds Ψ̂/(2π n) of the current region
     dRs = np.full(m, np.nan)
     R_star = np.full(m, np.nan)
@@ -662,10 +892,13 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
         Yn[5] = Yg[5] * n_in / n_out
         psi_n[go] = n_out
         f_out = np.asarray(model.rhs(R_i, Yn[0], Yn[1], Yn[2], Yn[17], phi_out))
-        Yn[7] = g1 * S_in[0] + g2 * S_in[1] - f_out[0] * lay.f[k - 1]
-        Yn[8] = S_in[1] - f_out[1] * lay.f[k - 1]
-        Yn[9] = S_in[2] - f_out[2] * lay.f[k - 1]
-        Yn[10:17] = 0.0
+        if deriv:
+            _jump_sensitivities(model, lay, k, go, lam_cols, Yg, Yn, f_in, f_out, g1, g2, T11o, l1p, u_q)
+        else:
+            Yn[7] = g1 * S_in[0] + g2 * S_in[1] - f_out[0] * lay.f[k - 1]
+            Yn[8] = S_in[1] - f_out[1] * lay.f[k - 1]
+            Yn[9] = S_in[2] - f_out[2] * lay.f[k - 1]
+            Yn[10:17] = 0.0
         Y[:, go] = Yn
         N_in = n_in * np.asarray(model.tensions(Yg[0], Yg[1], phi_in)[0])
         N_out = n_out * np.asarray(model.tensions(l1p, Yg[1], phi_out)[0])
@@ -727,16 +960,20 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool):
                     tracker if track else None,
                     lay,
                     K - 1,
+                    (ends, u_q) if deriv else None,
                 )
     if K == 1:  # not used (one region is a uniform zone), kept for completeness
         raise AssertionError("a one-region pattern is shot by solve_states")
     tracker.edges = edges
-    return R_star, dRs, quad, status, steps, tracker, stop_R
+    return R_star, dRs, quad, status, steps, tracker, stop_R, ends
 
 
-def _land(fns, model, settings, idx, R_h, y_h, rtol, atol, status, steps, R_star, dRs, quad, psi_n, tracker, lay, k):
+def _land(
+    fns, model, settings, idx, R_h, y_h, rtol, atol, status, steps, R_star, dRs, quad, psi_n, tracker, lay, k, ends=None
+):
     """The last step onto the clamp with ``λ2`` as the independent variable, then the sensitivity carried to
-    ``R*`` (one step in ``R̂``) and ``dR*/ds = −S_λ2/λ2'``."""
+    ``R*`` (one step in ``R̂``) and ``dR*/ds = −S_λ2/λ2'``; ``ends = (array, u_q)`` (the derivative pass): the
+    sensitivities at the clamp and the right-hand side there, into ``array`` (see :func:`_pass`)."""
     lam_clamp = model.prestretch
     z0 = np.vstack([R_h, y_h[0], y_h[2:7], y_h[17:19]])
     atol_h = np.vstack([np.full(idx.size, settings.atol), atol[0], atol[2:7], np.full((2, idx.size), np.inf)])
@@ -788,6 +1025,14 @@ def _land(fns, model, settings, idx, R_h, y_h, rtol, atol, status, steps, R_star
     f = np.asarray(model.rhs(R, zg[1], lam_clamp, zg[2], zg[7], zg[8]))
     R_star[gi] = R
     dRs[gi] = -y_end[8] / f[1]
+    if ends is not None:
+        arr, u_q = ends
+        n_last = lay.n[k, gi]
+        if not lay.electrode[k]:
+            y_end[16] = u_q[gi]
+        arr[0:5, gi] = y_end[7:12]
+        arr[5:10, gi] = y_end[12:17] / n_last
+        arr[10:15, gi] = np.asarray(f[:5]) * np.ones(gi.size)
     fV, fQ, fPsi, _ = QUADRATURE_FACTORS
     quad[0, gi] = fV * zg[3]
     quad[1, gi] = fQ * zg[4]
@@ -813,13 +1058,29 @@ def _layout(pattern: ZonePattern, phi: np.ndarray) -> _Layout:
     )
 
 
-def _uniform(model, pattern, l0, phi, settings) -> PatternedStates:
-    """A one-region pattern: :func:`~coexist.shooting.solve_states` at ``Φ̂/n`` (or 0), scaled to the stack."""
+def _uniform(model, pattern, l0, phi, settings, derivatives=False, formal=False) -> PatternedStates:
+    """A one-region pattern: :func:`~coexist.shooting.solve_states` at ``Φ̂/n`` (or 0), scaled to the stack.
+
+    With ``φ = e Φ̂/n`` (``e = 1`` with electrode, else 0): ``p̂ = n p̂1(λ0, φ)``, ``V̂ = V̂1``, ``Q̂ = e Q̂1``, so
+    ``∂p̂/∂λ0 = n ∂p̂1/∂λ0``, ``∂p̂/∂Φ̂ = e ∂p̂1/∂φ``, ``∂V̂/∂Φ̂ = (e/n) ∂V̂1/∂φ``, ``∂Q̂/∂λ0 = e ∂Q̂1/∂λ0``,
+    ``∂Q̂/∂Φ̂ = (e/n) ∂Q̂1/∂φ``."""
     region = pattern.regions[0]
     n = float(region.layers)
+    e = 1.0 if region.electrode else 0.0
     per_layer = phi / n if region.electrode else np.zeros_like(phi)
-    st = solve_states(model, l0, per_layer, settings)
+    st = solve_states(model, l0, per_layer, settings, derivatives=derivatives, formal=formal)
     detail = [None if s == OK else reason_text(s) for s in st.status]
+    deriv = None
+    if st.derivatives is not None:
+        d = st.derivatives
+        deriv = StateDerivatives(
+            dp_dl0=n * d.dp_dl0,
+            dv_dl0=d.dv_dl0,
+            dq_dl0=e * d.dq_dl0,
+            dp_dphi=e * d.dp_dphi,
+            dv_dphi=e / n * d.dv_dphi,
+            dq_dphi=e / n * d.dq_dphi,
+        )
     return _patterned(
         MembraneStates(
             pole_stretch=l0,
@@ -836,6 +1097,7 @@ def _uniform(model, pattern, l0, phi, settings) -> PatternedStates:
             fail_radius=st.fail_radius,
             steps=st.steps,
             wrinkled_radii=st.wrinkled_radii,
+            derivatives=deriv,
         ),
         detail,
     )
@@ -861,6 +1123,8 @@ def solve_patterned_states(
     phi_hat=0.0,
     settings: SolverSettings | None = None,
     scale_guess=None,
+    derivatives: bool = False,
+    formal: bool = False,
 ) -> PatternedStates:
     """Equilibrium states of a patterned, layered zone at the given pole stretches and voltage.
 
@@ -886,12 +1150,24 @@ def solve_patterned_states(
         Tolerances (``rtol``) and limits; default ``SolverSettings()``.
     scale_guess : array_like, optional
         Starting ``ln s`` per state (e.g. from converged neighbours along a curve); default 0.
+    derivatives : bool
+        Also return the exact first derivatives of ``p̂, V̂, Q̂`` with respect to ``λ0`` and ``Φ̂``
+        (:class:`~coexist.shooting.StateDerivatives`, as :func:`~coexist.shooting.solve_states` gives them):
+        one more shooting at the converged interface scale with the variational equations to ``λ0``, ``Φ̂``
+        and ``s`` carried through every region and mapped across every interface, and the scale's own
+        dependence from the implicit function theorem on ``ln R*(s; λ0, Φ̂) = ln s`` (:func:`_derivative_pass`,
+        docs/physics.md section 12). About 1.3 times the cost of the states alone.
+    formal : bool
+        Keep a converged state whose hoop tension is not positive somewhere (its ``min_tension`` then goes
+        smoothly through zero), as :func:`~coexist.shooting.solve_states` does: such a state is not a membrane
+        equilibrium; it is only for locating the onset of wrinkling as the root of a smooth function.
 
     Returns
     -------
     PatternedStates
         Failed states are flagged by ``status`` (with ``failure_detail``); a state with a non-positive
-        tension anywhere is ``WRINKLED``, never returned as a state.
+        tension anywhere is ``WRINKLED``, never returned as a state. ``derivatives`` is set (NaN where a
+        state failed) when asked for.
 
     Raises
     ------
@@ -908,9 +1184,11 @@ def solve_patterned_states(
     """
     validation.membrane_model(model)
     validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
+    if isinstance(model, PatternedModel):  # its material; the pattern is the one given here
+        model = model.uniform
     settings, l0, phi = checked_state_inputs(model, pole_stretch, phi_hat, settings)
     if len(pattern.regions) == 1:
-        return _uniform(model, pattern, l0, phi, settings)
+        return _uniform(model, pattern, l0, phi, settings, derivatives, formal)
     n_states = l0.size
     sigma0 = np.zeros(n_states)
     if scale_guess is not None:
@@ -929,12 +1207,27 @@ def solve_patterned_states(
     edges = np.full((n_states, len(pattern.regions) - 1, 2, 5), np.nan)
     for i in np.flatnonzero(status != OK):
         detail[i] = f"{reason_text(status[i])} (at the pole)"
-    out = {k: np.full(n_states, np.nan) for k in ("R", "p", "V", "Q", "Psi", "z", "minT", "maxE", "failR")}
+    keys = ("R", "p", "V", "Q", "Psi", "z", "minT", "maxE", "failR", "sigma")
+    out = {k: np.full(n_states, np.nan) for k in keys}
     steps = np.zeros(n_states, dtype=int)
     live = np.flatnonzero(status == OK)
     if live.size:
         with np.errstate(all="ignore"):
-            _newton(model, pattern, settings, lay, l0, phi, sigma0, live, status, out, steps, detail, edges)
+            _newton(model, pattern, settings, lay, l0, phi, sigma0, live, status, out, steps, detail, edges, formal)
+    d_out = None
+    if derivatives:
+        d_out = {k: np.full(n_states, np.nan) for k in ("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi")}
+        ok = np.flatnonzero(status == OK)
+        if ok.size:
+            with np.errstate(all="ignore"):
+                dp = _derivative_pass(model, settings, _sub_layout(lay, ok), l0[ok], out["sigma"][ok])
+            steps[ok] += dp["steps"]
+            for k in d_out:
+                d_out[k][ok] = dp[k]
+            lost = ok[(dp["status"] != 0) | ~np.all(np.isfinite([dp[k] for k in d_out]), axis=0)]
+            for i in lost:  # not expected: the same shooting as the converged state's
+                status[i] = NOT_FINITE
+                detail[i] = f"{reason_text(NOT_FINITE)} (the shooting with the variational equations)"
     bad = status != OK
     R = out["R"]
     states = MembraneStates(
@@ -952,19 +1245,102 @@ def solve_patterned_states(
         fail_radius=np.where(bad, out["failR"], np.inf),
         steps=steps,
     )
+    if d_out is not None:
+        parts = {}
+        for a in ("l0", "phi"):
+            dR = np.where(bad, np.nan, d_out[f"dR_d{a}"])
+            parts[f"dp_d{a}"] = out["p"] * dR
+            parts[f"dv_d{a}"] = d_out[f"dV_d{a}"] / R**3 - 3 * states.v_hat * dR / R
+            parts[f"dq_d{a}"] = d_out[f"dQ_d{a}"] / R**2 - 2 * states.q_hat * dR / R
+        states.derivatives = StateDerivatives(**parts)
     edges[bad] = np.nan
     return _patterned(states, detail, edges)
 
 
-def _newton(model, pattern, settings, lay_all, l0_all, phi_all, sigma0, live, status, out, steps, detail, edges_out):
-    """Newton's method on ``σ = ln s`` for the live states; fills ``status``, ``out``, ``steps``, ``detail``."""
-    m = live.size
-    l0 = l0_all[live]
-    lay = _Layout(n=lay_all.n[:, live], phi=lay_all.phi[:, live], f=lay_all.f, electrode=lay_all.electrode)
-    # trial pressure: the area-weighted spherical-cap estimate of the stack
+def _sub_layout(lay: _Layout, cols) -> _Layout:
+    """The layout of the states ``cols``."""
+    return _Layout(n=lay.n[:, cols], phi=lay.phi[:, cols], f=lay.f, electrode=lay.electrode)
+
+
+def _trial(model, settings, lay, l0):
+    """The trial pressure ``p̂t`` (the area-weighted spherical-cap estimate of the stack) and the relative
+    tolerance per state (``settings.rtol``, raised to what roundoff allows near the flat membrane)."""
     area = np.diff(np.concatenate([[0.0], lay.f**2]))
     p_t = sum(area[k] * lay.n[k] * trial_pressure(model, l0, lay.phi[k]) for k in range(lay.f.size))
     rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / model.prestretch - 1))
+    return p_t, rtol
+
+
+def _derivative_pass(model, settings, lay, l0, sigma):
+    """The exact derivatives of converged states (interfaces at ``s = e^σ``, ``ln R*(s) = σ``).
+
+    One more shooting at the converged ``σ`` (the same steps, so the same state), each state twice: with the
+    sensitivity to ``s`` and with that to ``λ0`` (both with that to ``Φ̂``), :func:`_pass`. At the clamp, for
+    ``a = s, λ0, Φ̂``: ``∂R*/∂a = −Z_λ2/λ2'``, ``∂w/∂a = Z_w + w' ∂R*/∂a``. The scale follows the parameters by
+    the implicit function theorem on ``G(σ; λ0, Φ̂) = ln R* − σ = 0``:
+
+        dσ/da = −G_a/G_σ,   G_a = (∂R*/∂a)/R*,   G_σ = (s/R*) ∂R*/∂s − 1,
+
+    so ``dR*/da = ∂R*/∂a + (∂R*/∂s) s dσ/da`` and ``dw/da = ∂w/∂a + (∂w/∂s) s dσ/da``.
+
+    Returns
+    -------
+    dict
+        ``R`` (the clamp radius of this pass), ``dR_dl0, dV_dl0, dQ_dl0, dR_dphi, dV_dphi, dQ_dphi`` (the
+        trial membrane's ``V̂t``, ``Q̂t``, with their factors π and 2π), and ``status`` (0 where it landed).
+    """
+    m = l0.size
+    p_t, rtol = _trial(model, settings, lay, l0)
+    two = np.concatenate([np.arange(m), np.arange(m)])
+    lam_cols = np.arange(2 * m) >= m
+    R_star, _, _, st, steps, _, _, ends = _pass(
+        model, settings, _sub_layout(lay, two), l0[two], p_t[two], sigma[two], rtol[two], False, lam_cols
+    )
+    fV, fQ = QUADRATURE_FACTORS[:2]
+    s = np.exp(sigma)
+    R = R_star[:m]
+    f = ends[10:15, :m]
+    status = np.where((st[:m] == 0) & (st[m:] == 0) & (R_star[m:] == R), 0, np.maximum(st[:m], st[m:]))
+    status[(status == 0) & ~(R_star[m:] == R)] = NOT_FINITE
+
+    def partial(Z):
+        dR = -Z[1] / f[1]
+        return dR, Z[3] + f[3] * dR, Z[4] + f[4] * dR
+
+    Rs, Vs, Qs = partial(ends[0:5, :m])
+    slope = s / R * Rs - 1.0
+    out = {"R": R, "status": status, "steps": steps[:m] + steps[m:]}
+    for a, Z in (("l0", ends[0:5, m:]), ("phi", ends[5:10, :m])):
+        Ra, Va, Qa = partial(Z)
+        ds = -s * (Ra / R) / slope
+        out[f"dR_d{a}"] = Ra + Rs * ds
+        out[f"dV_d{a}"] = fV * (Va + Vs * ds)
+        out[f"dQ_d{a}"] = fQ * (Qa + Qs * ds)
+    return out
+
+
+def _newton(
+    model,
+    pattern,
+    settings,
+    lay_all,
+    l0_all,
+    phi_all,
+    sigma0,
+    live,
+    status,
+    out,
+    steps,
+    detail,
+    edges_out,
+    formal=False,
+):
+    """Newton's method on ``σ = ln s`` for the live states; fills ``status``, ``out``, ``steps``, ``detail``
+    (``formal``: a converged state whose hoop tension is not positive somewhere stays a state)."""
+    m = live.size
+    l0 = l0_all[live]
+    lay = _sub_layout(lay_all, live)
+    p_t, rtol = _trial(model, settings, lay, l0)
     # |G| is the relative misplacement of the interfaces of the returned state (it is the exact state of a
     # pattern whose fractions are off by that much): held to the integration's own tolerance
     tol = np.maximum(rtol, 4e-16)
@@ -983,7 +1359,7 @@ def _newton(model, pattern, settings, lay_all, l0_all, phi_all, sigma0, live, st
         if idx.size == 0:
             break
         sub = _Layout(n=lay.n[:, idx], phi=lay.phi[:, idx], f=lay.f, electrode=lay.electrode)
-        R_star, dRs, quad, st, nsteps, tr, stop_R = _pass(
+        R_star, dRs, quad, st, nsteps, tr, stop_R, _ = _pass(
             model, settings, sub, l0[idx], p_t[idx], sigma[idx], rtol[idx], True
         )
         steps[live[idx]] += nsteps
@@ -996,6 +1372,7 @@ def _newton(model, pattern, settings, lay_all, l0_all, phi_all, sigma0, live, st
         for j in np.flatnonzero(conv):
             i = idx[j]
             result["R"][i] = R_star[j]
+            result["sigma"][i] = sigma[i]
             result["p"][i] = p_t[i]
             result["V"][i], result["Q"][i], result["Psi"][i], result["z"][i] = quad[:, j]
             result["minT"][i] = tr.min_T[j]
@@ -1004,7 +1381,7 @@ def _newton(model, pattern, settings, lay_all, l0_all, phi_all, sigma0, live, st
             edge = tr.edges[j].copy()
             edge[..., :3] /= R_star[j]  # lengths of the unit membrane (θ and the force per length are scale-free)
             edges_out[live[i]] = edge
-            if not tr.min_T[j] > 0:
+            if not tr.min_T[j] > 0 and not (formal and tr.kind[j] == 2):
                 final[i] = WRINKLED
                 detail[live[i]] = _detail_of_tension(
                     pattern, tr.min_T[j], tr.where_R[j] / R_star[j], tr.kind[j], tr.region[j], tr.side[j]

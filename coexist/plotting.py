@@ -334,3 +334,85 @@ def plot_phase_diagram(diagram, path, title=None):
     if title:
         ax.set_title(title, fontsize=10)
     return save_figure(fig, path)
+
+
+def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
+    """The lens figure of one patterned zone along the voltage: side views (left) and its apex numbers (right).
+
+    Left: the meridians ``(r, z)`` in mm, mirrored about the axis, at ``side_views`` voltages spread over those
+    reached (the first and the last among them), to scale, the electrode edge marked. Right: the apex curvature
+    ``κ0`` (1/m, left axis) and the apex height (mm, twin axis) against the voltage (kV), every point a converged
+    state; where the states end early, a dotted line at the end voltage with its kind. Each side view's label
+    carries :func:`coexist.shapes.lens_ratio`, ``κ0/κring`` (how far the centre bulges ahead of the ring).
+
+    Parameters
+    ----------
+    scene : Scene
+        The scene (name, zone radius and pattern for the titles).
+    voltages_kV : sequence of float
+        The voltages reached, ascending, one per profile.
+    profiles : sequence of Profile
+        The zone's state at each voltage (:func:`coexist.shapes.patterned_profiles`).
+    end : dict or None
+        ``{"kind", "reason", "voltage_kV": [with, without]}`` when the states stop early.
+    path : str or Path
+        The figure file.
+    side_views : int
+        Number of side views drawn.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
+    import numpy as np
+
+    from .errors import SceneError
+    from .shapes import lens_ratio
+
+    plt = pyplot()
+    fig, (ax, bx) = plt.subplots(1, 2, figsize=(11.5, 4.6), gridspec_kw={"width_ratios": [1.25, 1]})
+    v = np.asarray(voltages_kV, dtype=float)
+    n = len(profiles)
+    picks = sorted(set(np.round(np.linspace(0, n - 1, min(side_views, n))).astype(int))) if n else []
+    cmap = plt.get_cmap("viridis")
+    for j, i in enumerate(picks):
+        p = profiles[i]
+        color = cmap(0.85 * j / max(1, len(picks) - 1))
+        r, z = p.r * 1e3, p.z * 1e3
+        try:
+            label = f"{v[i]:g} kV: κ0/κring = {lens_ratio(p):.3f}"
+        except SceneError:
+            label = f"{v[i]:g} kV"
+        ax.plot(np.concatenate([-r[::-1], r]), np.concatenate([z[::-1], z]), color=color, lw=1.6, label=label)
+        er, ez = (x * 1e3 for x in p.electrode_edge)
+        ax.plot([-er, er], [ez, ez], "o", color=color, ms=4.5, mec="k", mew=0.5)
+    if picks:
+        a = profiles[0].prestretch * scene.zone_radius * 1e3
+        ax.plot([-1.08 * a, -a], [0, 0], color="0.3", lw=3)
+        ax.plot([a, 1.08 * a], [0, 0], color="0.3", lw=3)
+    ax.set_aspect("equal")
+    ax.set_xlabel("r (mm)")
+    ax.set_ylabel("z (mm)")
+    ax.grid(alpha=0.25)
+    ax.legend(fontsize=8, loc="lower center", title="● electrode edge", title_fontsize=8)
+    ax.set_title("side views (to scale)", fontsize=9)
+    kappa = np.array([p.apex_curvature for p in profiles])
+    height = np.array([p.apex_height * 1e3 for p in profiles])
+    (l1,) = bx.plot(v, kappa, "o-", color="C3", ms=3, lw=1.4, label="apex curvature κ0 (1/m)")
+    bx.set_xlabel("voltage (kV)")
+    bx.set_ylabel("apex curvature κ0 (1/m)", color="C3")
+    bx.grid(alpha=0.3)
+    tx = bx.twinx()
+    (l2,) = tx.plot(v, height, "s--", color="C0", ms=2.5, lw=1.0, label="apex height (mm)")
+    tx.set_ylabel("apex height (mm)", color="C0")
+    lines = [l1, l2]
+    if end is not None and end.get("voltage_kV"):
+        x_end = end["voltage_kV"][0]
+        l3 = bx.axvline(x_end, color="k", ls=":", lw=1.2, label=f"{end['kind']} at {x_end:.4f} kV: no state above")
+        lines.append(l3)
+    bx.legend(lines, [ln.get_label() for ln in lines], fontsize=8, loc="upper left")
+    bx.set_title("apex of the zone against the voltage (each point a converged state)", fontsize=9)
+    name = scene.name or scene.source
+    title = f"{name}: one zone, A = {scene.zone_radius * 1e3:.4g} mm, regions R/A {scene.zone_pattern().describe()}"
+    return save_figure(fig, path, title=title, title_size=9)

@@ -140,6 +140,9 @@ class Scene:
         inner edge, and the ring's outer edge; None where the pattern has no such edge.
     passive_layers : int
         Layers of the regions without electrode (``[layers] passive``); the electrode regions are one layer.
+    region_layers : tuple of int or None
+        Every region's layers from the pole out (``[layers] regions``, instead of ``passive``); None: the
+        electrode regions one layer, the passive ones :attr:`passive_layers`.
 
     Examples
     --------
@@ -173,6 +176,7 @@ class Scene:
     inner_fraction: float | None = None
     outer_fraction: float | None = None
     passive_layers: int = 1
+    region_layers: tuple | None = None
 
     # --- scales (docs/physics.md, seed eqs. 3-4) ------------------------------------------------------
     @property
@@ -408,13 +412,15 @@ class Scene:
         ZonePattern
             :meth:`ZonePattern.full`, :meth:`ZonePattern.inner_circle` or :meth:`ZonePattern.ring`.
         """
-        return zone_pattern(self.electrode_pattern, self.inner_fraction, self.outer_fraction, self.passive_layers)
+        return zone_pattern(
+            self.electrode_pattern, self.inner_fraction, self.outer_fraction, self.passive_layers, self.region_layers
+        )
 
     def require_uniform(self, what: str) -> None:
         """Raise :class:`SceneError` naming ``[electrodes].pattern`` if the zones are patterned.
 
-        The N-zone computations (equilibria, continuation, ramp, fit, sweep, shapes) take uniform zones only
-        so far: a patterned zone has no state derivatives yet.
+        The fit, the sweep and the shapes take uniform zones only so far (the equilibria, the continuation and
+        the ramp take patterned ones: :class:`~coexist.patterned.PatternedModel`).
 
         Parameters
         ----------
@@ -428,8 +434,9 @@ class Scene:
         """
         if self.patterned:
             raise SceneError(
-                f'patterned zones (pattern "{self.electrode_pattern}") are supported by `coexist curves` '
-                f"(coexist.patterned) only so far: {what} takes zones with a full electrode",
+                f'patterned zones (pattern "{self.electrode_pattern}") are supported by `coexist curves`, '
+                f"`coexist ramp` and `coexist coexistence` (coexist.patterned) only so far: {what} takes zones with "
+                "a full electrode",
                 "[electrodes].pattern",
             )
 
@@ -455,6 +462,8 @@ class Scene:
             names.append(f"electrodes:{self.electrode_pattern}")
         if self.passive_layers != 1:
             names.append(f"layers:{self.passive_layers}")
+        if self.region_layers is not None and set(self.region_layers) != {1}:
+            names.append(f"layers:{','.join(map(str, self.region_layers))}")
         if self.prestretch != 1.0:
             names.append("prestretch")
         if self.wrinkling == "tension-field":
@@ -525,7 +534,11 @@ class Scene:
             ("[electrodes].pattern", self.electrode_pattern if self.patterned else None),
             ("[electrodes].inner_fraction", None if self.inner_fraction is None else f"{self.inner_fraction:g}"),
             ("[electrodes].outer_fraction", None if self.outer_fraction is None else f"{self.outer_fraction:g}"),
-            ("[layers].passive", f"{self.passive_layers}" if self.patterned else None),
+            ("[layers].passive", f"{self.passive_layers}" if self.patterned and self.region_layers is None else None),
+            (
+                "[layers].regions",
+                None if self.region_layers is None else ", ".join(map(str, self.region_layers)),
+            ),
         ]
         if v is not None and v.kind == "ramp":
             rows += [(f"[voltage].{k}", f"{getattr(v, k) / 1e3:g} kV") for k in ("start", "stop", "step")]
@@ -541,7 +554,8 @@ class Scene:
         dict
             Keys ``name``, ``description``, ``source``, ``membrane``, ``zones``, ``chamber`` and ``voltage``
             (``None`` when absent), ``electrodes`` (``pattern``, ``inner_fraction``, ``outer_fraction``; None
-            where the pattern has no such edge), ``layers`` (``passive``), ``effects`` (:meth:`effects`),
+            where the pattern has no such edge), ``layers`` (``passive``, and ``regions`` when the scene gives every
+            region's layers), ``effects`` (:meth:`effects`),
             ``dimensionless_groups`` (:meth:`dimensionless_groups`) and ``fitted`` (dates as ISO strings,
             non-finite floats as strings).
         """
@@ -591,7 +605,8 @@ class Scene:
                 "inner_fraction": self.inner_fraction,
                 "outer_fraction": self.outer_fraction,
             },
-            "layers": {"passive": self.passive_layers},
+            "layers": {"passive": self.passive_layers}
+            | ({} if self.region_layers is None else {"regions": list(self.region_layers)}),
             "effects": self.effects(),
             "dimensionless_groups": self.dimensionless_groups(),
             "fitted": _json_safe(self.fitted),
@@ -599,7 +614,9 @@ class Scene:
         }
 
 
-def zone_pattern(electrode_pattern: str, inner_fraction=None, outer_fraction=None, passive_layers: int = 1):
+def zone_pattern(
+    electrode_pattern: str, inner_fraction=None, outer_fraction=None, passive_layers: int = 1, region_layers=None
+):
     """The :class:`~coexist.patterned.ZonePattern` of a scene's pattern fields (imports :mod:`coexist.patterned`).
 
     Parameters
@@ -610,6 +627,8 @@ def zone_pattern(electrode_pattern: str, inner_fraction=None, outer_fraction=Non
         The electrode disc's radius (inner-circle) or the ring's edges, over the zone radius.
     passive_layers : int
         Layers of the regions without electrode.
+    region_layers : sequence of int, optional
+        Every region's layers from the pole out, instead (:meth:`~coexist.patterned.ZonePattern.with_layers`).
 
     Returns
     -------
@@ -624,12 +643,14 @@ def zone_pattern(electrode_pattern: str, inner_fraction=None, outer_fraction=Non
     """
     from .patterned import ZonePattern
 
-    if electrode_pattern == "inner-circle":
-        return ZonePattern.inner_circle(inner_fraction, passive_layers=passive_layers)
-    if electrode_pattern == "ring":
-        return ZonePattern.ring(inner_fraction, outer_fraction, passive_layers=passive_layers)
-    if electrode_pattern == "full":
-        return ZonePattern.full()
+    if electrode_pattern in ("inner-circle", "ring", "full"):
+        if electrode_pattern == "inner-circle":
+            zone = ZonePattern.inner_circle(inner_fraction, passive_layers=passive_layers)
+        elif electrode_pattern == "ring":
+            zone = ZonePattern.ring(inner_fraction, outer_fraction, passive_layers=passive_layers)
+        else:
+            zone = ZonePattern.full()
+        return zone if region_layers is None else zone.with_layers(region_layers)
     raise SceneError(
         f"unknown pattern {electrode_pattern!r}{did_you_mean(str(electrode_pattern), PATTERNS)}",
         "pattern",

@@ -23,10 +23,12 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
               ``inner_fraction`` · zone radius at the centre; "ring": the annulus from ``inner_fraction`` to
               ``outer_fraction`` · zone radius], radius fractions of the reference state, inner in (0, 1),
               outer in (inner, 1]; absent: "full". Patterned zones (coexist.patterned) are computed by
-              ``coexist curves`` only so far: the N-zone commands refuse them
+              ``coexist curves``, ``coexist ramp`` and ``coexist coexistence``; fit and sweep refuse them
 [layers]      ``passive`` [1]: layers (whole number 1..100) of the regions without electrode, whose stack
               is that many times the membrane; the electrode regions are one layer; only with a pattern
-              that has such regions ("inner-circle", "ring")
+              that has such regions ("inner-circle", "ring"); or ``regions``: one whole number per region
+              of the pattern, from the pole out (inner-circle 2, ring 3, or 2 when it reaches the clamp),
+              e.g. [1, 2]; not both
 [fitted]      free-form notes of fitted parameters, carried through unchanged
 top level     ``name``, ``description``
 ============  ===========================================================================================
@@ -122,7 +124,7 @@ SCHEMA = {
         "inner_fraction": _Key("number", "open_fraction"),
         "outer_fraction": _Key("number", "fraction"),
     },
-    "layers": {"passive": _Key("integer")},
+    "layers": {"passive": _Key("integer"), "regions": _Key("integer", many=True)},
 }
 TOP_LEVEL = ("name", "description", "fitted", *SCHEMA)
 _RULES = {
@@ -444,10 +446,17 @@ def _pattern(electrodes: _Section, layers: _Section) -> dict:
     ``[electrodes]`` needs its ``pattern``, a present ``[layers]`` its ``passive``."""
 
     def where(name):
-        return layers.where(name) if name == "passive" else electrodes.where(name)
+        return layers.where(name) if name in ("passive", "regions") else electrodes.where(name)
 
+    if "regions" in layers and "passive" in layers:
+        raise SceneError(
+            "give either the passive regions' layers (passive) or every region's (regions), not both",
+            layers.where("regions"),
+        )
     passive = (
-        layers.require("passive", "the number of layers of the regions without electrode") if layers.present else 1
+        layers.require("passive", "the number of layers of the regions without electrode (or regions = [1, 2])")
+        if layers.present and "regions" not in layers
+        else 1
     )
     return pattern_fields(
         electrodes.get("pattern"),
@@ -456,17 +465,50 @@ def _pattern(electrodes: _Section, layers: _Section) -> dict:
         passive,
         where,
         pattern_required=electrodes.present,
+        region_layers=layers.get("regions"),
     )
 
 
-def pattern_fields(pattern, inner_fraction, outer_fraction, passive, where, pattern_required: bool = False) -> dict:
+def region_count(pattern: str, outer_fraction=None) -> int:
+    """The number of concentric regions of a zone with this electrode pattern (:class:`~coexist.patterned.ZonePattern`):
+    ``"full"`` 1, ``"inner-circle"`` 2 (disc and annulus), ``"ring"`` 3 (passive inside, ring, passive outside) or 2
+    when the ring reaches the clamp (``outer_fraction = 1``).
+
+    Parameters
+    ----------
+    pattern : str
+        One of :data:`PATTERNS`.
+    outer_fraction : float or None
+        The ring's outer edge.
+
+    Returns
+    -------
+    int
+    """
+    if pattern == "full":
+        return 1
+    if pattern == "ring" and outer_fraction is not None and outer_fraction < 1:
+        return 3
+    return 2
+
+
+def pattern_fields(
+    pattern,
+    inner_fraction,
+    outer_fraction,
+    passive,
+    where,
+    pattern_required: bool = False,
+    region_layers=None,
+) -> dict:
     """Check an electrode pattern and return the :class:`~coexist.scene.Scene` fields that describe it.
 
     ``"full"``: the electrode covers the zone (no fraction, one layer); ``"inner-circle"``: an electrode disc of
     radius ``inner_fraction · A``, ``0 < inner_fraction < 1``; ``"ring"``: an electrode annulus from
     ``inner_fraction · A`` to ``outer_fraction · A``, ``0 < inner_fraction < outer_fraction ≤ 1`` (radii of
     the reference state). ``passive``: the layers of the regions without electrode, a whole number
-    ``1..MAX_LAYERS``, other than 1 only when there are such regions.
+    ``1..MAX_LAYERS``, other than 1 only when there are such regions. ``region_layers``: instead, the layers of
+    every region from the pole out, one whole number ``1..MAX_LAYERS`` per region (:func:`region_count`).
 
     Parameters
     ----------
@@ -481,12 +523,15 @@ def pattern_fields(pattern, inner_fraction, outer_fraction, passive, where, patt
         ``"outer_fraction"`` or ``"passive"`` in messages (``[electrodes].inner_fraction``, ``--inner-fraction``).
     pattern_required : bool
         Whether a missing pattern is an error (a present ``[electrodes]`` section).
+    region_layers : sequence of int, optional
+        Every region's layers (``[layers] regions``; ``where("regions")`` names it); None: the electrode
+        regions one layer, the passive ones ``passive``.
 
     Returns
     -------
     dict
         ``electrode_pattern``, ``inner_fraction``, ``outer_fraction`` (None where the pattern has no such
-        edge) and ``passive_layers``.
+        edge), ``passive_layers`` and ``region_layers`` (a tuple, or None).
 
     Raises
     ------
@@ -548,7 +593,38 @@ def pattern_fields(pattern, inner_fraction, outer_fraction, passive, where, patt
             'such regions: "inner-circle", "ring"; a thicker membrane is a larger thickness)',
             where("passive"),
         )
-    return dict(electrode_pattern=pattern, inner_fraction=inner, outer_fraction=outer, passive_layers=passive)
+    regions = None
+    if region_layers is not None:
+        if passive != 1:
+            raise SceneError("give either the passive regions' layers or every region's, not both", where("regions"))
+        values = list(region_layers) if isinstance(region_layers, (list, tuple)) else None
+        if not values:
+            raise SceneError(f"expected a non-empty list of whole numbers, got {region_layers!r}", where("regions"))
+        for v in values:
+            if isinstance(v, bool) or not isinstance(v, int) or not 1 <= v <= MAX_LAYERS:
+                raise SceneError(
+                    f"every region's layers must be a whole number from 1 to {MAX_LAYERS}, got {v!r}", where("regions")
+                )
+        count = region_count(pattern, outer)
+        if len(values) != count:
+            raise SceneError(
+                f'the "{pattern}" pattern has {count} region{"s" if count != 1 else ""} (from the pole out), got '
+                f"{len(values)} layer counts",
+                where("regions"),
+            )
+        if pattern == "full" and values != [1]:
+            raise SceneError(
+                'the "full" electrode pattern is one region of one layer (a thicker membrane is a larger thickness)',
+                where("regions"),
+            )
+        regions = tuple(values)
+    return dict(
+        electrode_pattern=pattern,
+        inner_fraction=inner,
+        outer_fraction=outer,
+        passive_layers=passive,
+        region_layers=regions,
+    )
 
 
 def _voltage(voltage: _Section, optional) -> dict | None:

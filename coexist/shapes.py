@@ -509,3 +509,627 @@ def equilibrium_profiles(model: MembraneModel, eq, zone_radius: float, points: i
         model, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings, wrinkled="numbers"
     )
     return list(zip((int(c) for c in eq.configuration.counts), profs))
+
+
+# --- patterned zones: profiles, and the states of one zone along a voltage path ----------------------------
+
+
+def _pole_layers(pattern, phi):
+    """``(n0, Φ̂0)``: the pole region's layers and per-layer voltage (0 without electrode)."""
+    r0 = pattern.regions[0]
+    phi = np.asarray(phi, dtype=float)
+    return float(r0.layers), (phi / r0.layers if r0.electrode else np.zeros_like(phi))
+
+
+def patterned_apex_curvature_hat(model: MembraneModel, pattern, pole_stretch, phi_hat, p_hat):
+    """``κ0 A = (p̂/n0) λ0 / (2 T̂1(λ0, λ0; Φ̂0))`` of a patterned zone: the Laplace law of the pole's stack.
+
+    The pole region is a stack of ``n0`` layers, the one-layer membrane at ``p̂/n0`` and ``Φ̂0 = Φ̂/n0`` (0 without
+    electrode): its true tension is ``t = n0 μH T̂0/λ0`` in every direction, and ``p = 2tκ0`` gives the formula
+    (:func:`apex_curvature_hat` on the one-layer membrane; docs/physics.md, sections 11 and 12).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The one-layer membrane.
+    pattern : ZonePattern
+        The zone's regions (only the pole region's layers and electrode are used).
+    pole_stretch, phi_hat, p_hat : float or array_like
+        ``λ0``, the electrode voltage ``Φ̂`` and the stack's pressure ``p̂``, broadcast.
+
+    Returns
+    -------
+    float or numpy.ndarray
+        ``κ0 A``.
+    """
+    n0, phi0 = _pole_layers(pattern, phi_hat)
+    return apex_curvature_hat(model, pole_stretch, phi0, np.asarray(p_hat, dtype=float) / n0)
+
+
+def _electrode_edges(pattern) -> list:
+    """Indices of the interfaces where the electrode begins or ends (an electroded region next to a passive
+    one), from the pole out; ``-1`` stands for the clamp when the outermost region carries the electrode."""
+    regions = pattern.regions
+    edges = [i for i in range(len(regions) - 1) if regions[i].electrode != regions[i + 1].electrode]
+    if regions[-1].electrode:
+        edges.append(-1)
+    return edges
+
+
+def patterned_profiles(
+    model: MembraneModel,
+    pattern,
+    pole_stretch,
+    phi_hat=0.0,
+    *,
+    zone_radius: float,
+    points: int = 201,
+    settings: SolverSettings | None = None,
+) -> list[Profile]:
+    """The profiles of states of a patterned zone (:class:`Profile`), integrated together region by region.
+
+    Each state is first solved by :func:`coexist.patterned.solve_patterned_states` (which checks it: a wrinkled
+    or unreachable state raises). Its meridian is then integrated again in the shooting's trial units (pressure
+    ``p̂t = p̂/R*``, clamp at ``R*``, the state's ``clamp_radius``), from the series start of the pole region at
+    ``p̂t/n0`` and ``Φ̂/n0``, stopping at the reference radii ``R̂ = k/(points − 1)`` and at every interface
+    ``fi`` (added to the points, so that the profile has its kinks where they are); at an interface the
+    meridional stretch jumps so that the stack's meridional force is continuous,
+    ``n⁺ T̂1(λ1⁺, λ2; Φ̂⁺) = n⁻ T̂1(λ1⁻, λ2; Φ̂⁻)`` (:func:`coexist.patterned.interface_stretch`), and the region's
+    ``p̂t/n``, ``Φ̂/n`` take over. The last point is the clamp ``R = R*``: there ``λ2`` must equal ``λpre`` and
+    the height and volume the solver's, to ``10⁴ rtol`` (else :class:`SolverError`). Then ``R̂ = R/R*``,
+    ``r̂ = λ2 R/R*`` and ``ẑ = (z(R*) − z(R))/R*``.
+
+    The apex curvature is the Laplace law of the pole's stack (:func:`patterned_apex_curvature_hat`); the
+    electrode edge is the solver's interface point where the electrode ends (for an inner circle its disc's
+    rim; for a ring its inner edge; the clamp when the outermost region carries the electrode).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The one-layer membrane.
+    pattern : ZonePattern
+        The zone's regions.
+    pole_stretch : float or array_like
+        ``λ0 > λpre``.
+    phi_hat : float or array_like
+        The electrode voltage ``Φ̂ ≥ 0``, broadcast against ``pole_stretch``.
+    zone_radius : float
+        ``A`` in metres.
+    points : int
+        Equally spaced reference radii per profile, pole and clamp included (at least 3); the interfaces are
+        added to them.
+    settings : SolverSettings, optional
+        Tolerances (default :class:`SolverSettings`).
+
+    Returns
+    -------
+    list of Profile
+        One per state, in the order given.
+
+    Raises
+    ------
+    SceneError
+        If an input is out of range (names it).
+    ModelRangeError
+        If a state does not exist (:meth:`coexist.patterned.PatternedStates.require_ok`, with its reason).
+    SolverError
+        If the re-integration does not land on the clamp or disagrees with the solver.
+    """
+    from .patterned import ZonePattern, solve_patterned_states
+
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
+    A = validation.real(zone_radius, "zone_radius", lo=0.0, lo_open=True)
+    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < MIN_POINTS:
+        raise SceneError(f"must be an integer of at least {MIN_POINTS}, got {points!r}", "points")
+    st = solve_patterned_states(model, pattern, pole_stretch, phi_hat, settings).require_ok()
+    l0 = np.asarray(st.pole_stretch, dtype=float)
+    phi = np.asarray(st.phi_hat, dtype=float)
+    kappa = np.atleast_1d(patterned_apex_curvature_hat(model, pattern, l0, phi, st.p_hat))
+    f = np.array(pattern.interfaces, dtype=float)
+    S = np.unique(np.concatenate([np.linspace(0.0, 1.0, int(points)), f]))
+    pts = _patterned_points(model, pattern, st, S, settings)
+    lam = model.prestretch
+    out = []
+    for j in range(l0.size):
+        edges = []
+        for i in _electrode_edges(pattern):
+            if i < 0:
+                edges.append((1.0, lam, 0.0))
+            else:
+                R_i, r_i, z_i = (float(x) for x in st.interfaces[j, i, 0, :3])
+                edges.append((R_i, r_i, float(st.apex_height[j]) - z_i))
+        first = edges[0] if edges else (1.0, lam, 0.0)
+        R_hat, r_hat, z_hat = pts[j]
+        out.append(
+            Profile(
+                pole_stretch=float(l0[j]),
+                phi_hat=float(phi[j]),
+                p_hat=float(st.p_hat[j]),
+                v_hat=float(st.v_hat[j]),
+                zone_radius=A,
+                prestretch=lam,
+                R_hat=R_hat,
+                r_hat=r_hat,
+                z_hat=z_hat,
+                apex_height_hat=float(st.apex_height[j]),
+                apex_curvature_hat=float(kappa[j]),
+                electrode_edge_R_hat=first[0],
+                electrode_edge_hat=(first[1], first[2]),
+            )
+        )
+    return out
+
+
+def _patterned_points(model, pattern, st, S, settings) -> list:
+    """``(R̂, r̂, ẑ)`` at the reference radii ``S`` (interfaces among them) of the patterned states ``st``."""
+    from .patterned import interface_stretch
+    from .shooting import start_rows
+
+    l0 = np.asarray(st.pole_stretch, dtype=float)
+    m = l0.size
+    phi = np.asarray(st.phi_hat, dtype=float)
+    regions = pattern.regions
+    n = [float(r.layers) for r in regions]
+    ph = [phi / r.layers if r.electrode else np.zeros(m) for r in regions]
+    iface = {float(r.outer): i for i, r in enumerate(regions[:-1])}
+    lam = model.prestretch
+    eq = _integrators(model)
+    Rs = np.asarray(st.clamp_radius, dtype=float)
+    p_t = np.asarray(st.p_hat, dtype=float) / Rs
+    R0 = settings.series_radius
+    rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam - 1))
+    atol7 = start_rows(model, settings, l0, ph[0], False)[2][:7]
+    for k in range(1, len(regions)):
+        atol7 = np.maximum(atol7, start_rows(model, settings, l0, ph[k], False)[2][:7])
+    atol = np.vstack([atol7, np.full((2, m), np.inf)])
+    radii = np.outer(S, Rs)
+    rows = np.full((S.size, 7, m), np.nan)
+    near = radii < R0
+    for k in range(S.size - 1):
+        cols = np.flatnonzero(near[k])
+        if cols.size:
+            vals = model.series_start(l0[cols], p_t[cols] / n[0], ph[0][cols], radii[k, cols])[:7]
+            rows[k][:, cols] = np.vstack([np.broadcast_to(np.asarray(v, dtype=float), (cols.size,)) for v in vals])
+    series = model.series_start(l0, p_t / n[0], ph[0], R0)[:7]
+    y = np.vstack([np.broadcast_to(np.asarray(v, dtype=float), (m,)) for v in series] + [p_t / n[0], ph[0]])
+    t = np.full(m, R0)
+    for k in range(1, S.size):
+        cols = np.arange(m) if k == S.size - 1 else np.flatnonzero(~near[k])
+        if cols.size:
+            res = _int.integrate(
+                eq.radius, t[cols], y[:, cols], radii[k, cols], rtol[cols], atol[:, cols], settings.max_steps
+            )
+            bad = (res.status != _int.REACHED_END) | ~np.all(np.isfinite(res.y), axis=0)
+            if bad.any():
+                j = cols[np.flatnonzero(bad)[0]]
+                raise SolverError(
+                    f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: the re-integration stopped at "
+                    f"R̂ = {S[k]:.4g}, before the clamp"
+                )
+            t[cols], y[:, cols] = res.t, res.y
+            rows[k][:, cols] = res.y[:7]
+        i = iface.get(float(S[k]))
+        if i is not None:  # the stack's meridional force continuous: λ1 jumps, the next region's p̂t/n, Φ̂/n
+            l1p, ok = interface_stretch(model, y[0], y[1], ph[i], n[i], ph[i + 1], n[i + 1])
+            if not np.all(ok):
+                j = int(np.flatnonzero(~ok)[0])
+                raise SolverError(
+                    f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: no meridional stretch carries the "
+                    f"force across the interface R̂ = {S[k]:.4g}"
+                )
+            y[0] = l1p
+            y[7] = p_t / n[i + 1]
+            y[8] = ph[i + 1]
+    ztot = y[6]
+    tol = AGREEMENT_FACTOR * rtol
+    for name, mine, theirs in (
+        ("clamp stretch", y[1], np.full(m, lam)),
+        ("apex height", ztot / Rs, np.asarray(st.apex_height, dtype=float)),
+        ("volume", QUADRATURE_FACTORS[0] * y[3] / Rs**3, np.asarray(st.v_hat, dtype=float)),
+    ):
+        off = ~(np.abs(mine - theirs) <= tol * np.maximum(np.abs(theirs), 1e-3))
+        if off.any():
+            j = int(np.flatnonzero(off)[0])
+            raise SolverError(
+                f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: the re-integrated {name} "
+                f"{mine[j]:.12g} differs from the solver's {theirs[j]:.12g}"
+            )
+    out = []
+    for j in range(m):
+        R = radii[:, j]
+        r_hat = rows[:, 1, j] * R / Rs[j]
+        z_hat = (ztot[j] - rows[:, 6, j]) / Rs[j]
+        r_hat[0], r_hat[-1], z_hat[-1] = 0.0, lam, 0.0
+        if not (np.all(np.isfinite(r_hat)) and np.all(np.isfinite(z_hat))):
+            raise SolverError(f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: non-finite points")
+        out.append((S.copy(), r_hat, z_hat))
+    return out
+
+
+#: the stencil of pole stretches evaluated together around each voltage's predicted state (its spacing, ``λ``)
+PATH_STENCIL = 0.01
+#: stencils tried per voltage before the search for the branch's state gives up
+MAX_STENCILS = 40
+#: a path's end voltage is bisected until the last voltage with a state and the first without lie this close
+#: (``Φ̂``; 1e-6 is about 0.02 V for the paper's membranes)
+END_TOLERANCE = 1e-6
+
+
+@dataclass
+class ZonePath:
+    """The states of one zone held by a gas (or a controlled pressure) along rising voltages.
+
+    Attributes
+    ----------
+    phi_hat, pole_stretch, p_hat, v_hat : numpy.ndarray
+        Per voltage reached (ascending), the state: ``Φ̂``, ``λ0``, ``p̂`` (the gas's pressure at the zone's
+        volume, to the solver's tolerance) and ``V̂``.
+    residual : numpy.ndarray
+        ``p̂zone − p̂gas(V̂)`` of each state (the balance the root-finder reached).
+    end_kind : str or None
+        Why the states stop before the last voltage asked for: ``"snap-through"`` (the zone–gas equilibrium
+        folds, ``dp̂/dV̂ = −c`` of the gas: the zone would jump to another branch), ``"wrinkled"`` (a tension of
+        the membrane turns compressive, e.g. the hoop tension at the electrode's edge), ``"pull-in"`` (the pole's
+        tension or the meridian's stiffness is lost: the electromechanical instability), or the state's failure
+        tag (``"locked"``, ...); None when every voltage has a state.
+    end_reason : str or None
+        The sentence saying why, with the solver's detail.
+    end_phi_hat : tuple of float or None
+        ``(Φ̂ with a state, Φ̂ without)`` bracketing the end, bisected to :data:`END_TOLERANCE`.
+    """
+
+    phi_hat: np.ndarray
+    pole_stretch: np.ndarray
+    p_hat: np.ndarray
+    v_hat: np.ndarray
+    residual: np.ndarray
+    end_kind: str | None = None
+    end_reason: str | None = None
+    end_phi_hat: tuple | None = None
+
+
+class _NoState(Exception):
+    """No state on the continued branch at a voltage (``kind``, ``reason``)."""
+
+    def __init__(self, kind: str, reason: str):
+        super().__init__(reason)
+        self.kind, self.reason = kind, reason
+
+
+def _kind_of(status: int) -> str:
+    from .shooting import LOST_ELLIPTICITY, WRINKLED, WRINKLED_AT_POLE, reason_tag
+
+    if status == WRINKLED:
+        return "wrinkled"
+    if status in (WRINKLED_AT_POLE, LOST_ELLIPTICITY):
+        return "pull-in"
+    return reason_tag(status)
+
+
+class _Balance:
+    """``F(λ0) = p̂(λ0, Φ̂) − p̂gas(V̂(λ0, Φ̂))`` of one patterned zone at one voltage, evaluated in batches."""
+
+    def __init__(self, model, pattern, source, phi, settings):
+        self.model, self.pattern, self.source, self.phi, self.settings = model, pattern, source, phi, settings
+        self.x = np.empty(0)
+        self.F = np.empty(0)
+        self.p = np.empty(0)
+        self.v = np.empty(0)
+        self.sigma = None
+
+    def __call__(self, lam):
+        from .patterned import solve_patterned_states
+
+        lam = np.atleast_1d(np.asarray(lam, dtype=float))
+        guess = None if self.sigma is None else np.full(lam.size, self.sigma)
+        st = solve_patterned_states(self.model, self.pattern, lam, self.phi, self.settings, scale_guess=guess)
+        for i in range(lam.size):
+            if not st.ok[i]:
+                detail = st.failure_detail[i]
+                from .shooting import reason_text
+
+                raise _NoState(
+                    _kind_of(int(st.status[i])),
+                    f"at Φ̂ = {self.phi:.6g}, pole stretch {lam[i]:.6g}: {reason_text(st.status[i])}"
+                    + (f" ({detail})" if detail else ""),
+                )
+        self.sigma = float(np.log(st.clamp_radius[-1]))
+        F = st.p_hat - np.asarray(self.source.pressure(st.v_hat), dtype=float)
+        self.x = np.concatenate([self.x, lam])
+        self.F = np.concatenate([self.F, F])
+        self.p = np.concatenate([self.p, st.p_hat])
+        self.v = np.concatenate([self.v, st.v_hat])
+        return F
+
+
+def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
+    """Look between ``a`` and ``b``, around a sampled maximum of ``F`` below 0, for a value ``F ≥ 0``: batches of
+    ``samples`` points, each round narrowed to the two intervals around the largest. Returns the rising bracket
+    ``(lo, hi, F(lo), F(hi))`` if one is found; raises :class:`_NoState` ``"snap-through"`` once the bracket
+    is ``1e-9 λ0`` narrow with every value below 0 and the parabola through the three largest below 0 too."""
+    for _ in range(rounds):
+        xs = np.linspace(a, b, samples + 2)[1:-1]
+        F = bal(xs)
+        x_all = bal.x
+        order = np.argsort(x_all)
+        xa, Fa = x_all[order], bal.F[order]
+        up = np.flatnonzero((Fa[:-1] < 0) & (Fa[1:] >= 0))
+        if up.size:
+            j = int(up[0])
+            return xa[j], xa[j + 1], Fa[j], Fa[j + 1]
+        k = int(np.argmax(F))
+        a = xs[k - 1] if k > 0 else a
+        b = xs[k + 1] if k < xs.size - 1 else b
+        # the parabola through the largest value and its neighbours: an estimate of F's maximum
+        i = int(np.argmax(Fa))
+        if 0 < i < Fa.size - 1 and np.all(np.diff(xa[i - 1 : i + 2]) > 0):
+            x0, x1, x2 = xa[i - 1 : i + 2]
+            f0, f1, f2 = Fa[i - 1 : i + 2]
+            d = (x1 - x0) * (x1 - x2) * (x0 - x2)
+            A2 = (x2 * (f1 - f0) + x1 * (f0 - f2) + x0 * (f2 - f1)) / d
+            B2 = (x2 * x2 * (f0 - f1) + x1 * x1 * (f2 - f0) + x0 * x0 * (f1 - f2)) / d
+            C2 = (x1 * x2 * (x1 - x2) * f0 + x2 * x0 * (x2 - x0) * f1 + x0 * x1 * (x0 - x1) * f2) / d
+            peak = C2 - B2 * B2 / (4 * A2) if A2 < 0 else f1
+            xpeak = -B2 / (2 * A2) if A2 < 0 else x1
+        else:
+            peak, xpeak = float(Fa[i]), float(xa[i])
+        noise = 10 * bal.settings.rtol * float(np.max(np.abs(bal.p)))
+        if peak < 0 and (b - a <= 1e-9 * b or peak < -noise):
+            raise _NoState(
+                "snap-through",
+                f"at Φ̂ = {phi:.6g} the zone–gas balance p̂ − p̂gas(V̂) has no root on the branch: its largest "
+                f"value is {peak:.3g} at pole stretch {xpeak:.6g} (the equilibrium folds where dp̂/dV̂ = −c, the gas "
+                "stiffness: the zone snaps through to another branch)",
+            )
+    raise _NoState(
+        "snap-through",
+        f"at Φ̂ = {phi:.6g} the zone–gas balance p̂ − p̂gas(V̂) stays below 0 (largest value {float(np.max(bal.F)):.3g}, "
+        "within the solver's tolerance of 0): the equilibrium folds here, the zone snaps through",
+    )
+
+
+def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH_STENCIL):
+    """The state at ``Φ̂`` on the branch through ``guess``: the root of ``F`` where it rises through 0 nearest
+    ``guess``. Stencils of six pole stretches ``h`` apart are evaluated from ``guess`` until the samples hold a
+    rising sign change; a maximum of ``F`` below 0 among them is looked at closely (:func:`_fold_or_bracket`:
+    the fold, :class:`_NoState` ``"snap-through"``). The bracket is then polished by safeguarded secant steps
+    (three points a step) until ``|F| ≤ rtol (p̂ + c V̂)`` (``c`` the gas stiffness: the accuracy both terms
+    carry) or the bracket is ``1e-13 λ0`` wide. Returns ``(λ0, p̂, V̂, F)``."""
+    bal = _Balance(model, pattern, source, phi, settings)
+    centre = guess
+    for _ in range(MAX_STENCILS):
+        xs = centre + h * np.arange(-2, 4)
+        xs = xs[xs > lam_floor]
+        if xs.size < 2:
+            raise _NoState("no-state", f"at Φ̂ = {phi:.6g} the branch reaches the flat membrane")
+        bal(xs)
+        order = np.argsort(bal.x)
+        X, Fa = bal.x[order], bal.F[order]
+        up = np.flatnonzero((Fa[:-1] < 0) & (Fa[1:] >= 0))
+        if up.size:
+            j = int(up[np.argmin(np.abs(X[up] - guess))])
+            lo, hi, Flo, Fhi = X[j], X[j + 1], Fa[j], Fa[j + 1]
+            break
+        k = int(np.argmax(Fa))
+        if Fa[k] < 0 and 0 < k < X.size - 1:
+            lo, hi, Flo, Fhi = _fold_or_bracket(bal, X[k - 1], X[k + 1], phi)
+            break
+        centre = X[0] - 4 * h if Fa[0] >= 0 else X[-1] + 3 * h
+    else:
+        raise _NoState(
+            "no-state",
+            f"at Φ̂ = {phi:.6g} no rising root within {MAX_STENCILS * 6 * h:g} in pole stretch of {guess:.6g}",
+        )
+    tol_x = 1e-13 * hi
+    for _ in range(60):
+        # Illinois-safeguarded secant, three points at once: the estimate and two neighbours
+        x = hi - Fhi * (hi - lo) / (Fhi - Flo)
+        x = min(max(x, lo + 0.01 * (hi - lo)), hi - 0.01 * (hi - lo))
+        eps = max(1e-4 * (hi - lo), tol_x)
+        pts = np.unique(np.clip([x - eps, x, x + eps], lo + tol_x / 4, hi - tol_x / 4))
+        bal(pts)
+        order = np.argsort(bal.x)
+        X, Fa = bal.x[order], bal.F[order]
+        inside = (X >= lo) & (X <= hi)
+        X, Fa = X[inside], Fa[inside]
+        j = int(np.flatnonzero((Fa[:-1] < 0) & (Fa[1:] >= 0))[0])
+        lo, hi, Flo, Fhi = X[j], X[j + 1], Fa[j], Fa[j + 1]
+        i = int(np.argmin(np.abs(bal.F)))
+        accuracy = settings.rtol * (abs(bal.p[i]) + float(source.stiffness(bal.v[i])) * bal.v[i])
+        if hi - lo <= tol_x or abs(bal.F[i]) <= accuracy:
+            break
+    i = int(np.argmin(np.abs(bal.F)))
+    return float(bal.x[i]), float(bal.p[i]), float(bal.v[i]), float(bal.F[i])
+
+
+def zone_path(model: MembraneModel, pattern, source, phi_hat, start_stretch: float, settings=None) -> ZonePath:
+    """The states of one patterned zone on ``source`` (a gas chamber or a controlled pressure) at rising voltages,
+    continued from the state at ``start_stretch``.
+
+    At every voltage the state is the root of the balance ``F(λ0) = p̂(λ0, Φ̂) − p̂gas(V̂(λ0, Φ̂))`` (each
+    evaluation a converged :func:`coexist.patterned.solve_patterned_states`; the patterned zones have no
+    derivatives yet, so the root is bracketed by a stencil of pole stretches around the previous voltage's
+    state, extrapolated, and polished by safeguarded secant steps until ``|F| ≤ rtol p̂`` or the bracket is
+    ``1e-13 λ0`` wide). The branch is the one continued from the start: the root where ``F`` rises through 0
+    nearest the prediction. The states stop where none exists on that branch: a fold (``F``'s maximum below
+    0: snap-through), or a state that fails (wrinkling, pull-in, locking); the end is then bisected between the
+    last voltage with a state and the first without, each trial continued from the nearest state below.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The one-layer membrane.
+    pattern : ZonePattern
+        The zone's regions.
+    source : GasChamber or PressureReservoir
+        What holds the pressure: ``source.pressure(V̂)`` (one zone).
+    phi_hat : array_like
+        Voltages ``Φ̂ ≥ 0``, ascending.
+    start_stretch : float
+        ``λ0`` of the state at the first voltage, or near it.
+    settings : SolverSettings, optional
+
+    Returns
+    -------
+    ZonePath
+        The states reached and, where they stop early, why and where.
+    """
+    settings = validation.settings_or_default(settings)
+    phis = np.asarray(validation.real_array(phi_hat, "phi_hat", lo=0.0), dtype=float).ravel()
+    if phis.size == 0 or np.any(np.diff(phis) < 0):
+        raise SceneError("must be a non-empty ascending sequence", "phi_hat")
+    floor = model.prestretch * (1 + 1e-3)
+    rows: list = []
+    end = None
+    lam_prev = [float(start_stretch)]
+    phi_prev: list = []
+
+    def predict(phi):
+        if len(phi_prev) >= 2 and phi_prev[-1] != phi_prev[-2]:
+            slope = (lam_prev[-1] - lam_prev[-2]) / (phi_prev[-1] - phi_prev[-2])
+            return lam_prev[-1] + slope * (phi - phi_prev[-1])
+        return lam_prev[-1]
+
+    for phi in phis:
+        try:
+            lam, p, v, F = _branch_root(model, pattern, source, float(phi), predict(phi), floor, settings)
+        except _NoState as failure:
+            end = (float(phi), failure)
+            break
+        rows.append((float(phi), lam, p, v, F))
+        lam_prev.append(lam)
+        phi_prev.append(float(phi))
+    arr = np.array(rows, dtype=float).reshape(-1, 5)
+    path = ZonePath(arr[:, 0].copy(), arr[:, 1].copy(), arr[:, 2].copy(), arr[:, 3].copy(), arr[:, 4].copy())
+    if end is None:
+        return path
+    phi_bad, last = end
+    if not rows:
+        path.end_kind, path.end_reason, path.end_phi_hat = last.kind, last.reason, None
+        return path
+    # bisect the end between the last voltage with a state and the first without
+    phi_ok, lam_ok = rows[-1][0], rows[-1][1]
+    slope = (lam_prev[-1] - lam_prev[-2]) / (phi_prev[-1] - phi_prev[-2]) if len(phi_prev) >= 2 else 0.0
+    while phi_bad - phi_ok > END_TOLERANCE:
+        mid = 0.5 * (phi_ok + phi_bad)
+        try:
+            lam = _branch_root(model, pattern, source, mid, lam_ok + slope * (mid - phi_ok), floor, settings)[0]
+        except _NoState as failure:
+            phi_bad, last = mid, failure
+            continue
+        slope = (lam - lam_ok) / (mid - phi_ok)
+        phi_ok, lam_ok = mid, lam
+    path.end_kind, path.end_reason, path.end_phi_hat = last.kind, last.reason, (phi_ok, phi_bad)
+    return path
+
+
+def scene_zone_path(scene, phi_hat, settings: SolverSettings | None = None) -> tuple:
+    """The states of a one-zone scene (patterned or not) on its gas, or at its controlled pressure, at rising
+    voltages: :func:`zone_path` from the state the valves closed in.
+
+    The closing state is the zone at the closing (or controlled) pressure at 0 V on the rising branch of its
+    ``p̂–V̂`` curve: a scan of pole stretches up to :func:`coexist.simulation.pole_stretch_max`, the first rising
+    crossing, polished as every state of the path. The chamber's gas is closed there
+    (:meth:`coexist.effects.GasChamber.closed_at`).
+
+    Parameters
+    ----------
+    scene : Scene
+        One zone (``[zones] count = 1``), a chamber or a controlled pressure.
+    phi_hat : array_like
+        Ascending voltages ``Φ̂``.
+    settings : SolverSettings, optional
+
+    Returns
+    -------
+    path : ZonePath
+    source : GasChamber or PressureReservoir
+        What holds the zone's pressure.
+
+    Raises
+    ------
+    SceneError
+        If the scene has more than one zone (``[zones].count``: zones on one gas need the patterned states'
+        derivatives), neither a chamber nor a controlled pressure, or a pressure the zone cannot hold at 0 V
+        (naming the field).
+    """
+    from .effects import GasChamber, PressureReservoir
+    from .patterned import solve_patterned_states
+    from .simulation import pole_stretch_max
+
+    settings = validation.settings_or_default(settings)
+    validation.scene(scene)
+    if scene.zone_count != 1:
+        raise SceneError(
+            f"the states along the voltage are computed for one zone so far, the scene has {scene.zone_count} (zones "
+            "on one gas share its pressure and may split, which needs the patterned states' derivatives)",
+            "[zones].count",
+        )
+    if scene.chamber is not None:
+        p_close, field_name = float(scene.p_hat(scene.chamber.closing_pressure)), scene.chamber.closing_pressure_field
+    elif scene.controlled_pressure is not None:
+        p_close, field_name = float(scene.p_hat(scene.controlled_pressure)), scene.controlled_pressure_field
+    else:
+        raise SceneError(
+            "this computation needs a [chamber] or a controlled pressure [zones].pressure_mbar", "[chamber]"
+        )
+    model, pattern = scene.model(), scene.zone_pattern()
+    pre, top = model.prestretch, pole_stretch_max(scene, settings)
+    grid = pre * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(top / pre - 1), 24) ** 2)
+    st = solve_patterned_states(model, pattern, grid, 0.0, settings)
+    F = np.where(st.ok, st.p_hat - p_close, np.nan)
+    rising = np.flatnonzero((F[:-1] < 0) & (F[1:] >= 0))
+    peak = float(np.nanmax(np.where(st.ok, st.p_hat, np.nan)))
+    if rising.size == 0:
+        raise SceneError(
+            f"the zone cannot hold p̂ = {p_close:.4g} ({scene.pressure(p_close) / 100:.4g} mbar) at 0 V: its largest "
+            f"pressure is p̂ = {peak:.4g}",
+            field_name,
+        )
+    a, b = grid[rising[0]], grid[rising[0] + 1]
+    guess = a + (b - a) * (-F[rising[0]]) / (F[rising[0] + 1] - F[rising[0]])
+    try:
+        lam_c = _branch_root(model, pattern, PressureReservoir(p_close), 0.0, guess, pre * (1 + 1e-3), settings)[0]
+    except _NoState as exc:
+        raise SceneError(f"no state at the closing pressure at 0 V: {exc.reason}", field_name) from None
+    if scene.chamber is not None:
+        v_c = float(solve_patterned_states(model, pattern, [lam_c], 0.0, settings).v_hat[0])
+        source = GasChamber.closed_at(
+            float(scene.chamber_volume_hat), float(scene.atmospheric_pressure_hat), p_close, v_c
+        )
+    else:
+        source = PressureReservoir(p_close)
+    return zone_path(model, pattern, source, phi_hat, lam_c, settings), source
+
+
+def lens_ratio(profile: Profile) -> float:
+    """How far the centre bulges ahead of the ring: ``κ0 / κring``, the apex curvature over the curvature of the
+    sphere (centred on the axis) through the electrode edge and the clamp.
+
+    That sphere's centre is at height ``zc = (re² + ze² − a²)/(2 ze)`` (``(re, ze)`` the electrode edge, ``a = λpre
+    A`` the clamp radius), so ``κring = 1/√(a² + zc²)``. A spherical cap has the ratio 1; a centre that bulges
+    ahead of the passive ring, more than 1.
+
+    Parameters
+    ----------
+    profile : Profile
+        A state with its electrode edge inside the zone (``electrode_edge_R_hat < 1``).
+
+    Returns
+    -------
+    float
+        ``κ0/κring``.
+
+    Raises
+    ------
+    SceneError
+        If the electrode edge is the clamp or lies in the clamp plane (no ring to compare with).
+    """
+    re, ze = profile.electrode_edge_hat
+    a = profile.prestretch
+    if not (profile.electrode_edge_R_hat < 1 and ze > 0):
+        raise SceneError("the electrode edge is at the clamp: there is no passive ring to compare with", "profile")
+    zc = (re * re + ze * ze - a * a) / (2 * ze)
+    return float(profile.apex_curvature_hat * math.sqrt(a * a + zc * zc))

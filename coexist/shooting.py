@@ -319,6 +319,10 @@ class MembraneStates:
         For a tension-field model (``wrinkling="tension-field"``): per state the hoop-wrinkled intervals
         ``(R̂start, R̂end)`` of the unit membrane (empty when taut); None for a model that refuses
         wrinkling. A wrinkled state's ``min_tension`` is 0 (its hoop tension vanishes there).
+    wrinkled_stiffness : ndarray or None
+        For a tension-field model: per state ``K/T̂11`` at the outer ends of its wrinkled bands (the
+        smallest; ``K = dT̂1ʷ/dλ1``, ``inf`` when taut, NaN when failed). It falls to zero where a band
+        pulls in (docs/physics.md, section 10); None for a model that refuses wrinkling.
     """
 
     pole_stretch: np.ndarray
@@ -337,6 +341,7 @@ class MembraneStates:
     shapes: list | None = field(default=None, repr=False)
     derivatives: StateDerivatives | None = field(default=None, repr=False)
     wrinkled_radii: list | None = field(default=None, repr=False)
+    wrinkled_stiffness: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def wrinkled_fraction(self) -> np.ndarray:
@@ -679,7 +684,8 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     of ellipticity, a meridian folding back), the smallest tension and largest field so far, and, where
     the cubic Hermite estimate of a tension's minimum between the last two nodes comes below
     :data:`REFINE_MINIMUM_BELOW`, the step that holds it (the caller locates that minimum exactly).
-    A finished trajectory (status ≠ 0) passes through unchanged.
+    A step that fails leaves the trajectory at the node it started from, with that step's size in ``h``
+    (the failure's radius in ``failR``). A finished trajectory (status ≠ 0) passes through unchanged.
 
     Parameters
     ----------
@@ -747,26 +753,29 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
     status = ca.if_else(move * last * (code == 0), _int.REACHED_END, status)
     steps = g["steps"] + active
     status = ca.if_else((status == 0) * (steps >= g["max_steps"]), _int.STEP_LIMIT, status)
-    better = move * near * (e_min < g["cand_est"])
+    # a step that fails stops the trajectory at the node it started from (with the step's size in h): the
+    # last node the shooting vouches for, where coexist.wrinkling restarts a wrinkled state
+    keep = move * (code == 0)
+    better = keep * near * (e_min < g["cand_est"])
     k_best = ca.if_else(ests[0][1] <= ests[1][1], 1, 2)
     da_best = ca.if_else(k_best == 1, ests[0][2], ests[1][2])
     db_best = ca.if_else(k_best == 1, ests[0][3], ests[1][3])
     new = {
-        "t": ca.if_else(move, t_new, t),
-        "h": ca.if_else(active, hs * factor, h),
+        "t": ca.if_else(keep, t_new, t),
+        "h": ca.if_else(move * (code != 0), hs, ca.if_else(active, hs * factor, h)),
         "t_end": g["t_end"],
         "rtol": g["rtol"],
         "status": status,
         "steps": steps,
         "max_steps": g["max_steps"],
         "formal": g["formal"],
-        "Ra": ca.if_else(move, t_new, g["Ra"]),
-        "T1a": ca.if_else(move, T1, g["T1a"]),
-        "T2a": ca.if_else(move, T2, g["T2a"]),
-        "d1a": ca.if_else(move, d1, g["d1a"]),
-        "d2a": ca.if_else(move, d2, g["d2a"]),
-        "minT": ca.if_else(move, ca.fmin(g["minT"], step_min), g["minT"]),
-        "maxE": ca.if_else(move, ca.fmax(g["maxE"], ca.fabs(E)), g["maxE"]),
+        "Ra": ca.if_else(keep, t_new, g["Ra"]),
+        "T1a": ca.if_else(keep, T1, g["T1a"]),
+        "T2a": ca.if_else(keep, T2, g["T2a"]),
+        "d1a": ca.if_else(keep, d1, g["d1a"]),
+        "d2a": ca.if_else(keep, d2, g["d2a"]),
+        "minT": ca.if_else(keep, ca.fmin(g["minT"], step_min), g["minT"]),
+        "maxE": ca.if_else(keep, ca.fmax(g["maxE"], ca.fabs(E)), g["maxE"]),
         "failR": ca.if_else(move * (code != 0), t_new, g["failR"]),
         "cand_est": ca.if_else(better, e_min, g["cand_est"]),
         "cand_Ra": ca.if_else(better, t, g["cand_Ra"]),
@@ -776,7 +785,7 @@ def attempt_function(model: MembraneModel, kind: str, rows: int, K: int = ATTEMP
         "cand_k": ca.if_else(better, k_best, g["cand_k"]),
     }
     head = ca.vertcat(*[new[k] for k in _HEAD])
-    x_new = ca.vertcat(head, ca.if_else(move, y_new, y), ca.if_else(move, f_new, f), atol, ca.if_else(better, y, cy))
+    x_new = ca.vertcat(head, ca.if_else(keep, y_new, y), ca.if_else(keep, f_new, f), atol, ca.if_else(better, y, cy))
     one = ca.Function(f"attempt_{kind}", [x], [ca.cse(x_new)])
     if K == 1:
         return one
@@ -914,6 +923,10 @@ def solve_states(
         If a pole stretch is not finite or not above ``λpre``, a voltage is negative or not finite,
         or a voltage is not zero for a model without electrostatics.
     """
+    if getattr(model, "pattern", None) is not None:  # a patterned zone (coexist.patterned.PatternedModel)
+        from .patterned import shoot_zone
+
+        return shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)
     settings, l0, phi = checked_state_inputs(model, pole_stretch, phi_hat, settings)
     n = l0.size
     lam_clamp = model.prestretch
@@ -939,6 +952,8 @@ def solve_states(
     min_tension = np.where(status == OK, T0, np.nan)
     steps = np.zeros(n, dtype=int)
     shapes = [None] * n if shape else None
+    # a tension-field model takes a wrinkled state up where its taut shooting stopped (coexist.wrinkling)
+    restart: dict | None = {} if model.tension_field and not formal else None
     if live.size:
         with np.errstate(all="ignore"):
             _shoot(
@@ -948,16 +963,20 @@ def solve_states(
                 _Diagnostics(status, fail_radius, out, min_tension, max_field, steps, shapes),
                 derivatives,
                 formal,
+                restart=restart,
             )
     wrinkled_radii: list | None = None
+    wrinkled_stiffness: np.ndarray | None = None
     if model.tension_field and not formal:
         wrinkled_radii = [[] for _ in range(n)]
+        wrinkled_stiffness = np.full(n, np.inf)
         again = np.flatnonzero(status == WRINKLED)
         if again.size:
             from .wrinkling import shoot_relaxed
 
             with np.errstate(all="ignore"):
-                shots = shoot_relaxed(model, settings, l0[again], phi[again], derivatives)
+                start = None if not restart else {k: v[..., again] for k, v in restart.items()}
+                shots = shoot_relaxed(model, settings, l0[again], phi[again], derivatives, start=start)
             for k in out:
                 out[k][again] = shots.out[k]
             status[again] = shots.status
@@ -967,6 +986,8 @@ def solve_states(
             fail_radius[again] = shots.fail_radius
             for j, i in enumerate(again):
                 wrinkled_radii[i] = shots.wrinkled_radii[j]
+            if shots.band_stiffness is not None:
+                wrinkled_stiffness[again] = shots.band_stiffness
     bad = status != OK
     for k in out:
         out[k][bad] = np.nan
@@ -999,6 +1020,7 @@ def solve_states(
         shapes=shapes,
         derivatives=deriv,
         wrinkled_radii=wrinkled_radii,
+        wrinkled_stiffness=None if wrinkled_stiffness is None else np.where(bad, np.nan, wrinkled_stiffness),
     )
 
 
@@ -1081,9 +1103,13 @@ class _Diagnostics:
     shapes: list | None
 
 
-def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, formal=False):
+def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, formal=False, restart=None):
     """Integrate the live trajectories of ``problem = (λ0, Φ̂, T̂0, live, λclamp)``; fills ``diagnostics``
-    in place."""
+    in place. ``restart``, if a dict, receives for every state (NaN where none) the node a ``WRINKLED``
+    trajectory can be taken up from by :func:`coexist.wrinkling.shoot_relaxed`: ``R``, ``y`` (the rows of
+    :func:`start_rows`), ``h`` (a step size), ``min_T``, ``max_E`` (up to that node), the last accepted node
+    before the tension's zero that this shooting vouches for; NaN (from the pole) where the zero may lie
+    before a step whose minimum was located only after the run."""
     l0, phi, T0, live, lam_clamp = problem
     d = diagnostics
     status, fail_radius, out, min_tension, max_field, steps, shapes = (
@@ -1105,6 +1131,8 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
     local_fail_R = np.full(m, np.nan)
     local_code = np.zeros(m, dtype=int)
     trace: list | None = [] if shapes is not None else None
+    if restart is not None:  # the smallest tension and largest field before each node (numpy path)
+        pre_T, pre_E = local_min_T.copy(), local_max_E.copy()
     # the last accepted node of each trajectory (radius, T1, T2, their slopes dT/dR, the state and its
     # derivative): a tension's minimum between two nodes is first estimated by the cubic Hermite
     # interpolant of its values and exact slopes (error O(h⁴)); where that estimate comes near zero (where
@@ -1168,6 +1196,8 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
         return np.minimum(est[0], est[1])
 
     def check(R, y, cols, f):
+        if restart is not None:
+            pre_T[cols], pre_E[cols] = local_min_T[cols], local_max_E[cols]
         # generated functions return arrays shaped like their inputs (constants included)
         T1, T2, T11, T12, margin, E, T22 = model.tensions(y[0], y[1], y[P + 1])
         crossed = y[1] <= lam_clamp
@@ -1201,6 +1231,8 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
 
     R_end = np.full(m, settings.max_radius_factor)
     small = shapes is None and m <= fns.small_batch_limit(kind, m)
+    h_att = np.full(m, np.nan)  # the attempt function's step sizes (filled only for a restart)
+    from_pole = np.zeros(m, dtype=bool)
     if small:
         res, cand = _integrate_attempts(
             fns,
@@ -1217,6 +1249,7 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
             local_min_T,
             local_fail_R,
             local_code,
+            h_out=h_att if restart is not None else None,
         )
     else:
         res = _int.integrate(
@@ -1233,6 +1266,7 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
             if sel.any():
                 exact[sel] = exact_min(idx[sel], kk, Ra[sel], ya[:, sel], hh[sel], da[sel], db[sel])
         local_min_T[idx] = np.minimum(local_min_T[idx], exact)
+        from_pole[idx[exact <= 0]] = True  # a zero in a step before the last node
         if not formal:
             wr = (exact <= 0) & (code[idx] == OK)
             code[idx[wr]] = WRINKLED
@@ -1243,6 +1277,9 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
 
     # final step onto the clamp with λ2 as the independent variable
     go = np.flatnonzero(code == OK)
+    if restart is not None:
+        before_clamp = local_min_T.copy()
+        h_land = np.full(m, np.nan)
     if go.size:
         yh = res.y[:, go]
         Rh = res.t[go]
@@ -1290,6 +1327,8 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
         wr = (local_min_T[good] <= 0) if not formal else (T1 <= 0)
         code[good[wr]] = WRINKLED
         local_fail_R[good[wr]] = zg[0][wr]
+        if restart is not None:
+            h_land[good] = zg[0] - Rh[~bad_turn]
         if derivatives and good.size:
             _end_derivatives(
                 fns, res.y[:, good], Rh[~bad_turn], zg, rtol[good], atol[:, good], settings, out, idx, steps, live[good]
@@ -1302,6 +1341,26 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
     max_field[live] = local_max_E
     if shapes is not None:
         _collect_shapes(trace, live, out, shapes, lam_clamp)
+    if restart is not None:
+        n, rows = status.size, y0.shape[0]
+        for k, v in (("R", np.full(n, np.nan)), ("y", np.full((rows, n), np.nan)), ("h", np.full(n, np.nan))):
+            restart[k] = v
+        restart["min_T"], restart["max_E"] = np.full(n, np.nan), np.full(n, np.nan)
+        wr = (code == WRINKLED) & ~from_pole
+        # a node where the step after it failed: that node (the attempt function stops there; numpy moves on)
+        at_node = np.flatnonzero(wr & (res.status >= _int.FAILED))
+        if small:
+            parts = [(at_node, res.t, res.y, h_att, local_min_T, local_max_E)]
+        else:
+            h_prev = res.t - res.t_previous
+            parts = [(at_node, res.t_previous, res.y_previous, h_prev, pre_T, pre_E)]
+        # the zero lies in the last step, onto the clamp: its start
+        onto_clamp = np.flatnonzero(wr & (res.status == _int.CROSSED))
+        parts.append((onto_clamp, res.t, res.y, h_land, before_clamp, local_max_E))
+        for j, Rn, yn, hn, Tn, En in parts:
+            i = live[j]
+            restart["R"][i], restart["y"][:, i], restart["h"][i] = Rn[j], yn[:, j], hn[j]
+            restart["min_T"][i], restart["max_E"][i] = Tn[j], En[j]
 
 
 def run_attempts(entry: dict, X: np.ndarray, status_row: int) -> None:
@@ -1328,11 +1387,15 @@ def run_attempts(entry: dict, X: np.ndarray, status_row: int) -> None:
         active = active[X[status_row, active] == 0]
 
 
-def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal, T0, max_E, min_T, fail_R, code):
+def _integrate_attempts(
+    fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal, T0, max_E, min_T, fail_R, code, h_out=None
+):
     """Integrate a small batch with the attempt function, :data:`ATTEMPTS_PER_CALL` attempts per call, until
     every trajectory stops. Fills ``min_T``, ``max_E``, ``fail_R`` and ``code`` in place and returns an
     :class:`~coexist.numerics.dop853.IntegrationResult` and the steps whose tension minimum must be located
-    exactly (``(columns, tension, R_a, y_a, h, slope_a, slope_b)``, or None)."""
+    exactly (``(columns, tension, R_a, y_a, h, slope_a, slope_b)``, or None). A failed trajectory's ``t, y``
+    (and ``min_T``, ``max_E``) are those of its last node before the failing step; ``h_out``, if given, is
+    filled with the step sizes (a failed trajectory's: the failing step's)."""
     R, m = y0.shape
     entry = fns.attempts(kind)
     t0 = np.full(m, float(R0))
@@ -1350,6 +1413,8 @@ def _integrate_attempts(fns, kind, y0, R0, R_end, rtol, atol, max_steps, formal,
     X[o : o + R], X[o + R : o + 2 * R], X[o + 2 * R : o + 3 * R] = y0, f0, np.where(np.isfinite(atol), atol, 1e300)
     run_attempts(entry, X, H["status"])
     status = X[H["status"]].astype(int)
+    if h_out is not None:
+        h_out[:] = X[H["h"]]
     min_T[:] = X[H["minT"]]
     max_E[:] = X[H["maxE"]]
     failed = status >= _int.FAILED

@@ -257,9 +257,10 @@ class Simulation:
         ------
         SceneError
             If the zones cannot hold the closing (or controlled) pressure, or the scene has neither a
-            chamber nor a controlled pressure (names the field), or its zones are patterned (not yet
-            supported here, :meth:`coexist.scene.Scene.require_uniform`). Also if that pressure is below the
-            smallest computed state's.
+            chamber nor a controlled pressure (names the field), or its zones are patterned and ``model`` is
+            given without their pattern (a patterned scene's own model is a
+            :class:`~coexist.patterned.PatternedModel`). Also if that pressure is below the smallest computed
+            state's.
         SolverError
             If the state at the closing pressure does not converge.
 
@@ -272,8 +273,14 @@ class Simulation:
         """
         settings = validation.settings_or_default(settings)
         validation.scene(scene)
-        scene.require_uniform("a Simulation (N zones on one gas)")
-        model = model if model is not None else scene.model()
+        if model is None:
+            model = scene.model()
+            if scene.patterned:  # every zone shot region by region, with exact derivatives (coexist.patterned)
+                from .patterned import PatternedModel
+
+                model = PatternedModel.of(model, scene.zone_pattern())
+        elif scene.patterned and getattr(model, "pattern", None) != scene.zone_pattern():
+            scene.require_uniform("a Simulation with a model that does not carry the scene's pattern")
         lam_max = pole_stretch_max(scene, settings)
         if snap is None:  # at zero voltage a model with electrostatics gives the passive numbers (tested)
             snap = snap_through(model, settings, lam_max)

@@ -4,8 +4,11 @@ A model with ``wrinkling="tension-field"`` (:class:`~coexist.model.MembraneModel
 state whose hoop tension would turn negative: there the membrane wrinkles across the hoop direction,
 carries no hoop tension, and its material hoop stretch is the *natural width* ``w = λ2*(λ1; Φ̂)``, the
 root of ``T̂2(λ1, w) = 0`` (docs/physics.md, section 10). :func:`coexist.shooting.solve_states` shoots
-every state as a taut membrane first; the states it finds wrinkled are shot again here, from the pole
-to the clamp, by the same DOP853 integrator (:mod:`coexist.numerics.dop853`), all columns at once:
+every state as a taut membrane first; the states it finds wrinkled are taken up here by the same DOP853
+integrator (:mod:`coexist.numerics.dop853`), all columns at once, from the last node before the tension's zero
+that the taut shot vouches for (its state, sensitivities, radius and step; the pole-to-onset segment is not
+integrated twice; from the pole where the zero may lie in an earlier step whose minimum the taut shot located
+only after its run):
 
 * a *taut* segment integrates the membrane equations (:meth:`~coexist.model.MembraneModel.rhs`) until
   the hoop tension ``T̂2(λ1, λ2)`` falls to zero (located within the step to roundoff, including a dip
@@ -20,6 +23,12 @@ to the clamp, by the same DOP853 integrator (:mod:`coexist.numerics.dop853`), al
 ``λ1, ρ, θ`` and the quadratures are continuous at a switch; ``λ1'`` is not, so the sensitivities
 (the variational equations, for exact derivatives to ``λ0`` and ``Φ̂``) jump by the saltation
 ``S⁺ = S⁻ + (f⁻ − f⁺) dτ/da``, ``dτ/da = −(∇g·S⁻ + ∂g/∂a)/(∇g·f⁻)`` for the switching function ``g``.
+
+A crossing (switch or clamp) is located inside the step that crossed it from the switching function and its
+slope at both ends of that step (kept by the integration): Newton's method from the root of their cubic Hermite
+interpolant (error ``O(h⁴)``), each iterate one DOP853 step of the trial size from the last node, ended by a
+Newton step below :data:`NEWTON_FINAL` taken along the trajectory without another step (its error is that
+step's square): two or three steps per crossing (see :func:`_locate`).
 
 Failures are named: ``slack`` (the meridional tension falls to zero: both tensions vanish), ``pull-in``
 (no natural width, or ``K = dT̂1/dλ1`` along it falls to zero), Gent locking, folding back, and more than
@@ -50,6 +59,11 @@ WIDTH_MAX_ITER = 200
 WIDTH_POLISH = 2
 #: relative location of a switch or of the clamp within its step
 LOCATE_RTOL = 1e-14
+#: a Newton step of the location below this fraction of its point ends it: the new point is then within about the
+#: step's square of the root (~1e-14 of it), without another evaluation (see :func:`_locate`)
+NEWTON_FINAL = 1e-7
+#: Newton iterations on the cubic Hermite interpolant of a switching function (the location's start)
+HERMITE_ITERATIONS = 12
 
 #: a wrinkled segment whose stiffness ``K = dT̂1/dλ1`` falls below this fraction of ``T̂11`` pulls in: ``λ1'``
 #: diverges like ``(R̂c − R̂)^(−1/2)`` as ``K → 0``, so the last ``1e-6`` changes the state by ~1e-12
@@ -163,6 +177,9 @@ class RelaxedShots:
     steps: np.ndarray
     fail_radius: np.ndarray
     wrinkled_radii: list = field(default_factory=list)
+    #: per state the smallest ``K/T̂11`` (``K = dT̂1ʷ/dλ1``) at the outer ends of its wrinkled bands, where
+    #: ``λ1`` is smallest in the band; ``inf`` for a taut state. It falls to zero at the band's pull-in.
+    band_stiffness: np.ndarray | None = None
 
 
 class _Layout:
@@ -196,6 +213,8 @@ class _Equations:
         self.settings: SolverSettings = SolverSettings()
         self.rtol = np.zeros(0)
         self.atol = np.zeros((lay.rows, 0))
+        # per column: K/T̂11 at the outer ends of its wrinkled bands (smallest; see RelaxedShots)
+        self.band_stiffness = np.zeros(0)
 
     def taut(self, R, y):
         lay, out = self.lay, np.empty_like(y)
@@ -311,8 +330,13 @@ def _hermite_dip(Ra, ga, da, Rb, gb, db):
     return dip
 
 
-def shoot_relaxed(model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool = False) -> RelaxedShots:
+def shoot_relaxed(
+    model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool = False, start: dict | None = None
+) -> RelaxedShots:
     """Shoot the states ``(λ0, Φ̂)`` of a tension-field membrane from the pole to the clamp.
+
+    Each column starts taut at the pole's series radius, or at the node its taut shooting stopped at
+    (``start``): the pole-to-onset segment, taut, is then not integrated twice.
 
     Parameters
     ----------
@@ -324,6 +348,11 @@ def shoot_relaxed(model: MembraneModel, settings: SolverSettings, l0, phi, deriv
         Pole stretches (above ``λpre``, with a positive pole tension) and voltages, one per state.
     derivatives : bool
         Carry the variational equations (exact derivatives to ``λ0`` and ``Φ̂``).
+    start : dict, optional
+        Per state a taut node to start from (what :func:`coexist.shooting._shoot` leaves in its
+        ``restart``): ``R``, ``y`` (the rows of :func:`coexist.shooting.start_rows`), a step size ``h``,
+        the smallest tension ``min_T`` and largest field ``max_E`` up to it; a column whose ``R`` is NaN
+        starts at the pole.
 
     Returns
     -------
@@ -341,6 +370,7 @@ def shoot_relaxed(model: MembraneModel, settings: SolverSettings, l0, phi, deriv
     atol = np.vstack([atol_start[:S], np.full((1, m), np.inf), atol_start[S:]])
     atol = np.where(np.isfinite(atol), atol, 1e300)
     eqs.settings, eqs.rtol, eqs.atol = settings, rtol, atol
+    eqs.band_stiffness = np.full(m, np.inf)
     R = np.full(m, R0)
     h = np.full(m, R0)
     mode = np.zeros(m, dtype=int)
@@ -350,23 +380,30 @@ def shoot_relaxed(model: MembraneModel, settings: SolverSettings, l0, phi, deriv
     T0, *_ = model.pole(l0, phi)
     min_T = np.broadcast_to(np.asarray(T0, dtype=float), (m,)).copy()
     max_E = np.abs(np.broadcast_to(np.asarray(model.tensions(l0, l0, phi)[5], dtype=float), (m,))).copy()
+    if start is not None:
+        go = np.isfinite(start["R"]) & (start["h"] > 0) & np.all(np.isfinite(start["y"]), axis=0)
+        go &= np.isfinite(start["min_T"]) & np.isfinite(start["max_E"])
+        go = np.flatnonzero(go)
+        ys = start["y"][:, go]
+        y[:, go] = np.vstack([ys[:S], ys[1:2], ys[S:]])
+        R[go], h[go] = start["R"][go], start["h"][go]
+        min_T[go], max_E[go] = start["min_T"][go], start["max_E"][go]
     fail_R = np.full(m, np.nan)
     wrinkled_from = np.full(m, np.nan)
     intervals: list[list] = [[] for _ in range(m)]
     out = {k: np.full(m, np.nan) for k in ("p", "V", "Q", "Psi", "z", "R")}
     if derivatives:
         out.update({k: np.full(m, np.nan) for k in ("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi")})
-    # the switching function at the last node of each column (for a dip between nodes)
-    g_node = np.full(m, np.inf)
-    dg_node = np.zeros(m)
+    # per column the switching function and its slope dg/dR̂ at the last accepted node, and at the end of the
+    # step that crossed the clamp or a switch, with λ2 and λ2' there, and λ2' at the node (_handle_stops
+    # locates the crossing from them without taking that step again)
+    node = np.full((7, m), np.nan)
     while (status == -1).any():
         for md in (TAUT, WRINKLED):
             cols = np.flatnonzero((status == -1) & (mode == md))
             if cols.size:
-                _segment(
-                    eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node, dg_node, rtol, atol, settings
-                )
-                _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, rtol, atol)
+                _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, node, rtol, atol, settings)
+                _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, node)
     done = status == sh.OK
     for i in np.flatnonzero(done):
         Rs = out["R"][i]
@@ -374,18 +411,21 @@ def shoot_relaxed(model: MembraneModel, settings: SolverSettings, l0, phi, deriv
         if intervals[i]:
             min_T[i] = 0.0  # the hoop tension vanishes in the wrinkled region
     fail_radius = np.where(done, np.inf, fail_R / np.where(np.isfinite(out["R"]), out["R"], 1.0))
-    return RelaxedShots(out, status, min_T, max_E, steps, fail_radius, intervals)
+    band = np.where(done, eqs.band_stiffness, np.nan)
+    return RelaxedShots(out, status, min_T, max_E, steps, fail_radius, intervals, band)
 
 
-def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node, dg_node, rtol, atol, settings):
+def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, node, rtol, atol, settings):
     """Integrate the columns ``cols`` (all in mode ``md``) until each crosses the clamp or a switch, or fails;
-    on return ``R, y`` of a crossing column hold the last node before the crossing and ``h`` the step that
-    crossed (status ``-2 - kind``)."""
+    on return ``R, y`` of a crossing column hold the last node before the crossing, ``h`` the step that
+    crossed (status ``-2 - kind``) and ``node`` the switching function and its slope at that node and at the
+    step's end, with ``λ2, λ2'`` there, and ``λ2'`` at the node."""
     _lay, model = eqs.lay, eqs.model
     lam_clamp = model.prestretch
     n = cols.size
     k_cross = np.zeros(n, dtype=int)
     h_cross = np.full(n, np.nan)
+    end_cross = np.full((4, n), np.nan)
     R_last = R[cols].copy()
     y_start = y[:, cols]
     f0 = eqs.rhs(md)(R_last, y_start)
@@ -394,6 +434,7 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node
     # node is a switch back
     g_last = np.maximum(g0, 1e-300)
     dg_last = dg0.copy()
+    l2p_last = f0[1].copy()
 
     def event(t_new, y_new, idx, f_new):
         g, dg, T1, E, code, _ = eqs.switching(md, y_new, f_new)
@@ -411,6 +452,7 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node
         k_cross[idx[~clamp & switch]] = _SWITCH
         k_cross[idx[~clamp & ~switch & dip]] = _DIP
         h_cross[idx[cross]] = t_new[cross] - R_last[idx[cross]]
+        end_cross[:, idx[cross]] = np.vstack([g[cross], dg[cross], y_new[1, cross], f_new[1, cross]])
         res[cross] = _int.CROSSED
         bad = ~cross & (code != 0)
         res[bad] = _int.FAILED + code[bad]
@@ -419,11 +461,12 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node
         R_last[idx[keep]] = t_new[keep]
         g_last[idx[keep]] = g[keep]
         dg_last[idx[keep]] = dg[keep]
+        l2p_last[idx[keep]] = f_new[1, keep]
         return res
 
     entry = sh._integrators(model).attempts_of(eqs.attempts_kind(md), lambda: _attempt_function(eqs, md))
     if n <= (sh.COMPILED_BATCH_LIMIT if entry.get("fast") else sh.CASADI_BATCH_LIMIT):
-        _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status, steps, min_T, max_E, fail_R)
+        _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status, steps, min_T, max_E, fail_R, node)
         return
     res = _int.integrate(
         eqs.stepper(md, n),
@@ -447,8 +490,7 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, g_node
     status[cols[st == _int.STEP_LIMIT]] = sh.STEP_LIMIT
     failed = st >= _int.FAILED
     status[cols[failed]] = st[failed] - _int.FAILED
-    g_node[cols] = g_last
-    dg_node[cols] = dg_last
+    node[0, cols], node[1, cols], node[2:6, cols], node[6, cols] = g_last, dg_last, end_cross, l2p_last
 
 
 #: layout of the packed per-trajectory state of the relaxed attempt function (then y, f, atol)
@@ -468,6 +510,10 @@ _HEAD = (
     "failR",
     "kind",
     "h_cross",
+    "g_cross",
+    "dg_cross",
+    "l2_cross",
+    "f1_cross",
 )
 _H = {k: i for i, k in enumerate(_HEAD)}
 
@@ -532,6 +578,10 @@ def _attempt_function(eqs, mode, K: int = sh.ATTEMPTS_PER_CALL):
         "failR": ca.if_else(bad, t_new, g["failR"]),
         "kind": ca.if_else(cross, kind, g["kind"]),
         "h_cross": ca.if_else(cross, hs, g["h_cross"]),
+        "g_cross": ca.if_else(cross, gg, g["g_cross"]),
+        "dg_cross": ca.if_else(cross, dg, g["dg_cross"]),
+        "l2_cross": ca.if_else(cross, y_new[1], g["l2_cross"]),
+        "f1_cross": ca.if_else(cross, f_new[1], g["f1_cross"]),
     }
     head = ca.vertcat(*[new[k] for k in _HEAD])
     x_new = ca.vertcat(head, ca.if_else(move, y_new, y), ca.if_else(move, f_new, f), atol)
@@ -542,7 +592,7 @@ def _attempt_function(eqs, mode, K: int = sh.ATTEMPTS_PER_CALL):
     return ca.Function(name, [xm], [acc(xm)[:, K - 1]])
 
 
-def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status, steps, min_T, max_E, fail_R):
+def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status, steps, min_T, max_E, fail_R, node):
     """:func:`_segment` for a small batch: the attempt function, :data:`coexist.shooting.ATTEMPTS_PER_CALL`
     attempts per call, until every column stops; the same outcome as the numpy loop."""
     lay, settings = eqs.lay, eqs.settings
@@ -553,6 +603,7 @@ def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status
     X[_H["rtol"]], X[_H["max_steps"]] = eqs.rtol[cols], settings.max_steps
     X[_H["g_last"]], X[_H["dg_last"]], X[_H["R_last"]] = g_last, dg_last, R[cols]
     X[_H["minT"]], X[_H["maxE"]], X[_H["failR"]], X[_H["h_cross"]] = min_T[cols], max_E[cols], np.nan, np.nan
+    X[[_H["g_cross"], _H["dg_cross"], _H["l2_cross"], _H["f1_cross"]]] = np.nan
     X[o : o + rows], X[o + rows : o + 2 * rows], X[o + 2 * rows :] = y[:, cols], f0, eqs.atol[:, cols]
     sh.run_attempts(entry, X, _H["status"])
     st = X[_H["status"]].astype(int)
@@ -564,6 +615,9 @@ def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status
     crossed = st == _int.CROSSED
     status[cols[crossed]] = -2 - X[_H["kind"], crossed].astype(int)
     h[cols[crossed]] = X[_H["h_cross"], crossed]
+    node[0, cols], node[1, cols] = X[_H["g_last"]], X[_H["dg_last"]]
+    node[2:6, cols] = X[[_H["g_cross"], _H["dg_cross"], _H["l2_cross"], _H["f1_cross"]]]
+    node[6, cols] = X[o + rows + 1]  # λ2' at the node
     status[cols[st == _int.REACHED_END]] = sh.NO_CLAMP
     status[cols[st == _int.STEP_LIMIT]] = sh.STEP_LIMIT
     failed = st >= _int.FAILED
@@ -571,10 +625,11 @@ def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status
     fail_R[cols[failed]] = X[_H["failR"], failed]
 
 
-def _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, rtol, atol):
-    """Locate the clamp or the switch inside the step that crossed it, then land on the clamp (with the
+def _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, node):
+    """Locate the clamp or the switch inside the step that crossed it (from the switching function and its
+    slope at both ends of that step, ``node``, see :func:`_segment`), then land on the clamp (with the
     derivatives) or switch the segment (with the saltation of the sensitivities)."""
-    _lay, model = eqs.lay, eqs.model
+    model = eqs.model
     lam_clamp = model.prestretch
     sel = np.flatnonzero(status[cols] <= -2)
     if not sel.size:
@@ -584,20 +639,30 @@ def _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from,
     fun = eqs.rhs(md)
     stepper = eqs.stepper(md, idx.size)
     Ra, ya = R[idx], y[:, idx]
-    fa = fun(Ra, ya)
+    # the CasADi stepper evaluates its first stage itself; numpy's takes it
+    fa = fun(Ra, ya) if isinstance(stepper, _int.NumpyStepper) else np.zeros_like(ya)
     hc = h[idx]
-    # every crossing function of the step, at its end: the clamp, and the switch
-    y_end = stepper.step(Ra, ya, fa, hc)[0]
-    f_end = fun(Ra + hc, y_end)
-    g_a, *_ = eqs.switching(md, ya, fa)
-    g_e, *_ = eqs.switching(md, y_end, f_end)
+    g_a, dg_a, g_e, dg_e, l2_e, f1_e, f1_a = node[:, idx]
+    # the last point evaluated in each column's step: where the location ends
+    last_s, last_y, last_f = np.full(idx.size, np.nan), ya.copy(), fa.copy()
 
     def at(s, j):
         ys, fs, _, _ = stepper.step(Ra[j], ya[:, j], fa[:, j], s)
+        last_s[j], last_y[:, j], last_f[:, j] = s, ys, fs
         return ys, fs
+
+    def g_switch(s, j):
+        ys, fs = at(s, j)
+        g, dg, *_ = eqs.switching(md, ys, fs)
+        return g, dg
+
+    def g_clamp(s, j):
+        ys, fs = at(s, j)
+        return ys[1] - lam_clamp, fs[1]
 
     # a dip: the switching function's minimum inside the step, located first (its slope's root)
     s_hi = hc.copy()
+    located = np.full(idx.size, np.nan)  # crossings located for both functions (a switch and the clamp in one step)
     dip = np.flatnonzero(kind == _DIP)
     if dip.size:
 
@@ -613,69 +678,109 @@ def _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from,
         kind[dip[real]] = _SWITCH
         kind[dip[~real]] = 0  # no crossing after all: resume after the step
         g_e[dip[real]] = g_min[real]
+        dg_e[dip[real]] = 0.0  # at the minimum
     # where both the clamp and a switch fall in the step, the first one counts
     both = np.flatnonzero((kind == _CLAMP) & (g_e <= 0) & (g_a > 0))
     if both.size:
-
-        def gsw(s, j):
-            ys, fs = at(s, both[j])
-            return eqs.switching(md, ys, fs)[0]
-
-        def gcl(s, j):
-            return at(s, both[j])[0][1] - lam_clamp
-
         g_lo, g_hi = np.maximum(g_a[both], 1e-300), np.minimum(g_e[both], -1e-300)
-        s_sw = bracketed_root(gsw, 0.0, hc[both], g_lo, g_hi, rtol=LOCATE_RTOL, max_iter=80).x
-        c_hi = np.minimum(y_end[1, both] - lam_clamp, -1e-300)
-        s_cl = bracketed_root(gcl, 0.0, hc[both], ya[1, both] - lam_clamp, c_hi, rtol=LOCATE_RTOL, max_iter=80).x
+        s_sw = _locate(lambda s, j: g_switch(s, both[j]), hc[both].copy(), g_lo, g_hi, dg_a[both], dg_e[both])
+        c_lo, c_hi = ya[1, both] - lam_clamp, np.minimum(l2_e[both] - lam_clamp, -1e-300)
+        s_cl = _locate(lambda s, j: g_clamp(s, both[j]), hc[both].copy(), c_lo, c_hi, f1_a[both], f1_e[both])
         first_switch = s_sw < s_cl
         kind[both[first_switch]] = _SWITCH
-        s_hi[both[first_switch]] = s_sw[first_switch]
+        located[both] = np.where(first_switch, s_sw, s_cl)
     # resume the false alarms at the end of their step
     none = np.flatnonzero(kind == 0)
     if none.size:
         R[idx[none]] = Ra[none] + hc[none]
-        y[:, idx[none]] = y_end[:, none]
+        y[:, idx[none]] = at(hc[none], none)[0]
         status[idx[none]] = -1
     for k in (_CLAMP, _SWITCH):
         j = np.flatnonzero(kind == k)
         if not j.size:
             continue
-        if k == _CLAMP:
-
-            def crossing(s, jj, j=j):
-                ys, fs = at(s, j[jj])
-                return ys[1] - lam_clamp, fs[1]
-
-        else:
-
-            def crossing(s, jj, j=j):
-                ys, fs = at(s, j[jj])
-                g, dg, *_ = eqs.switching(md, ys, fs)
-                return g, dg
-
-        # the integrator saw the crossing: its ends keep their signs (a re-evaluation may differ by roundoff)
-        if k == _SWITCH:
-            f_lo, f_hi = np.maximum(g_a[j], 1e-300), np.minimum(g_e[j], -1e-300)
-        else:
-            f_lo, f_hi = ya[1, j] - lam_clamp, np.minimum(y_end[1, j] - lam_clamp, -1e-300)
-        x = _locate(crossing, s_hi[j].copy(), f_lo, f_hi)
-        ys, fs = at(x, j)
-        Rs = Ra[j] + x
-        if k == _CLAMP:
+        x = located[j]
+        todo = np.flatnonzero(np.isnan(x))
+        if todo.size:
+            jt = j[todo]
+            # the integrator saw the crossing: its ends keep their signs (a re-evaluation may differ by roundoff)
+            if k == _SWITCH:
+                f_lo, f_hi, d_lo, d_hi = np.maximum(g_a[jt], 1e-300), np.minimum(g_e[jt], -1e-300), dg_a[jt], dg_e[jt]
+                crossing = g_switch
+            else:
+                f_lo, f_hi = ya[1, jt] - lam_clamp, np.minimum(l2_e[jt] - lam_clamp, -1e-300)
+                d_lo, d_hi = f1_a[jt], f1_e[jt]
+                crossing = g_clamp
+            x[todo] = _locate(lambda s, jj, jt=jt, c=crossing: c(s, jt[jj]), s_hi[jt].copy(), f_lo, f_hi, d_lo, d_hi)
+        if todo.size < j.size:  # located for both crossings: the point of the first one
+            jl = j[np.isnan(located[j]) == False]  # noqa: E712
+            at(located[jl], jl)
+        # the located point: the last one evaluated (exactly there, or one final Newton step away, see _locate)
+        Rs = Ra[j] + last_s[j]
+        ys, fs = last_y[:, j], last_f[:, j]
+        if k == _CLAMP:  # _land corrects onto the clamp from the nearby point itself
             _land(eqs, md, idx[j], Rs, ys, fs, out, status, intervals, wrinkled_from)
-        else:
+        else:  # the switch: the last Newton step taken along the trajectory (error ~ its square)
+            d = x - last_s[j]
+            moved = d != 0
+            if moved.any():
+                ys = ys + fs * d
+                Rs = Ra[j] + x
+                fs = np.where(moved, fun(Rs, ys), fs)
             _switch(eqs, md, idx[j], Rs, ys, fs, R, y, h, hc[j], mode, status, switches, wrinkled_from, intervals)
 
 
-def _locate(fun, hi, g_lo, g_hi, rtol=LOCATE_RTOL, max_iter=40):
+def _hermite_root(H, g_lo, g_hi, d_lo, d_hi, iterations=HERMITE_ITERATIONS):
+    """Root in ``(0, H)`` of the cubic Hermite interpolant of ``g`` on ``[0, H]`` from its values
+    ``g_lo > 0 > g_hi`` and slopes ``d_lo, d_hi`` at the ends: the starting point of :func:`_locate`.
+
+    With ``t = s/H``, ``a = H d_lo``, ``b = H d_hi``: ``p(t) = g_lo + a t + c2 t² + c3 t³``,
+    ``c2 = 3(g_hi − g_lo) − 2a − b``, ``c3 = 2(g_lo − g_hi) + a + b`` (error ``O(H⁴)``); its root by Newton's
+    method kept inside the shrinking bracket (bisection where a step leaves it), from the secant, until the
+    steps fall below 1e-10 (the interpolant's own error is larger). Non-finite slopes are taken as zero.
+    """
+    lo, hi = np.zeros_like(H), np.ones_like(H)
+    with np.errstate(all="ignore"):
+        t = np.clip(g_lo / (g_lo - g_hi), 0.0, 1.0)
+        a, b = H * d_lo, H * d_hi
+        finite = np.isfinite(a) & np.isfinite(b)
+        a, b = np.where(finite, a, 0.0), np.where(finite, b, 0.0)
+        c2 = 3 * (g_hi - g_lo) - 2 * a - b
+        c3 = 2 * (g_lo - g_hi) + a + b
+        for _ in range(iterations):
+            p = g_lo + t * (a + t * (c2 + t * c3))
+            dp = a + t * (2 * c2 + 3 * c3 * t)
+            pos = p > 0
+            lo = np.where(pos, t, lo)
+            hi = np.where(pos, hi, t)
+            new = t - p / dp
+            new = np.where(p == 0, t, np.where((new >= lo) & (new <= hi), new, 0.5 * (lo + hi)))  # NaN: bisection
+            done = np.max(np.abs(new - t)) <= 1e-10
+            t = new
+            if done:
+                break
+    return t * H
+
+
+def _locate(fun, hi, g_lo, g_hi, d_lo=None, d_hi=None, rtol=LOCATE_RTOL, max_iter=40):
     """Roots ``s`` in ``(0, hi)`` of ``g(s)`` given ``fun(s, idx) -> (g, dg/ds)``, ``g(0) = g_lo > 0 > g_hi =
-    g(hi)``: Newton's method kept inside the shrinking bracket (bisection where a step leaves it), from
-    the secant; converged when the Newton step is below ``rtol s`` (the point kept is then within that of
-    the root: quadratic convergence, about four evaluations)."""
+    g(hi)``: Newton's method kept inside the shrinking bracket (bisection where a step leaves it).
+
+    It starts at the root of the cubic Hermite interpolant (:func:`_hermite_root`) where the slopes
+    ``d_lo, d_hi`` at the ends are given (error ``O(hi⁴)``: two evaluations), else at the secant. It has
+    converged when a Newton step is below ``rtol s``, or when a Newton step ``δ`` inside the bracket is
+    below :data:`NEWTON_FINAL` ``s``: the point it gives is then within ``~|g''/(2g')| δ²`` of the root (quadratic
+    convergence; ``dg/ds`` is the slope of the exact flow, that of the step differs by the step's own
+    error, ``~rtol``), below ``rtol s`` without an evaluation more: ``g`` of a DOP853 step has a roundoff
+    floor near ``1e-13 s``, below which a stricter test could only bisect."""
     lo = np.zeros_like(hi)
     with np.errstate(all="ignore"):
-        x = np.clip(hi * g_lo / (g_lo - g_hi), 0.01 * hi, 0.99 * hi)
+        if d_lo is not None and d_hi is not None:
+            x = _hermite_root(hi, g_lo, g_hi, d_lo, d_hi)
+        else:
+            x = hi * g_lo / (g_lo - g_hi)
+        x = np.clip(x, 1e-6 * hi, (1 - 1e-6) * hi)
+        x = np.where(np.isfinite(x), x, 0.5 * hi)
     done = np.zeros(hi.size, dtype=bool)
     for _ in range(max_iter):
         o = np.flatnonzero(~done)
@@ -689,9 +794,11 @@ def _locate(fun, hi, g_lo, g_hi, rtol=LOCATE_RTOL, max_iter=40):
             step = g / dg
         new = x[o] - step
         ok = np.isfinite(new) & (new > lo[o]) & (new < hi[o])
-        conv = (ok & (np.abs(step) <= rtol * np.abs(x[o]))) | (g == 0)
+        small = np.abs(step) <= rtol * np.abs(x[o])
+        final = ok & ~small & (np.abs(step) <= NEWTON_FINAL * np.abs(x[o]))
+        conv = (ok & small) | final | (g == 0)
         conv |= hi[o] - lo[o] <= 4 * np.finfo(float).eps * hi[o]
-        x[o] = np.where(conv, x[o], np.where(ok, new, 0.5 * (lo[o] + hi[o])))
+        x[o] = np.where(final, new, np.where(conv, x[o], np.where(ok, new, 0.5 * (lo[o] + hi[o]))))
         done[o[conv]] = True
     return x
 
@@ -719,10 +826,18 @@ def _land(eqs, md, idx, Rs, ys, fs, out, status, intervals, wrinkled_from):
             out[f"dQ_d{a}"][idx] = fQ * (yc[first + 4] + fc[4] * dR)
     status[idx] = sh.OK
     open_ = md == WRINKLED
+    if open_:
+        _band_end(eqs, idx, yc, fc)
     for _i, c in enumerate(idx):
         if open_:
             intervals[c].append((wrinkled_from[c], math.inf))
     return Rc
+
+
+def _band_end(eqs, idx, y, f):
+    """Record ``K/T̂11`` where the wrinkled bands of the columns ``idx`` end (at ``y``, ``f``)."""
+    stiff = eqs.switching(WRINKLED, y, f)[5] + PULL_IN_TOLERANCE
+    eqs.band_stiffness[idx] = np.minimum(eqs.band_stiffness[idx], stiff)
 
 
 def _switch(eqs, md, idx, Rs, ys, fs, R, y, h, hc, mode, status, switches, wrinkled_from, intervals):
@@ -749,6 +864,8 @@ def _switch(eqs, md, idx, Rs, ys, fs, R, y, h, hc, mode, status, switches, wrink
             dtau = -(grad[0] * yn[first] + grad[1] * yn[first + 1] + g_a) / denom
             for r in range(5):
                 yn[first + r] = yn[first + r] + (fs[r] - fn[r]) * dtau
+    if md == WRINKLED:
+        _band_end(eqs, idx, ys, fs)
     R[idx] = Rs
     y[:, idx] = yn
     h[idx] = np.maximum(hc, 1e-6 * Rs)  # a switch located at the very start of its step: never a zero step

@@ -436,6 +436,7 @@ _GOOD = {
     "inner_fraction": 0.5,
     "outer_fraction": 0.8,
     "passive": 2,
+    "regions": [1, 2],
 }
 #: keys that make a consistent section, where not any subset does
 _NAMES = {

@@ -214,8 +214,8 @@ def test_scene_field():
 
 def test_paper_scene_with_tension_field_ends_by_pull_in():
     """The README's claim: the paper's scene (``wrinkling = "tension-field"``) follows the bulged zone past the
-    taut model's end (4.331806 kV, its hoop tension reaching zero) and loses it at 4.33663 kV (measured error
-    3.3e-5 kV), where the wrinkled zone pulls in (electromechanical instability); the transitions below are the
+    taut model's end (4.331806 kV, its hoop tension reaching zero) and loses it at 4.33662899 kV (measured
+    error 5.2e-8 kV), where the wrinkled zone pulls in (electromechanical instability); the transitions below are the
     taut model's."""
     from coexist.scene import builtin_scene_text
     from coexist.simulation import simulate_ramp
@@ -223,8 +223,82 @@ def test_paper_scene_with_tension_field_ends_by_pull_in():
     report = simulate_ramp(parse_scene(builtin_scene_text("tricircle")))
     by_kind = {(t.kind, t.direction): t for t in report.result.transitions}
     end = by_kind[("no_stable_state", "up")]
-    assert report.voltage_kV(end.phi_hat) == pytest.approx(4.336629, abs=1e-4)
-    assert report.voltage_kV(end.phi_hat_error) < 2e-4
+    assert report.voltage_kV(end.phi_hat) == pytest.approx(4.336628993, abs=1e-6)
+    assert report.voltage_kV(end.phi_hat_error) < 2e-7
     assert "electromechanical_instability" in end.reason + " ".join(report.result.notes)
     assert report.voltage_kV(by_kind[("spinodal", "up")].phi_hat) == pytest.approx(3.900030858, abs=2e-8)
     assert report.voltage_kV(by_kind[("spinodal", "down")].phi_hat) == pytest.approx(3.549240820, abs=2e-8)
+
+
+# --- the fast path (issue 12's speed target): the restart at the taut shot's last node, the switch location ---
+
+
+def test_hermite_root_is_exact_for_a_cubic():
+    """The start of the switch location: the root of the cubic Hermite interpolant reproduces the root of a
+    cubic exactly (end values and slopes determine it), here g(s) = (s0 − s)(1 + s²) on [0, H]."""
+    from coexist.wrinkling import _hermite_root
+
+    H = np.array([1.0, 2.0, 0.5, 1e-3])
+    s0 = np.array([0.3, 1.5, 0.1, 7e-4])
+    g = lambda s: (s0 - s) * (1 + s**2)  # noqa: E731
+    dg = lambda s: -(1 + s**2) + (s0 - s) * 2 * s  # noqa: E731
+    x = _hermite_root(H, g(0 * H), g(H), dg(0 * H), dg(H))
+    assert x == pytest.approx(s0, rel=1e-12, abs=0)
+
+
+def test_locate_converges_in_two_evaluations_from_the_hermite_start():
+    """_locate on g(s) = cos(a + s) − cos(a + r) in steps of H = 0.4 (root s = r): the roots to 1e-14
+    relative, every column done after at most two evaluations (Hermite start, error O(H⁴); one Newton step;
+    a final one below NEWTON_FINAL taken without evaluating); from the secant alone it needs more."""
+    from coexist.wrinkling import _locate
+
+    a = np.array([0.2, 0.5, 0.9, 1.2])
+    r = np.array([0.05, 0.2, 0.33, 0.38])
+    H = np.full(4, 0.4)
+    calls = []
+
+    def fun(s, idx):
+        calls.append(idx.size)
+        return np.cos(a[idx] + s) - np.cos(a[idx] + r[idx]), -np.sin(a[idx] + s)
+
+    g_lo, g_hi = np.cos(a) - np.cos(a + r), np.cos(a + H) - np.cos(a + r)
+    x = _locate(fun, H.copy(), g_lo, g_hi, -np.sin(a), -np.sin(a + H))
+    assert x == pytest.approx(r, rel=1e-14, abs=0)
+    assert len(calls) <= 2
+    calls.clear()
+    x = _locate(fun, H.copy(), g_lo, g_hi)
+    assert x == pytest.approx(r, rel=1e-14, abs=0)
+    assert len(calls) >= 3
+
+
+@pytest.mark.parametrize("n", [40, 300])  # the compiled attempt function (small batches) and numpy (large)
+def test_wrinkled_states_restart_at_the_taut_shots_last_node(monkeypatch, n):
+    """solve_states hands each wrinkled state to shoot_relaxed at the last node its taut shot vouches for
+    (hoop tension still positive there, beyond the pole), and the states equal those shot from the pole
+    (the same equations, another step sequence: to the integration's accuracy, 1e-9; derivatives 1e-6)."""
+    import coexist.wrinkling as wr
+
+    model = relaxed("gent")
+    l0, phi = np.linspace(5.95, 6.9, n), 0.3
+    seen = {}
+    original = wr.shoot_relaxed
+
+    def spy(model_, settings, l0_, phi_, derivatives=False, start=None):
+        seen["start"] = start
+        return original(model_, settings, l0_, phi_, derivatives, start=start)
+
+    monkeypatch.setattr(wr, "shoot_relaxed", spy)
+    st = solve_states(model, l0, phi, derivatives=True)
+    start = seen["start"]
+    assert np.all(st.wrinkled_fraction > 0) and np.all(st.ok)
+    assert np.all(np.isfinite(start["R"])) and np.all(start["R"] > 100 * SolverSettings().series_radius)
+    T2 = model.tensions(start["y"][0], start["y"][1], phi)[1]
+    assert np.all(T2 > 0)
+    # the same states shot from the pole
+    shots = original(model, SolverSettings(), l0, np.full(n, phi), True)
+    R = shots.out["R"]
+    assert st.p_hat == pytest.approx(shots.out["p"] * R, rel=1e-9)
+    assert st.v_hat == pytest.approx(shots.out["V"] / R**3, rel=1e-9)
+    assert st.q_hat == pytest.approx(shots.out["Q"] / R**2, rel=1e-9)
+    dp = shots.out["p"] * shots.out["dR_dl0"]
+    assert st.derivatives.dp_dl0 == pytest.approx(dp, rel=1e-6, abs=1e-9 * np.abs(dp).max())

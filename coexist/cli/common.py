@@ -377,11 +377,17 @@ def load_scene_arg(scene):
         raise InputError(f"{scene or 'default scene'}: {exc}") from None
 
 
-def uniform_scene_arg(scene, command: str):
-    """A scene as :func:`load_scene_arg` loads it, refused (exit 2, one line) if its zones are patterned.
+#: the N-zone commands that take patterned zones: their zones are shot through the scene's model, a
+#: :class:`~coexist.patterned.PatternedModel` (region by region, with exact derivatives)
+PATTERNED_COMMANDS = ("ramp", "coexistence")
 
-    The N-zone commands (ramp, coexistence, fit, sweep, shape) take zones with a full electrode only so far;
-    patterned zones are computed by ``coexist curves`` (:meth:`coexist.scene.Scene.require_uniform`).
+
+def uniform_scene_arg(scene, command: str):
+    """A scene as :func:`load_scene_arg` loads it, refused (exit 2, one line) if its zones are patterned and
+    ``command`` is not one of :data:`PATTERNED_COMMANDS`.
+
+    ``coexist ramp`` and ``coexist coexistence`` take patterned zones; fit, sweep and ``ramp --shapes`` take
+    zones with a full electrode only so far (:meth:`coexist.scene.Scene.require_uniform`).
 
     Parameters
     ----------
@@ -402,6 +408,8 @@ def uniform_scene_arg(scene, command: str):
     from coexist.errors import SceneError
 
     sc = load_scene_arg(scene)
+    if command in PATTERNED_COMMANDS:
+        return sc
     try:
         sc.require_uniform(f"`coexist {command}`")
     except SceneError as exc:

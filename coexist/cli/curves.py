@@ -234,18 +234,24 @@ def _pattern_fields(sc, pattern, inner, outer, passive) -> dict:
         if outer is None and pattern == "ring" and sc.outer_fraction is not None:
             outer = sc.outer_fraction
             from_scene.add("outer_fraction")
-        if passive is None and pattern != "full":
+        region_layers = None
+        if passive is None and pattern == sc.electrode_pattern and sc.region_layers is not None:
+            region_layers = sc.region_layers  # the scene's [layers] regions, where its pattern still applies
+            from_scene.add("regions")
+        elif passive is None and pattern != "full":
             passive = sc.passive_layers
             from_scene.add("passive")
+    else:
+        region_layers = None
     passive = 1 if passive is None else passive
 
     def where(name):
         if name in from_scene and sc is not None:
-            return f"{sc.name or sc.source}: [{'layers' if name == 'passive' else 'electrodes'}].{name}"
-        return options[name]
+            return f"{sc.name or sc.source}: [{'layers' if name in ('passive', 'regions') else 'electrodes'}].{name}"
+        return options.get(name, name)
 
     try:
-        return pattern_fields(pattern, inner, outer, passive, where)
+        return pattern_fields(pattern, inner, outer, passive, where, region_layers=region_layers)
     except SceneError as exc:
         raise InputError(str(exc)) from None
 
@@ -256,6 +262,7 @@ def _pattern_dict(fields, zone) -> dict:
         "inner_fraction": fields["inner_fraction"],
         "outer_fraction": fields["outer_fraction"],
         "passive_layers": fields["passive_layers"],
+        "region_layers": None if fields.get("region_layers") is None else list(fields["region_layers"]),
         "regions": [{"outer": r.outer, "layers": r.layers, "electrode": r.electrode} for r in zone.regions],
     }
 

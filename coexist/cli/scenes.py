@@ -74,10 +74,11 @@ def check(scene, as_json, no_solve):
                 f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)"
             )
     cost = None
-    if loaded.patterned:  # no ramp for patterned zones yet: no ramp cost, and say what works
+    if loaded.patterned:  # the cost model is a uniform zone's: no ramp cost, and say what works
         info(
             f'note: patterned zones (pattern "{loaded.electrode_pattern}"): `coexist curves --scene {scene}` computes '
-            "their curves; the ramp, coexistence, fit, sweep and shape commands refuse them so far"
+            "their curves, `coexist ramp` and `coexist coexistence` their equilibria (several times a uniform "
+            "scene's time); fit and sweep refuse them so far"
         )
     elif loaded.voltage is not None:
         from coexist.cost import ramp_cost

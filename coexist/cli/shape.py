@@ -10,9 +10,9 @@ from .common import (
     accuracy_option,
     info,
     library_errors,
+    load_scene_arg,
     parse_floats,
     settings_from,
-    uniform_scene_arg,
     write_json,
 )
 
@@ -20,6 +20,10 @@ from .common import (
 MAX_DRAWN_ZONES = 12
 #: zones printed one by one in the table; more are printed per group (as ``coexist ramp`` does)
 MAX_LISTED_ZONES = 6
+#: most voltages one --voltage-kV range may give
+MAX_VOLTAGES = 2000
+#: side views drawn in the lens figure of a patterned zone (spread over the voltages reached)
+LENS_SIDE_VIEWS = 5
 
 
 @click.command()
@@ -29,9 +33,17 @@ MAX_LISTED_ZONES = 6
     "voltages",
     default="0",
     show_default=True,
-    help="Comma-separated voltages in kV (0 to the scene's stop), visited on the slow ramp up.",
+    help="Voltages in kV (0 to the scene's stop), visited on the slow ramp up: comma-separated, or a range "
+    "START:STOP:STEP (STOP included when on the grid).",
 )
-@click.option("-o", "--plot", "plot", default=None, help="Side view of the zones at each voltage (.png/.svg/.pdf).")
+@click.option(
+    "-o",
+    "--plot",
+    "plot",
+    default=None,
+    help="Side view of the zones at each voltage (.png/.svg/.pdf); for a patterned zone the lens figure: side "
+    "views at a few voltages and the apex curvature and height against the voltage.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print the shapes (with their profile points) as JSON.")
 @click.option(
     "--points",
@@ -52,14 +64,18 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
     figure of merit, exact from the Laplace law p = 2 t κ0 of the equibiaxial pole) with its radius
     of curvature (mm), and the electrode edge (mm; the clamp for a uniform electrode). -o draws the
     zones side by side at each voltage, to scale.
+
+    A patterned zone (one zone, e.g. the inner-circle scene): the states on its gas (or at its controlled
+    pressure) continued from the closing state, each a converged patterned state; the states stop where none
+    exists (snap-through, wrinkling, pull-in: named, the voltage bisected); -o draws the lens figure.
     """
     from coexist.ramp import Ramp
     from coexist.shapes import equilibrium_profiles
     from coexist.simulation import Simulation
 
-    sc = uniform_scene_arg(scene, "shape")
+    sc = load_scene_arg(scene)  # a patterned zone: its own path (_patterned)
     settings = settings_from(accuracy, rtol)
-    kv = parse_floats(voltages, "--voltage-kV", nonnegative=True)
+    kv = parse_voltages(voltages)
     if sc.voltage is None:
         if any(v != 0 for v in kv):
             raise InputError(f"--voltage-kV: the scene {sc.name or sc.source} has no [voltage]; only 0 kV is possible")
@@ -68,6 +84,9 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
         over = [v for v in kv if v > stop * (1 + 1e-12)]
         if over:
             raise InputError(f"--voltage-kV: {over[0]:g} kV is above the scene's stop, {stop:g} kV ([voltage])")
+    if sc.patterned:
+        _patterned(sc, settings, kv, plot, as_json, points, overwrite)
+        return
     with Outputs(overwrite) as out:
         plot_path = out.figure(plot, "--plot")
         info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
@@ -86,6 +105,130 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
         data = _to_dict(sc, settings, rows)
         if plot_path is not None:
             _figure(sc, rows, out.staged(plot_path))
+    if as_json:
+        write_json(data)
+        return
+    _table(data)
+
+
+def parse_voltages(text: str) -> list[float]:
+    """``--voltage-kV``: ``"0,2,4"`` or a range ``"START:STOP:STEP"`` (``STOP`` included when it lies on the grid,
+    to 1e-9 of a step), or an :class:`InputError` naming the option.
+
+    Parameters
+    ----------
+    text : str
+        The option's value.
+
+    Returns
+    -------
+    list of float
+        The voltages in kV (not negative).
+    """
+    import math
+
+    if ":" not in str(text):
+        return parse_floats(text, "--voltage-kV", nonnegative=True)
+    parts = str(text).replace(" ", "").split(":")
+    if len(parts) != 3:
+        raise InputError(f"--voltage-kV: a range is START:STOP:STEP, got {text!r}")
+    try:
+        start, stop, step = (float(x) for x in parts)
+    except ValueError:
+        raise InputError(f"--voltage-kV: a range is START:STOP:STEP with numbers, got {text!r}") from None
+    if not all(math.isfinite(x) for x in (start, stop, step)):
+        raise InputError(f"--voltage-kV: values must be finite, got {text!r}")
+    if start < 0:
+        raise InputError(f"--voltage-kV: values must not be negative, got {text!r}")
+    if not step > 0:
+        raise InputError(f"--voltage-kV: the step must be positive, got {step:g}")
+    if stop < start:
+        raise InputError(f"--voltage-kV: the range must go up, got {start:g} to {stop:g}")
+    n = math.floor((stop - start) / step + 1e-9)
+    if n + 1 > MAX_VOLTAGES:
+        raise InputError(f"--voltage-kV: {n + 1} voltages; at most {MAX_VOLTAGES}")
+    return [round(start + i * step, 12) for i in range(n + 1)]
+
+
+def _patterned(sc, settings, kv, plot, as_json, points, overwrite):
+    """``coexist shape`` for a patterned zone: its states along the voltages (one zone on its gas or at its
+    controlled pressure, :func:`coexist.shapes.scene_zone_path`), their profiles and the lens figure."""
+    from coexist.errors import SceneError
+    from coexist.shapes import lens_ratio, patterned_profiles, scene_zone_path
+
+    if sc.zone_count != 1:
+        raise InputError(
+            f"{sc.name or sc.source}: [zones].count: shape takes one patterned zone so far, the scene has "
+            f"{sc.zone_count} (zones on one gas may split, which needs the patterned states' derivatives)"
+        )
+    if sc.voltage is None:
+        if any(v != 0 for v in kv):
+            raise InputError(f"--voltage-kV: the scene {sc.name or sc.source} has no [voltage]; only 0 kV is possible")
+    else:
+        stop = sc.voltage.peak / 1e3
+        over = [v for v in kv if v > stop * (1 + 1e-12)]
+        if over:
+            raise InputError(f"--voltage-kV: {over[0]:g} kV is above the scene's stop, {stop:g} kV ([voltage])")
+    with Outputs(overwrite) as out:
+        plot_path = out.figure(plot, "--plot")
+        info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
+        info(f"zone: regions R/A {sc.zone_pattern().describe()}")
+        order = sorted(set(kv))
+        phis = [float(sc.phi_hat(v * 1e3)) for v in order]
+        info(f"following the patterned zone's states up through {len(order)} voltages ...")
+        path, source = scene_zone_path(sc, phis, settings)
+        reached = order[: path.phi_hat.size]
+        profs = (
+            patterned_profiles(
+                sc.model(),
+                sc.zone_pattern(),
+                path.pole_stretch,
+                path.phi_hat,
+                zone_radius=sc.zone_radius,
+                points=points,
+                settings=settings,
+            )
+            if path.phi_hat.size
+            else []
+        )
+        by_kv = dict(zip(reached, profs))
+        end_kv = None if path.end_phi_hat is None else [float(sc.voltage_of(x)) / 1e3 for x in path.end_phi_hat]
+        entries = []
+        for v in kv:
+            prof = by_kv.get(v)
+            if prof is None:
+                note = f"{path.end_kind}: no state above {end_kv[0]:.6f} kV" if end_kv else path.end_reason
+                entries.append({"voltage_kV": v, "configuration": "none", "groups": [], "note": note})
+                continue
+            entry = {
+                "voltage_kV": v,
+                "configuration": "1 zone",
+                "pressure_mbar": float(sc.pressure(prof.p_hat) / 100),
+                "groups": [{"zones": 1, **prof.to_dict(points=True)}],
+            }
+            try:
+                entry["groups"][0]["lens_ratio"] = lens_ratio(prof)
+            except SceneError:
+                pass
+            entries.append(entry)
+        data = {
+            "scene": sc.name or str(sc.source),
+            "zone_radius_mm": sc.zone_radius * 1e3,
+            "zones": sc.zone_count,
+            "pattern": sc.zone_pattern().describe(),
+            "relative_tolerance": settings.rtol,
+            "voltages": entries,
+            "end": None
+            if path.end_kind is None
+            else {"kind": path.end_kind, "reason": path.end_reason, "voltage_kV": end_kv},
+        }
+        if plot_path is not None:
+            from coexist.plotting import plot_lens
+
+            plot_lens(sc, reached, profs, data["end"], out.staged(plot_path), side_views=LENS_SIDE_VIEWS)
+    if path.end_kind is not None:
+        where = "" if end_kv is None else f" between {end_kv[0]:.6f} and {end_kv[1]:.6f} kV"
+        info(f"the states end{where}: {path.end_kind}: {path.end_reason}")
     if as_json:
         write_json(data)
         return

@@ -1,0 +1,70 @@
+"""The pull-in of a wrinkled band: the quantity it is located by, and where the located end lies.
+
+At the default scene's pull-in (docs/physics.md, section 10) the wrinkled band of the bulged zone ends where
+the stiffness along the natural width, ``K = dT̂1ʷ/dλ1``, vanishes. Each shot records ``K/T̂11`` at the outer
+end of its bands (``MembraneStates.wrinkled_stiffness``), and the continuation extrapolates its zero
+(``Tracer.pull_in_end``).
+"""
+
+import numpy as np
+import pytest
+
+from coexist.effects import Gent, IdealDielectric
+from coexist.model import MembraneModel
+from coexist.settings import SolverSettings
+from coexist.shooting import solve_states
+from coexist.studies.wrinkled_shooting import shoot_relaxed
+from coexist.wrinkling import natural_width
+
+MODEL = MembraneModel(Gent(97.0), IdealDielectric(), 1.0, wrinkling="tension-field")
+
+
+@pytest.fixture(scope="module")
+def tricircle():
+    from coexist.scene import load_scene
+    from coexist.simulation import Simulation
+
+    sim = Simulation.from_scene(load_scene("tricircle"))
+    return None, sim, sim.ramp()
+
+
+@pytest.mark.parametrize("l0", [5.826, 5.8272, 5.8275])
+def test_band_end_stiffness_matches_an_independent_shot(l0):
+    """``wrinkled_stiffness`` of the vectorised shooting equals ``K/T̂11`` at the end of the wrinkled segment
+    of scipy's one-state shooting (``coexist.studies.wrinkled_shooting``, rtol 1e-12), evaluated there from
+    the model's tensions and the natural width; to 1e-7 absolute (K/T̂11 here is 1e-4 … 3e-2)."""
+    phi = 0.26375
+    st = solve_states(MODEL, [l0], phi, SolverSettings(rtol=1e-10)).require_ok()
+    ref = shoot_relaxed(MODEL, l0, phi, rtol=1e-12)
+    assert ref.status == "ok"
+    seg = next(s for s in ref.segments if s["kind"] == "wrinkled")
+    l1 = seg["solution"](seg["R"][1])[0]
+    w = natural_width(MODEL, np.array([l1]), phi)
+    T11 = MODEL.tensions(np.array([l1]), w, phi)[2]
+    K = MODEL.wrinkle_aux(np.array([l1]), w, phi)[1]
+    expected = float(np.squeeze(K / T11))
+    assert 0 < expected < 0.05
+    assert float(st.wrinkled_stiffness[0]) == pytest.approx(expected, abs=1e-7)
+
+
+def test_taut_states_carry_infinite_band_stiffness():
+    st = solve_states(MODEL, [1.5, 2.5], 0.1)
+    assert np.all(st.wrinkled_stiffness == np.inf)
+    assert solve_states(MembraneModel(Gent(97.0), IdealDielectric()), [1.5], 0.1).wrinkled_stiffness is None
+
+
+def test_located_pull_in_separates_states_from_none(tricircle):
+    """Along the path's tangent at the located end, a state exists 1e-6 (arclength) before it and none 1e-6
+    beyond it (each corrected tightly): the extrapolated end lies inside that bracket, ``Φ̂`` ± 1e-7."""
+    _, sim, report = tricircle
+    end = next(t for t in report.result.transitions if t.kind == "no_stable_state")
+    ev = end.source
+    tracer = sim.emap.tracer(end.source_counts)
+    from coexist.continuation import Point
+
+    M = tracer.M
+    base = Point(ev.z.copy(), ev.tangent, ev.eq, np.zeros(M), np.zeros(M), (0,) * M, True)
+    before, beyond = tracer._points_at(base, None, 0.0, [-1e-6, 1e-6], False)
+    assert before is not None and min(before.eq.wrinkled_stiffness) > 0
+    assert beyond is None or not beyond.tangent @ ev.tangent > 0
+    assert abs(before.phi - end.phi_hat) < 1e-7

@@ -1,0 +1,195 @@
+"""Patterned zones' shapes (coexist.shapes): the inner-circle lens along the voltage, its figure command, and
+per-region layers ([layers] regions).
+
+The figure figures/inner_circle_lens.png is `coexist shape inner-circle --voltage-kV 0:5:0.1 -o ...`: its headline
+is the apex curvature at the top voltage with a state, 4.1 kV: 42.8402 /m (33.3065 /m at 0 V), the centre's
+curvature over the passive ring's 1.399 (1.083 at 0 V), and the end of the states, a snap-through at
+4.17865 kV. Checked here on a shorter voltage path (a different continuation), against independent routes.
+"""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from scipy.optimize import brentq
+
+from coexist.cli.main import cli
+from coexist.effects import GasChamber
+from coexist.errors import SceneError
+from coexist.patterned import ZonePattern, solve_patterned_states
+from coexist.scene import load_scene, parse_scene
+from coexist.shapes import lens_ratio, patterned_profiles, profile, scene_zone_path
+
+
+def run(*args):
+    r = CliRunner().invoke(cli, list(args))
+    assert r.exit_code == 0, r.output
+    return r
+
+
+@pytest.fixture(scope="module")
+def lens():
+    """The command on three voltages (0, 2 and 4.1 kV: large continuation steps, not the figure's 0.1 kV)."""
+    r = run("shape", "inner-circle", "--voltage-kV", "0,2,4.1", "--points", "201", "--json")
+    return json.loads(r.stdout)
+
+
+def test_lens_headline_apex_curvature_at_the_top_voltage(lens):
+    """At 4.1 kV the apex curvature is 42.8402 /m and the apex 37.9553 mm high, as the figure's 0.1 kV path
+    gives (to 1e-6: the gas balance of either path is solved to the solver's tolerance)."""
+    top = lens["voltages"][2]
+    assert top["voltage_kV"] == 4.1 and top["configuration"] == "1 zone"
+    g = top["groups"][0]
+    assert g["apex_curvature_per_m"] == pytest.approx(42.840158, rel=1e-6)
+    assert g["apex_height_mm"] == pytest.approx(37.955263, rel=1e-6)
+    assert lens["end"] is None
+
+
+def test_lens_curvature_from_the_profile_points(lens):
+    """Independently: the curvature of a polynomial in r² fitted to the profile's points near the pole equals the
+    Laplace-law curvature (to 1e-7), and the electrode edge is a point of the profile."""
+    for entry in lens["voltages"]:
+        g = entry["groups"][0]
+        r = np.array(g["profile"]["r_mm"]) * 1e-3
+        z = np.array(g["profile"]["z_mm"]) * 1e-3
+        k = 8
+        coef = np.polyfit(r[:k] ** 2, z[:k], 3)  # z = h − κ r²/2 + O(r⁴)
+        assert -2 * coef[-2] == pytest.approx(g["apex_curvature_per_m"], rel=1e-7)
+        assert coef[-1] * 1e3 == pytest.approx(g["apex_height_mm"], rel=1e-10)
+        edge = np.array(g["electrode_edge_mm"]) * 1e-3
+        d = np.hypot(r - edge[0], z - edge[1])
+        assert d.min() < 1e-9  # the interface R/A = 0.5 is among the points
+
+
+def test_lens_state_balances_an_independently_closed_gas(lens):
+    """Independently: the gas closed at 16 mbar around the 0 V state (found here by brentq on the patterned
+    states), and the state at 4.1 kV solved directly at the reported pole stretch: the zone's pressure equals
+    the gas's at its volume (to 1e-8 relative), and its curvature is the reported one."""
+    sc = load_scene("inner-circle")
+    model, pattern = sc.model(), sc.zone_pattern()
+    p_close = sc.closing_pressure_hat
+
+    def p_at(lam, phi=0.0):
+        return float(solve_patterned_states(model, pattern, [lam], phi).p_hat[0])
+
+    lam_c = brentq(lambda x: p_at(x) - p_close, 2.0, 2.5, xtol=1e-14)
+    assert lam_c == pytest.approx(lens["voltages"][0]["groups"][0]["pole_stretch"], rel=1e-9)
+    v_c = float(solve_patterned_states(model, pattern, [lam_c], 0.0).v_hat[0])
+    gas = GasChamber.closed_at(sc.chamber_volume_hat, sc.atmospheric_pressure_hat, p_close, v_c)
+    top = lens["voltages"][2]["groups"][0]
+    phi = float(sc.phi_hat(4100.0))
+    st = solve_patterned_states(model, pattern, [top["pole_stretch"]], phi)
+    assert float(st.p_hat[0]) == pytest.approx(float(gas.pressure(st.v_hat[0])), rel=1e-8)
+    assert float(sc.pressure(st.p_hat[0]) / 100) == pytest.approx(lens["voltages"][2]["pressure_mbar"], rel=1e-8)
+    prof = patterned_profiles(model, pattern, top["pole_stretch"], phi, zone_radius=sc.zone_radius, points=5)[0]
+    assert prof.apex_curvature == pytest.approx(top["apex_curvature_per_m"], rel=1e-12)
+
+
+def test_lens_centre_bulges_ahead_of_the_ring(lens):
+    """The apex curvature, the apex height and κ0/κring rise with the voltage while the electrode edge sinks:
+    the active centre bulges ahead of the passive ring (κ0/κring 1.0835 at 0 V, 1.3990 at 4.1 kV)."""
+    groups = [e["groups"][0] for e in lens["voltages"]]
+    kappa = [g["apex_curvature_per_m"] for g in groups]
+    ratio = [g["lens_ratio"] for g in groups]
+    height = [g["apex_height_mm"] for g in groups]
+    edge_z = [g["electrode_edge_mm"][1] for g in groups]
+    assert np.all(np.diff(kappa) > 0) and np.all(np.diff(ratio) > 0) and np.all(np.diff(height) > 0)
+    assert np.all(np.diff(edge_z) < 0)
+    assert ratio[0] == pytest.approx(1.08346, abs=1e-5) and ratio[2] == pytest.approx(1.39896, abs=1e-5)
+    assert kappa[2] / kappa[0] == pytest.approx(42.840158 / 33.306493, rel=1e-6)
+
+
+def test_lens_states_end_in_a_snap_through():
+    """Past 4.1 kV the states stop: the zone–gas equilibrium folds (snap-through) at 4.17865 kV, bisected to
+    1e-6 in Φ̂ (0.016 V); the end is a named kind with its voltage bracket."""
+    sc = load_scene("inner-circle")
+    phis = [float(sc.phi_hat(v)) for v in (0.0, 4100.0, 4200.0)]
+    path, _ = scene_zone_path(sc, phis)
+    assert path.phi_hat.size == 2 and path.end_kind == "snap-through"
+    lo, hi = (float(sc.voltage_of(x)) / 1e3 for x in path.end_phi_hat)
+    assert 0 < hi - lo <= 2e-5 and lo == pytest.approx(4.17865, abs=3e-5)
+    assert "snaps through" in path.end_reason
+
+
+def test_patterned_profile_of_a_full_pattern_is_the_uniform_profile():
+    """A one-region pattern through the region-by-region re-integration equals the uniform zone's profile."""
+    sc = load_scene("inner-circle")
+    model = sc.model()
+    pf = patterned_profiles(model, ZonePattern.full(), [1.6], [0.12], zone_radius=0.02, points=41)[0]
+    pu = profile(model, 1.6, 0.12, zone_radius=0.02, points=41)
+    assert np.max(np.abs(pf.z_hat - pu.z_hat)) < 1e-9 and np.max(np.abs(pf.r_hat - pu.r_hat)) < 1e-9
+    assert pf.apex_curvature == pytest.approx(pu.apex_curvature, rel=1e-12)
+    with pytest.raises(SceneError):
+        lens_ratio(pf)  # no passive ring
+
+
+def test_region_layers_double_the_pressure():
+    """A pattern whose regions are all two layers carries exactly twice the pressure of one layer at the same pole
+    stretch (at Φ̂ = 0, and at twice the voltage: Φ̂/n per layer), to 1e-10."""
+    sc = load_scene("inner-circle")
+    model = sc.model()
+    one = ZonePattern.inner_circle(0.5).with_layers([1, 1])
+    two = ZonePattern.inner_circle(0.5).with_layers([2, 2])
+    lam = np.array([1.4, 2.0, 2.6])
+    for phi in (0.0, 0.1):
+        a = solve_patterned_states(model, one, lam, phi).require_ok()
+        b = solve_patterned_states(model, two, lam, 2 * phi).require_ok()
+        np.testing.assert_allclose(b.p_hat, 2 * a.p_hat, rtol=1e-10)
+        np.testing.assert_allclose(b.v_hat, a.v_hat, rtol=1e-10)
+    # [1, 2] is the scene's "passive = 2"
+    regions = parse_scene(SCENE_TEXT_FILE().replace("passive = 2", "regions = [1, 2]"))
+    assert regions.zone_pattern() == load_scene("inner-circle").zone_pattern()
+    assert "layers:1,2" in regions.effects()
+
+
+def SCENE_TEXT_FILE() -> str:
+    from coexist.scene import builtin_scene_text
+
+    return builtin_scene_text("inner-circle")
+
+
+@pytest.mark.parametrize(
+    "layers, words",
+    [
+        ("regions = [1, 2, 2]", "has 2 regions"),
+        ("regions = [1, 0]", "whole number from 1 to 100"),
+        ("regions = [1, 101]", "whole number from 1 to 100"),
+        ("regions = [1, 2.5]", "whole number"),
+        ("passive = 2\nregions = [1, 2]", "not both"),
+    ],
+)
+def test_region_layers_are_validated(layers, words):
+    with pytest.raises(SceneError) as info:
+        parse_scene(SCENE_TEXT_FILE().replace("passive = 2", layers))
+    assert info.value.field == "[layers].regions" and words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_region_layers_reach_coexist_curves(tmp_path):
+    """`coexist curves --scene` takes [layers] regions: [1, 2] gives the passive = 2 zone's snap-through."""
+    f = tmp_path / "s.toml"
+    f.write_text(SCENE_TEXT_FILE().replace("passive = 2", "regions = [2, 2]"))
+    r = run("curves", "--scene", str(f), "--phi-hat", "0", "--points", "30", "--json")
+    data = json.loads(r.stdout)
+    assert data["model"]["pattern"]["region_layers"] == [2, 2]
+    assert [g["layers"] for g in data["model"]["pattern"]["regions"]] == [2, 2]
+    # two layers everywhere at 0 V: twice the one-layer zone's p̂max 1.97275
+    assert data["curves"][0]["limit_points"][0]["p_hat"] == pytest.approx(2 * 1.97275, abs=2e-5)
+    bad = tmp_path / "bad.toml"
+    bad.write_text(SCENE_TEXT_FILE().replace("passive = 2", "regions = [1]"))
+    r = CliRunner().invoke(cli, ["curves", "--scene", str(bad)])
+    assert r.exit_code == 2 and "[layers].regions" in r.output and "Traceback" not in r.output
+
+
+@pytest.mark.parametrize("bad", ["1:0:0.1", "0:1:0", "0:1", "0:x:1", "-1:1:1"])
+def test_voltage_range_bad_input_is_exit_2(bad):
+    r = CliRunner().invoke(cli, ["shape", "inner-circle", "--voltage-kV", bad])
+    assert r.exit_code == 2 and "--voltage-kV" in r.output and "Traceback" not in r.output
+
+
+def test_voltage_range_parses():
+    from coexist.cli.shape import parse_voltages
+
+    assert parse_voltages("0:1:0.25") == [0.0, 0.25, 0.5, 0.75, 1.0]
+    assert parse_voltages("0:0.95:0.1")[-1] == 0.9
+    assert parse_voltages("0,2") == [0.0, 2.0]
