@@ -99,3 +99,42 @@ def test_the_cache_is_bounded_least_recently_used_first(tmp_path):
     os.utime(tmp_path / "f0")  # used just now: kept
     assert cache.prune(tmp_path, max_bytes=2500) == 3
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f0", "f4"]
+
+
+def test_prune_skips_a_file_another_process_removes(tmp_path, monkeypatch):
+    """A file removed by another process while the cache is listed is skipped, the listing is closed (it
+    leaked a ``ResourceWarning`` before) and the rest is pruned."""
+    for i in range(4):
+        (tmp_path / f"f{i}").write_bytes(b"x" * 1000)
+    real = os.scandir
+
+    class Vanishing:
+        def __init__(self, entry):
+            self.entry, self.path = entry, entry.path
+
+        def is_file(self):
+            return True
+
+        def stat(self):
+            raise FileNotFoundError(self.path)
+
+    class Listing:
+        def __init__(self, folder):
+            self._it = real(folder)
+            self.closed = False
+
+        def __enter__(self):
+            return self
+
+        def __exit__(self, *exc):
+            self._it.close()
+            self.closed = True
+
+        def __iter__(self):
+            for k, e in enumerate(self._it):
+                yield Vanishing(e) if k == 0 else e
+
+    made = []
+    monkeypatch.setattr(cache.os, "scandir", lambda folder: made.append(Listing(folder)) or made[-1])
+    assert cache.prune(tmp_path, max_bytes=1500) == 2  # three counted (3000 bytes), two removed
+    assert made and made[0].closed

@@ -10,6 +10,7 @@ from .common import (
     accuracy_option,
     info,
     library_errors,
+    load_scene_arg,
     material_options,  # noqa: I001
     parse_floats,
     settings_from,
@@ -18,7 +19,11 @@ from .common import (
 
 
 @click.command("phase-diagram")
-@click.option("--scene", default=None, help="Take material and Jlim from this scene (name or file).")
+@click.option(
+    "--scene",
+    default=None,
+    help="Take material, Jlim and prestretch from this scene (name or file), and its electrode pattern and layers.",
+)
 @click.option("--material", default=None, help="neo-hookean or gent (default gent).")
 @click.option("--jlim", type=float, default=None, help="Gent Jlim (default 40, where the critical point is in range).")
 @click.option("--phi-hat", "phi_range", default="0,0.36", show_default=True, help="Voltage range 'start,stop' of Φ̂.")
@@ -52,6 +57,15 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
         raise InputError(f"--jlim: must be positive, got {jlim:g}")
     gent = material == "gent"
     model = build_model(material, jlim=jlim if gent else None, prestretch=prestretch)
+    pattern = None
+    if scene is not None:
+        sc = load_scene_arg(scene)
+        if sc.patterned:  # the zone's own regions: shot region by region (coexist.patterned)
+            from coexist.patterned import PatternedModel
+
+            pattern = sc.zone_pattern()
+            model = PatternedModel.of(model, pattern)
+            info(f"zone: regions R/A {pattern.describe()}")
     lmax = stretch_range_end(model.elasticity, prestretch, settings)
     out = Outputs(overwrite)
     plot_path = out.figure(plot, "--plot")
@@ -62,6 +76,7 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
             from coexist.plotting import plot_phase_diagram
 
             title = f"{material}" + (f", Jlim = {jlim:g}" if gent else "")
+            title += f"; {pattern.describe()}" if pattern is not None else ""
             plot_phase_diagram(d, out.staged(plot_path), title=title)
     data = {"model": model.describe(), "relative_tolerance": settings.rtol, **d.to_dict()}
     if as_json:

@@ -152,8 +152,16 @@ def prune(folder: Path, max_bytes: int | None = None) -> int:
         Files removed (files another process removes first are skipped).
     """
     limit = MAX_BYTES if max_bytes is None else max_bytes
+    entries = []
     try:
-        entries = [(e.stat().st_mtime, e.stat().st_size, e.path) for e in os.scandir(folder) if e.is_file()]
+        with os.scandir(folder) as listing:  # closed even when a stat fails
+            for e in listing:
+                try:
+                    if e.is_file():
+                        st = e.stat()
+                        entries.append((st.st_mtime, st.st_size, e.path))
+                except OSError:  # removed by another process meanwhile: not ours to count
+                    continue
     except OSError:
         return 0
     total = sum(size for _, size, _ in entries)
