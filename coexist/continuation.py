@@ -944,14 +944,16 @@ class Tracer:
                         rough.append((float(o), g))
             samples = sorted((x for x in samples if x[0] <= lo), key=lambda x: x[0])
             if len(samples) < 3:
-                # too few tight states to extrapolate from: the next round's three, placed below the end
-                # estimated from the rough (loose) ones, or in the bracket's upper half
+                # too few tight states to extrapolate from: the next round's three, placed just below the end
+                # estimated from the rough (loose) ones by their secant (the last eighth of the way there:
+                # close enough for the first quadratic to be good to ~1e-8), or in the bracket's upper half
                 pairs = sorted([(x[0], x[1]) for x in samples] + rough)[-2:]
-                guess = hi
                 if len(pairs) == 2 and pairs[1][1] < pairs[0][1]:
                     (s0, g0), (s1, g1) = pairs
                     guess = min(hi, s1 + g1 * (s1 - s0) / (g0 - g1))
-                offsets = lo + (guess - lo) * np.array([0.25, 0.5, 0.75])
+                    offsets = guess - (guess - lo) / 8 * np.array([3.0, 2.0, 1.0])
+                else:
+                    offsets = lo + (hi - lo) * np.array([0.25, 0.5, 0.75])
                 continue
             sig = np.array([x[0] for x in samples[-3:]])
             gs = np.array([x[1] for x in samples[-3:]])

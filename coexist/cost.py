@@ -10,6 +10,12 @@ per zone). The cost model (coefficients measured with ``benchmarks/bench_pipelin
     memory ≈ 4 kB × voltages (states, while they are solved) + 32 B × numbers printed
     numbers printed = rows × (2 N + 3 groups + 8),  rows = voltages / every (+ changes)
 
+A scene with patterned zones (:mod:`coexist.patterned`: every state a Newton iteration on the interface scale,
+each iterate a shooting region by region) costs :data:`PATTERNED_TIME_FACTOR` times the time of the solving
+part (``0.6 s + 0.5 ms × voltages``); measured with ``benchmarks/bench_patterned.py``: the tricircle with
+inner-circle electrodes (0.8 of the radius, ``wrinkling = "refuse"``, 501 voltages) ramps in 5.1–6.7 s against
+0.73–1.0 s for the same scene with full electrodes, a factor 6.5–7.0 (rounded up to 8).
+
 Limits (:data:`MAX_OUTPUT_NUMBERS`, :data:`MAX_MEMORY_BYTES`): a run that would print more than 10 million
 numbers (about 200 MB of JSON) or hold more than 2 GB is refused before it starts, with the field to
 change and the ``--every`` that would fit. The scene format itself bounds the path to 100 000 steps and
@@ -39,6 +45,8 @@ MAX_OUTPUT_NUMBERS = 10_000_000
 MAX_MEMORY_BYTES = 2e9
 #: groups of identical zones a state has at most on a ramp (homogeneous, one or two bulged groups)
 MAX_GROUPS = 3
+#: the solving part of a ramp of patterned zones costs this many times a uniform scene's (measured 6.5–7.0)
+PATTERNED_TIME_FACTOR = 8.0
 
 
 @dataclass(frozen=True)
@@ -120,7 +128,8 @@ def _duration(seconds: float) -> str:
 
 
 def ramp_cost(scene, every: int = 1) -> RampCost:
-    """The estimated cost of ramping ``scene`` (see the module for the model and its coefficients).
+    """The estimated cost of ramping ``scene`` (see the module for the model and its coefficients; patterned
+    zones: the solving part times :data:`PATTERNED_TIME_FACTOR`).
 
     Parameters
     ----------
@@ -150,6 +159,9 @@ def ramp_cost(scene, every: int = 1) -> RampCost:
     groups = min(MAX_GROUPS, zones)
     rows = min(voltages, math.ceil(voltages / every) + 8)  # + a few changes of configuration
     numbers = rows * (2 * zones + 3 * groups + 8)
-    seconds = SECONDS_BASE + SECONDS_PER_VOLTAGE * voltages + SECONDS_PER_NUMBER * numbers
+    solving = SECONDS_BASE + SECONDS_PER_VOLTAGE * voltages
+    if getattr(scene, "patterned", False):
+        solving *= PATTERNED_TIME_FACTOR
+    seconds = solving + SECONDS_PER_NUMBER * numbers
     memory = BYTES_PER_VOLTAGE * voltages + BYTES_PER_NUMBER * numbers
     return RampCost(voltages, zones, rows, numbers, seconds, memory)

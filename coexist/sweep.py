@@ -577,7 +577,8 @@ def make_spec(scene, vary, settings: SolverSettings | None = None) -> SweepSpec:
     SceneError
         For a bad key or value, a scene with no voltage (and none swept), or when the scene cannot be built at
         any corner of the grid (the first corner's error); for a patterned scene or a swept ``electrodes.*`` or
-        ``layers.*`` key (patterned zones: ``coexist curves`` only so far).
+        ``layers.*`` key (a sweep takes zones with a full electrode; patterned zones are taken by ``coexist
+        curves``, ``ramp``, ``coexistence``, ``shape``, ``phase-diagram`` and ``check``).
     """
     from . import validation
 
@@ -587,8 +588,8 @@ def make_spec(scene, vary, settings: SolverSettings | None = None) -> SweepSpec:
     for ax in axes:
         if ax.section in ("electrodes", "layers"):
             raise SceneError(
-                f"{ax.key}: patterned zones are supported by `coexist curves` only so far: a sweep takes zones with "
-                "a full electrode",
+                f"{ax.key}: a sweep takes zones with a full electrode; patterned zones are taken by `coexist curves`, "
+                "`coexist ramp`, `coexist coexistence`, `coexist shape`, `coexist phase-diagram` and `coexist check`",
                 "--vary",
             )
     spec = SweepSpec(scene_document(sc), sc.source, axes, settings)

@@ -268,13 +268,12 @@ def test_patterned_curves_go_to_csv_and_a_figure(tmp_path):
     assert rows[0].startswith("family,fixed_name,fixed_value") and len(rows) > 10
     assert {r.split(",")[0] for r in rows[1:]} == {"pressure_volume"}
     assert png.stat().st_size > 1000
-    assert "voltage–charge curves are not computed yet" in result.stderr
+    assert "voltage–charge curves take seconds each and are computed when asked for" in result.stderr
 
 
 @pytest.mark.parametrize(
     "args, fragments",
     [
-        (["--scene", "inner-circle", "--p-hat", "1.5"], ["--p-hat", "not computed yet"]),
         (["--pattern", "inner-circle"], ["--inner-fraction", "missing"]),
         (["--pattern", "inner-circle", "--inner-fraction", "1.5"], ["--inner-fraction", "between 0 and 1"]),
         (["--pattern", "ring", "--inner-fraction", "0.3"], ["--outer-fraction", "missing"]),

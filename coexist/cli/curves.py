@@ -39,7 +39,7 @@ from .common import (
     "--pattern",
     type=click.Choice(["full", "inner-circle", "ring"]),
     default=None,
-    help="Electrode pattern of the zone (default: the scene's, else full); patterned zones: p̂–V̂ curves only.",
+    help="Electrode pattern of the zone (default: the scene's, else full).",
 )
 @click.option(
     "--inner-fraction",
@@ -70,7 +70,7 @@ from .common import (
     "p_hat",
     default=None,
     help="Pressures p̂ of the voltage–charge curves, comma-separated ('none' to skip); default 1.2,1.5,1.7, "
-    "none for a patterned zone (whose voltage–charge curves are not computed yet).",
+    "none for a patterned zone (its voltage–charge curves take seconds each: ask for them).",
 )
 @click.option(
     "--pole-stretch",
@@ -114,8 +114,9 @@ def curves(
     tolerance and marked.
 
     A patterned zone (--pattern inner-circle or ring, or a scene's [electrodes] pattern): an electrode
-    region of one layer, passive regions of --passive-layers layers (coexist.patterned). Its p̂–V̂ curves
-    are computed; its Φ̂–Q̂ curves are not yet (skipped with a note, refused if --p-hat asks for them).
+    region of one layer, passive regions of --passive-layers layers (coexist.patterned). Both families are
+    computed, shot region by region (the Φ̂–Q̂ curves only when --p-hat asks for them: seconds each); its charge
+    Q̂ is the electrode's only.
     """
     import numpy as np
 
@@ -131,13 +132,11 @@ def curves(
     fields = _pattern_fields(sc, pattern, inner_fraction, outer_fraction, passive_layers)
     patterned = fields["electrode_pattern"] != "full"
     phis = parse_floats(phi_hat, "--phi-hat", nonnegative=True)
-    if patterned and p_hat is not None and p_hat.strip().lower() != "none":
-        raise InputError(
-            f'--p-hat: the voltage–charge curves of a patterned zone (pattern "{fields["electrode_pattern"]}") '
-            "are not computed yet; give --p-hat none (or leave it out) for its pressure–volume curves"
-        )
     if patterned and p_hat is None:
-        info("note: a patterned zone's voltage–charge curves are not computed yet: only its p̂–V̂ curves follow")
+        info(
+            "note: a patterned zone's voltage–charge curves take seconds each and are computed when asked for "
+            "(--p-hat P1,P2,...): its p̂–V̂ curves follow"
+        )
     if p_hat is None:
         p_hat = "none" if patterned else "1.2,1.5,1.7"
     pressures = [] if p_hat.strip().lower() == "none" else parse_floats(p_hat, "--p-hat", positive=True)
@@ -176,8 +175,13 @@ def curves(
         else:
             pv.append(pressure_volume_curve(model, phi, grid, settings))
         _note(pv[-1])
+    if zone is not None and pressures:
+        from coexist.patterned import PatternedModel
+
+        # the zone's model (refusing wrinkled states): solve_states shoots it region by region
+        zone_model = PatternedModel(model.elasticity, model.electrostatics, model.prestretch, "refuse", zone)
     for p in pressures:
-        vq.append(voltage_charge_curve(model, p, grid, settings))
+        vq.append(voltage_charge_curve(model if zone is None else zone_model, p, grid, settings))
         _note(vq[-1])
     data = {
         "model": model.describe() | ({} if zone is None else {"pattern": _pattern_dict(fields, zone)}),

@@ -1,0 +1,103 @@
+"""The fast path of the patterned shooting and the patterned voltage–charge curves.
+
+:func:`coexist.patterned.solve_patterned_states` integrates small batches (up to a few hundred states) region by
+region with the shooting's compiled attempt functions and large ones step by step in numpy: both are the same
+DOP853 steps, so a state is the same whichever batch it is solved in (to the integration tolerance, here 1e-9
+relative at rtol 1e-10; measured ~1e-13). ``coexist curves`` computes a patterned zone's Φ̂–Q̂ curves when
+``--p-hat`` asks for them: every state of such a curve, shot again directly at its ``(λ0, Φ̂)``, carries the
+curve's pressure (1e-9 relative) and its charge, the electrode's only (the Maxwell relation of the electrode
+charge holds, 1e-8, where the curve is well conditioned); a one-region full pattern gives the uniform zone's
+curve (1e-9). The ramp cost of a patterned scene is the measured factor times a uniform scene's.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from coexist.curves import voltage_charge_curve
+from coexist.model import build_model
+from coexist.patterned import PatternedModel, ZonePattern, solve_patterned_states
+from coexist.settings import SolverSettings
+from coexist.shooting import OK
+
+PATTERN = ZonePattern.inner_circle(0.5, passive_layers=2)
+
+
+@pytest.fixture(scope="module")
+def gent():
+    return build_model("gent", jlim=97.0, voltage=True)
+
+
+def test_a_state_is_the_same_in_a_small_and_a_large_batch(gent):
+    """300 states (numpy steps) and three of them alone (compiled attempt functions): the same states."""
+    l0 = np.linspace(1.5, 3.5, 300)
+    big = solve_patterned_states(gent, PATTERN, l0, 0.1)
+    pick = np.array([0, 137, 299])
+    small = solve_patterned_states(gent, PATTERN, l0[pick], 0.1)
+    assert np.all(big.status[pick] == OK) and np.all(small.status == OK)
+    for name in ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "min_tension"):
+        a, b = getattr(big, name)[pick], getattr(small, name)
+        assert np.max(np.abs(a - b) / np.abs(b)) < 1e-9, (name, a, b)
+    # and one state alone is the state of a batch of three (its columns are integrated independently)
+    one = solve_patterned_states(gent, PATTERN, l0[pick[1:2]], 0.1)
+    assert one.p_hat[0] == pytest.approx(small.p_hat[1], rel=1e-13, abs=0)
+
+
+def test_the_cli_computes_patterned_voltage_charge_curves(gent):
+    """``coexist curves --scene inner-circle --p-hat 1.5``: every state re-shot directly holds p̂ = 1.5 and the
+    curve's charge; the charge is the electrode's (Maxwell: ``p̂_Φ V̂_λ − p̂_λ V̂_Φ = −Q̂_λ`` with that charge)."""
+    from coexist.cli.main import cli
+
+    args = ["curves", "--scene", "inner-circle", "--phi-hat", "0.1", "--p-hat", "1.5", "--points", "24", "--json"]
+    result = CliRunner().invoke(cli, args)
+    assert result.exit_code == 0, result.output
+    data = json.loads(result.stdout)
+    assert [c["family"] for c in data["curves"]] == ["pressure_volume", "voltage_charge"]
+    vq = data["curves"][1]
+    l0, phi, q = (np.array(vq[k]) for k in ("pole_stretch", "phi_hat", "q_hat"))
+    assert l0.size >= 10 and np.all(phi > 0)
+    again = solve_patterned_states(gent, PATTERN, l0, phi, derivatives=True)
+    assert np.all(again.status == OK), again.failure_detail
+    assert np.max(np.abs(again.p_hat - 1.5)) / 1.5 < 1e-9, again.p_hat
+    np.testing.assert_allclose(again.q_hat, q, rtol=1e-9, atol=0)
+    # (up to λ0 = 2.5: past it the volume hardly changes along the curve and the relation's terms cancel,
+    # measured 1e-8 at 2.7 and 1e-1 at 3.5, where the derivatives themselves lose digits)
+    d = again.derivatives.take(l0 <= 2.5)
+    lhs = d.dp_dphi * d.dv_dl0 - d.dp_dl0 * d.dv_dphi
+    assert d.dq_dl0.size >= 6
+    assert np.max(np.abs(lhs + d.dq_dl0) / np.abs(d.dq_dl0)) < 1e-8
+    # the electrode covers a quarter of the area: far less charge than the full electrode at these voltages
+    full = solve_patterned_states(gent, ZonePattern.full(), l0, phi)
+    assert np.all(q < 0.6 * full.q_hat)
+
+
+def test_a_one_region_full_pattern_gives_the_uniform_voltage_charge_curve(gent):
+    grid = np.linspace(1.05, 3.5, 30)
+    settings = SolverSettings()
+    plain = voltage_charge_curve(gent, 1.5, grid, settings)
+    zone = voltage_charge_curve(PatternedModel.of(gent, ZonePattern.full()), 1.5, grid, settings)
+    for name in ("pole_stretch", "phi_hat", "v_hat", "q_hat"):
+        np.testing.assert_allclose(getattr(zone.states, name), getattr(plain.states, name), rtol=1e-9, atol=0)
+    assert [lp.kind for lp in zone.limit_points] == [lp.kind for lp in plain.limit_points]
+    for a, b in zip(zone.limit_points, plain.limit_points):
+        assert a.phi_hat == pytest.approx(b.phi_hat, rel=1e-9, abs=0)
+
+
+def test_the_ramp_cost_of_a_patterned_scene_is_the_measured_factor_times_the_uniform_one():
+    from coexist.cost import PATTERNED_TIME_FACTOR, SECONDS_PER_NUMBER, ramp_cost
+    from coexist.scene import builtin_scene_text, parse_scene
+
+    base = builtin_scene_text("tricircle").replace('wrinkling = "tension-field"', 'wrinkling = "refuse"')
+    pat = base.replace("[zones]", '[electrodes]\npattern = "inner-circle"\ninner_fraction = 0.8\n\n[zones]')
+    uniform, patterned = ramp_cost(parse_scene(base)), ramp_cost(parse_scene(pat))
+    assert patterned.numbers == uniform.numbers and patterned.memory_bytes == uniform.memory_bytes
+    printing = SECONDS_PER_NUMBER * uniform.numbers
+    assert patterned.seconds - printing == pytest.approx(
+        PATTERNED_TIME_FACTOR * (uniform.seconds - printing), rel=1e-12
+    )
+    # benchmarks/bench_patterned.py measured this ramp at 5.1–6.7 s (the uniform one 0.73–1.0 s)
+    assert 5.0 < patterned.seconds < 10.0, patterned.seconds
