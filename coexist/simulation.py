@@ -972,8 +972,8 @@ class RampReport:
             Add to every kept step ``shapes``: per group of identical zones (as ``groups``) its ``zones`` and
             the shape of :meth:`coexist.shapes.Profile.to_dict` (apex height, apex curvature, radius of
             curvature, electrode edge, wrinkled intervals; None without a state), all states of the ramp
-            profiled at once (:func:`coexist.shapes.profiles`; a hoop-wrinkled state has its apex numbers and
-            no profile points).
+            profiled at once (:func:`coexist.shapes.profiles`; a hoop-wrinkled state too, its profile through
+            the band on the relaxed equations).
         shape_points : int, optional
             With ``shapes``: also each zone's profile with this many points (``profile``: ``r_mm``,
             ``z_mm``); 0 (default) for none, else at least 3.
@@ -1068,8 +1068,22 @@ class RampReport:
             )
         lam = [x for st in states if st is not None for x in st.pole_stretch]
         phi = [st.phi_hat for st in states if st is not None for _ in st.pole_stretch]
-        profs = iter(
-            profiles(
+        if not lam:
+            found = []
+        elif self.scene.patterned:  # region by region, the electrode edges among the points
+            from .shapes import patterned_profiles
+
+            found = patterned_profiles(
+                self.scene.model(),
+                self.scene.zone_pattern(),
+                lam,
+                phi,
+                zone_radius=self.scene.zone_radius,
+                points=max(points, MIN_POINTS),
+                settings=self.settings,
+            )
+        else:
+            found = profiles(
                 self.scene.model(),
                 lam,
                 phi,
@@ -1078,9 +1092,7 @@ class RampReport:
                 settings=self.settings,
                 wrinkled="numbers",
             )
-            if lam
-            else []
-        )
+        profs = iter(found)
         for d, st in zip(steps, states):
             if st is None:
                 d["shapes"] = None

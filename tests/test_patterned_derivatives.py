@@ -230,7 +230,7 @@ def test_a_patterned_scene_ramps_with_equal_pressures_across_zones(patterned_ram
     assert kv == pytest.approx(3.7997343, abs=1e-6)  # measured; the uniform tricircle splits at 3.900031 kV
 
 
-def test_the_cli_ramps_a_patterned_scene_and_refuses_its_shapes(tmp_path):
+def test_the_cli_ramps_a_patterned_scene_with_its_shapes(tmp_path):
     from click.testing import CliRunner
 
     from coexist.cli.main import cli
@@ -249,9 +249,21 @@ def test_the_cli_ramps_a_patterned_scene_and_refuses_its_shapes(tmp_path):
 
     data = json.loads(ok.stdout)
     assert len(data["steps"]) == 2 and all(s["stable"] for s in data["steps"])
-    refused = runner.invoke(cli, ["ramp", str(scene), "--shapes"])
-    assert refused.exit_code == 2 and "`coexist ramp --shapes`" in refused.output
-    assert "[electrodes].pattern" in refused.output and "Traceback" not in refused.output
+    # --shapes: each zone's profile region by region (coexist.shapes.patterned_profiles), its apex the state's
+    shaped = runner.invoke(cli, ["ramp", str(scene), "--shapes", "--json"])
+    assert shaped.exit_code == 0, shaped.output
+    steps = json.loads(shaped.stdout)["steps"]
+    from coexist.scene import load_scene
+    from coexist.shapes import patterned_profiles
+
+    sc = load_scene(str(scene))
+    for step in steps:
+        (group,) = step["shapes"]
+        (l0,) = step["pole_stretches"]
+        phi = sc.phi_hat(1e3 * step["voltage_kV"])
+        prof = patterned_profiles(sc.model(), sc.zone_pattern(), [l0], phi, zone_radius=sc.zone_radius, points=21)[0]
+        assert group["apex_height_mm"] == pytest.approx(prof.to_dict()["apex_height_mm"], rel=1e-9)
+        assert len(group["profile"]["r_mm"]) >= 21  # the electrode edge among the points
 
 
 def test_a_patterned_model_refuses_tension_field_and_shapes(model):

@@ -386,7 +386,7 @@ def uniform_scene_arg(scene, command: str):
     """A scene as :func:`load_scene_arg` loads it, refused (exit 2, one line) if its zones are patterned and
     ``command`` is not one of :data:`PATTERNED_COMMANDS`.
 
-    ``coexist ramp`` and ``coexist coexistence`` take patterned zones; fit, sweep and ``ramp --shapes`` take
+    ``coexist ramp`` (with ``--shapes``) and ``coexist coexistence`` take patterned zones; fit and sweep take
     zones with a full electrode only so far (:meth:`coexist.scene.Scene.require_uniform`).
 
     Parameters

@@ -56,7 +56,7 @@ def ramp(scene, plot, states_plot, as_json, every, shapes, overwrite, accuracy, 
     """
     from coexist.simulation import Simulation
 
-    sc = uniform_scene_arg(scene, "ramp --shapes" if shapes else "ramp")  # no shapes of patterned zones yet
+    sc = uniform_scene_arg(scene, "ramp")  # patterned zones too (their shapes region by region)
     settings = settings_from(accuracy, rtol)
     with Outputs(overwrite) as out:
         plot_path = out.figure(plot, "--plot")
