@@ -346,7 +346,19 @@ def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, set
 def _pole_voltage_squared(model: MembraneModel, l0: np.ndarray) -> np.ndarray:
     """``s_pole = Φ̂²`` at which the pole tension ``T̂1(λ0, λ0; Φ̂)`` vanishes, per pole stretch (grown by
     doubling from 1, then located to 1e-15): no state exists at or above it. Zero where the pole tension
-    is not positive (or not defined: Gent locking) even without voltage."""
+    is not positive (or not defined: Gent locking) even without voltage.
+
+    A patterned zone (a model with a ``pattern``): its pole region of ``n1`` layers carries ``Φ̂/n1`` per layer,
+    so its pole wrinkles at ``n1²`` times the one-layer ``s_pole``; a pole region without electrode does not
+    wrinkle by the voltage at all, and the bound is then ``4 max_k nk²`` times the one-layer value over the
+    electrode regions ``k`` (states fail well before it: the voltage search brackets their failure)."""
+    pattern = getattr(model, "pattern", None)
+    if pattern is not None:
+        one = _pole_voltage_squared(getattr(model, "uniform", model), l0)
+        pole = pattern.regions[0]
+        if pole.electrode:
+            return pole.layers**2 * one
+        return 4.0 * max((r.layers**2 for r in pattern.regions if r.electrode), default=1) * one
     n = l0.size
     s_pole = np.zeros(n)
     with np.errstate(all="ignore"):

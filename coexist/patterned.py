@@ -31,7 +31,8 @@ Validity is checked on the converged state only (its iterates may pass through c
 that is not positive anywhere — notably the hoop tension on the electrode side of an electrode edge, where
 the passive membrane holds back the active one at low inflation — gives status ``WRINKLED`` and a sentence
 saying which tension, where and how negative (:attr:`PatternedStates.failure_detail`); a patterned zone
-refuses wrinkled states whatever the model's ``wrinkling`` mode.
+refuses wrinkled states (a tension-field :class:`PatternedModel` shoots them again relaxed,
+:mod:`coexist.patterned_relaxed`).
 """
 
 from __future__ import annotations
@@ -1772,6 +1773,10 @@ def patterned_pressure_volume_curve(
         if guess is not None and again.any():  # a start from neighbours that failed: once more from the cap
             retry = solve_patterned_states(model, pattern, x[again], phi_hat, settings)
             st = _merge(x, ~again, _take_patterned(st, ~again), retry)
+        if model.tension_field:  # a tension-field membrane: its WRINKLED states shot again relaxed
+            from .patterned_relaxed import relax_wrinkled
+
+            st = relax_wrinkled(model, pattern, st, settings)
         ok = st.ok & np.isfinite(st.clamp_radius)
         if ok.any():
             known_l0.append(x[ok])

@@ -416,3 +416,45 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
     name = scene.name or scene.source
     title = f"{name}: one zone, A = {scene.zone_radius * 1e3:.4g} mm, regions R/A {scene.zone_pattern().describe()}"
     return save_figure(fig, path, title=title, title_size=9)
+
+
+def mark_wrinkled_bands(ax, profile, centre: float = 0.0, color: str = "k", label: str | None = None) -> bool:
+    """Mark the hoop-wrinkled bands of a profile on a side view drawn in mm, mirrored about ``centre``: a thick,
+    hatched-looking stroke (dashes over a wide pale line) along the meridian between each band's ends.
+
+    In a band the profile's ``r`` is the geometric radius of the wrinkled surface (docs/physics.md section 11).
+    The band's ends are drawn where they lie between the profile's points by linear interpolation of the
+    points in ``R̂`` (a drawing aid only: every printed number is a point of the profile).
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+        The side view (mm).
+    profile : Profile
+        A state with its points (:mod:`coexist.shapes`); nothing is drawn without a band or without points.
+    centre : float
+        Where the axis of the zone is drawn (mm).
+    color : str
+        The stroke's colour.
+    label : str, optional
+        Legend label of the first stroke drawn.
+
+    Returns
+    -------
+    bool
+        Whether anything was drawn.
+    """
+    import numpy as np
+
+    R, r, z = profile.R_hat, profile.r * 1e3, profile.z * 1e3
+    if not profile.wrinkled_radii or R.size < 2:
+        return False
+    for a, b in profile.wrinkled_radii:
+        inside = (R > a) & (R < b)
+        Rb = np.concatenate([[a], R[inside], [b]])
+        rb, zb = np.interp(Rb, R, r), np.interp(Rb, R, z)
+        for side in (-1.0, 1.0):
+            ax.plot(centre + side * rb, zb, color=color, lw=5.0, alpha=0.25, solid_capstyle="butt")
+            ax.plot(centre + side * rb, zb, color=color, lw=5.0, ls=(0, (0.6, 0.6)), label=label)
+            label = None
+    return True

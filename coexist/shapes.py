@@ -10,7 +10,12 @@ zone this module gives
   tolerances as :func:`coexist.shooting.solve_states`, *stopping at every output radius* (so every
   point is a solution value at the integrator's tolerance, not an interpolation between the shooting's
   few nodes); the last step lands on the clamp with ``λ2`` as the independent variable, as the shooting's
-  does. The points are equally spaced in the reference radius ``R̂`` (material points).
+  does. The points are equally spaced in the reference radius ``R̂`` (material points). A hoop-wrinkled
+  state of a tension-field model (:mod:`coexist.wrinkling`, docs/physics.md sections 10 and 11) is
+  integrated the same way, segment by segment between the switches its shooting located, on the relaxed
+  equations (:func:`coexist.wrinkling.segment_equations`; :func:`_relaxed_points`). In a wrinkled band
+  ``r = ρ R`` is the *geometric* radius of the wrinkled surface (its mean, the wrinkles' amplitude unresolved):
+  the material there is wider than the surface, ``λ2* > ρ``, and its excess is taken up by the wrinkles;
 - the **apex height** ``h``: :attr:`MembraneStates.apex_height` of the converged state;
 - the **apex curvature** ``κ0``, exact at the pole from the Laplace law of the equibiaxial pole
   (docs/physics.md, section 11): ``κ0 A = p̂ λ0 / (2 T̂0)``, ``T̂0 = T̂1(λ0, λ0; Φ̂)`` — never fitted to points;
@@ -34,13 +39,16 @@ from .errors import ModelRangeError, SceneError, SolverError
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
 from .settings import SolverSettings
-from .shooting import ROUNDOFF_TOLERANCE, _integrators, solve_states, trial_pressure
+from .shooting import ROUNDOFF_TOLERANCE, _integrators, solve_states, start_rows
 
 #: the re-integrated state must agree with the shooting's (clamp radius, apex height, volume) to this many
 #: of its relative tolerances; beyond it something is wrong and the profile is refused
 AGREEMENT_FACTOR = 1e4
 #: fewest points of a profile (the pole, one interior point, the clamp)
 MIN_POINTS = 3
+#: values of :func:`profiles`' ``wrinkled``: every one gives a hoop-wrinkled state its profile; ``"raise"`` and
+#: ``"numbers"`` (before, a refusal and the apex numbers without points) are kept for the callers that pass them
+WRINKLED_OPTIONS = ("profile", "raise", "numbers")
 
 
 @dataclass
@@ -71,9 +79,9 @@ class Profile:
     electrode_edge_hat : tuple of float
         ``(r/A, z/A)`` of the electrode's edge on the deformed membrane.
     wrinkled_radii : tuple of (float, float)
-        Hoop-wrinkled intervals ``(R̂start, R̂end)`` of a tension-field state (empty when taut). The points of
-        a wrinkled state are not computed yet (``R_hat``, ``r_hat``, ``z_hat`` are then empty): only its apex
-        numbers, which hold as they are (the pole is always taut, docs/physics.md section 10).
+        Hoop-wrinkled intervals ``(R̂start, R̂end)`` of a tension-field state (empty when taut). Its points are
+        computed as a taut state's; inside these intervals ``r_hat`` is the *geometric* radius ``ρR̂`` of the
+        wrinkled surface (shorter than the material across the wrinkles, docs/physics.md section 11).
     """
 
     pole_stretch: float
@@ -135,7 +143,7 @@ class Profile:
             ``pole_stretch``, ``apex_height_mm``, ``apex_curvature_per_m``, ``radius_of_curvature_mm``
             (None for the flat membrane), ``electrode_edge_mm`` (``[r, z]``), ``wrinkled_radii`` (the
             hoop-wrinkled ``[R̂start, R̂end]`` intervals, empty when taut) and, with ``points``, ``profile``
-            (None for a wrinkled state, whose points are not computed yet).
+            (in a wrinkled interval ``r_mm`` is the geometric radius; None for a profile without points).
         """
         roc = self.radius_of_curvature
         out: dict = {
@@ -217,16 +225,25 @@ def profiles(
     zone_radius: float,
     points: int = 201,
     settings: SolverSettings | None = None,
-    wrinkled: str = "raise",
+    wrinkled: str = "profile",
 ) -> list[Profile]:
     """The profiles of many states of one zone (:class:`Profile`), integrated together.
 
-    Each state is first shot (:func:`~coexist.shooting.solve_states`, which checks it: a wrinkled,
-    locked or unreachable state raises); then its meridian is integrated again from the pole with the
-    same trial pressure ``p̂t``, series start and tolerances, stopping at the radii ``R̂ = k/(points − 1)``
-    of the unit membrane (``R = R̂ R*`` of the trial integration; below the series radius the series
-    itself), the last step onto the clamp ``λ2 = λpre`` with ``λ2`` as the independent variable. With the
-    clamp radius ``R*`` so found: ``R̂ = R/R*``, ``r̂ = λ2 R/R*``, ``ẑ = (z(R*) − z(R))/R*``.
+    Each state is first shot (:func:`~coexist.shooting.solve_states`, which checks it: a locked,
+    unreachable, or (for a model that refuses wrinkling) wrinkled state raises); then its meridian is
+    integrated again from the pole with the same trial pressure ``p̂t``, series start and tolerances, stopping
+    at the radii ``R̂ = k/(points − 1)`` of the unit membrane (``R = R̂ R*`` of the trial integration; below the
+    series radius the series itself), the last step onto the clamp ``λ2 = λpre`` with ``λ2`` as the independent
+    variable. With the clamp radius ``R*`` so found: ``R̂ = R/R*``, ``r̂ = λ2 R/R*``, ``ẑ = (z(R*) − z(R))/R*``.
+
+    A hoop-wrinkled state of a tension-field model (``wrinkled_radii`` not empty) is integrated segment by
+    segment between the switches its shooting located: taut equations up to a band's start ``R̂s`` (where
+    ``T̂2 = 0``), the relaxed ones through the band (``R̂T̂1`` constant, ``θ' = p̂t λ1 ρ/T̂1``,
+    ``λ1' = −T̂1/(R̂K)``, the natural width ``w`` with ``T̂2(λ1, w) = 0``, docs/physics.md section 10), taut again
+    from its end (``w = ρ``); each switch is moved onto the re-integrated trajectory's own zero of the switching
+    function by one Newton step. There ``r̂ = ρ R/R*`` is the *geometric* radius: the surface is shorter than
+    the material across the wrinkles (``ρ < w``). The clamp is reached by a Newton step along the trajectory
+    from the shooting's ``R*``. Its apex numbers are those of a taut state (the pole is taut).
 
     A pole stretch equal to the prestretch is the flat membrane (``p̂ = 0``, ``r = λpre R``, ``z = 0``,
     no curvature), provided its tension is not negative at that voltage (else it wrinkles: refused).
@@ -245,10 +262,11 @@ def profiles(
         Points per profile, pole and clamp included (at least 3).
     settings : SolverSettings, optional
         Tolerances (default :class:`SolverSettings`), the same as the shooting's.
-    wrinkled : {"raise", "numbers"}
-        What a hoop-wrinkled state of a tension-field model gives: :class:`ModelRangeError` (its profile
-        through the wrinkled ring is not computed yet), or a :class:`Profile` with its apex numbers, its
-        wrinkled intervals and no points.
+    wrinkled : {"profile", "raise", "numbers"}
+        What a hoop-wrinkled state of a tension-field model gives: its :class:`Profile` with points, apex
+        numbers and wrinkled intervals, whichever value. ``"raise"`` (the former default: a refusal) and
+        ``"numbers"`` (the apex numbers without points) are the values of the time its profile was not
+        computed, kept for the callers that pass them; they now give the profile too.
 
     Returns
     -------
@@ -260,8 +278,8 @@ def profiles(
     SceneError
         If an input is out of range (names it).
     ModelRangeError
-        If a state does not exist (wrinkling, locking, no clamp; :meth:`MembraneStates.require_ok`), the
-        flat membrane is not taut at that voltage, or (``wrinkled="raise"``) a state is hoop-wrinkled.
+        If a state does not exist (wrinkling under a model that refuses it, pull-in, locking, no clamp;
+        :meth:`MembraneStates.require_ok`), or the flat membrane is not taut at that voltage.
     SolverError
         If the re-integration does not reach the clamp or disagrees with the shooting.
     """
@@ -270,8 +288,8 @@ def profiles(
     A = validation.real(zone_radius, "zone_radius", lo=0.0, lo_open=True)
     if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < MIN_POINTS:
         raise SceneError(f"must be an integer of at least {MIN_POINTS}, got {points!r}", "points")
-    if wrinkled not in ("raise", "numbers"):
-        raise SceneError(f"must be 'raise' or 'numbers', got {wrinkled!r}", "wrinkled")
+    if wrinkled not in WRINKLED_OPTIONS:
+        raise SceneError(f"must be one of {', '.join(map(repr, WRINKLED_OPTIONS))}, got {wrinkled!r}", "wrinkled")
     l0, phi = validation.broadcastable(
         "pole_stretch, phi_hat",
         validation.real_array(pole_stretch, "pole_stretch"),
@@ -287,7 +305,7 @@ def profiles(
         out[i] = _flat(model, float(phi[i]), A, s)
     live = np.flatnonzero(~flat)
     if live.size:
-        for i, prof in zip(live, _integrate(model, l0[live], phi[live], A, s, settings, wrinkled == "raise")):
+        for i, prof in zip(live, _integrate(model, l0[live], phi[live], A, s, settings)):
             out[i] = prof
     return [p for p in out if p is not None]
 
@@ -341,22 +359,14 @@ def profile(
     return many
 
 
-def _integrate(model, l0, phi, A, s, settings, refuse_wrinkled: bool) -> list[Profile]:
-    """The profiles of the inflated states ``(l0, phi)`` (module docstring, :func:`profiles`)."""
+def _integrate(model, l0, phi, A, s, settings) -> list[Profile]:
+    """The profiles of the inflated states ``(l0, phi)`` (module docstring, :func:`profiles`): taut states by
+    :func:`_points`, hoop-wrinkled ones (a tension-field model, :mod:`coexist.wrinkling`) by
+    :func:`_relaxed_points`."""
     st = solve_states(model, l0, phi, settings).require_ok()
     kappa = np.atleast_1d(apex_curvature_hat(model, l0, phi, st.p_hat))
-    # a tension-field model's hoop-wrinkled states (coexist.wrinkling): their apex numbers hold (the pole is
-    # taut), their meridian through the wrinkled ring is not integrated here yet
-    rings = getattr(st, "wrinkled_radii", None) or [[] for _ in range(l0.size)]
+    rings = st.wrinkled_radii or [[] for _ in range(l0.size)]
     wrinkled = np.array([len(w) > 0 for w in rings], dtype=bool)
-    if refuse_wrinkled and wrinkled.any():
-        j = int(np.flatnonzero(wrinkled)[0])
-        raise ModelRangeError(
-            f"the state at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g} is hoop-wrinkled (R̂ in "
-            f"{', '.join(f'[{a:.4g}, {b:.4g}]' for a, b in rings[j])}): its profile is not computed yet; "
-            "profiles(..., wrinkled='numbers') gives its apex numbers",
-            "wrinkling",
-        )
     result: list[Profile] = []
     for j in range(l0.size):
         result.append(
@@ -377,11 +387,11 @@ def _integrate(model, l0, phi, A, s, settings, refuse_wrinkled: bool) -> list[Pr
                 wrinkled_radii=tuple((float(a), float(b)) for a, b in rings[j]),
             )
         )
-    taut = np.flatnonzero(~wrinkled)
-    if taut.size:
-        sub = st if taut.size == l0.size else _take(st, taut)
-        for jj, pts in zip(taut, _points(model, l0[taut], phi[taut], s, settings, sub)):
-            result[jj].R_hat, result[jj].r_hat, result[jj].z_hat = pts
+    for group, points_of in ((np.flatnonzero(~wrinkled), _points), (np.flatnonzero(wrinkled), _relaxed_points)):
+        if group.size:
+            sub = st if group.size == l0.size else _take(st, group)
+            for jj, pts in zip(group, points_of(model, l0[group], phi[group], s, settings, sub)):
+                result[jj].R_hat, result[jj].r_hat, result[jj].z_hat = pts
     return result
 
 
@@ -389,7 +399,9 @@ def _take(st, idx):
     """The fields of ``st`` this module reads, at the states ``idx``."""
     from types import SimpleNamespace
 
-    return SimpleNamespace(**{k: getattr(st, k)[idx] for k in ("clamp_radius", "apex_height", "v_hat")})
+    out = SimpleNamespace(**{k: getattr(st, k)[idx] for k in ("clamp_radius", "apex_height", "v_hat")})
+    out.wrinkled_radii = None if st.wrinkled_radii is None else [st.wrinkled_radii[i] for i in idx]
+    return out
 
 
 def _points(model, l0, phi, s, settings, st) -> list:
@@ -397,32 +409,15 @@ def _points(model, l0, phi, s, settings, st) -> list:
     m = l0.size
     lam = model.prestretch
     eq = _integrators(model)
-    pt = np.asarray(trial_pressure(model, l0, phi), dtype=float) * np.ones(m)
     R0 = settings.series_radius
-    # the shooting's start and tolerances: series at R0 (and at R̂ = 1 for the size of every row)
-    series = np.broadcast_arrays(
-        *model.series_start(np.tile(l0, 2), np.tile(pt, 2), np.tile(phi, 2), np.repeat([R0, 1.0], m)),
-        np.empty(2 * m),
-    )[:-1]
-    start = np.vstack([x[:m] for x in series[:7]])
-    unit = [x[m:] for x in series[:7]]
-    ones = np.ones(m)
-    size = np.vstack([ones, ones] + [np.abs(unit[i]) for i in range(2, 7)] + [ones, ones])
-    atol = settings.atol * np.maximum(size, 1e-30)
-    rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam - 1))
-    Rs_shot = st.clamp_radius
+    # the shooting's start (the series at R0) and tolerances (from the size of every row at R̂ = 1)
+    pt, y, atol, rtol = start_rows(model, settings, l0, phi, False)
+    pt = np.asarray(pt, dtype=float) * np.ones(m)
     k_last = s.size - 1
     rows = np.full((s.size, 7, m), np.nan)  # the state at every output radius (trial units)
-    radii = np.outer(s, Rs_shot)
-    # below the series radius: the series itself (the pole is its R = 0)
-    near = radii < R0
-    for k in range(k_last):
-        cols = np.flatnonzero(near[k])
-        if cols.size:
-            vals = model.series_start(l0[cols], pt[cols], phi[cols], radii[k, cols])[:7]
-            rows[k][:, cols] = np.vstack([np.broadcast_to(np.asarray(v, dtype=float), (cols.size,)) for v in vals])
+    radii = np.outer(s, st.clamp_radius)
+    near = _series_rows(model, l0, pt, phi, radii, R0, rows)
     t = np.full(m, R0)
-    y = np.vstack([start, pt, phi])
     for k in range(1, k_last):
         cols = np.flatnonzero(~near[k])
         if not cols.size:
@@ -455,22 +450,165 @@ def _points(model, l0, phi, s, settings, st) -> list:
     ztot = hop.y[6]
     apex = ztot / Rs
     v_hat = QUADRATURE_FACTORS[0] * hop.y[3] / Rs**3
-    # the same state as the shooting's, to its tolerance, or nothing
+    _agree(l0, phi, rtol, st, Rs, apex, v_hat)
+    return _scaled_points(l0, phi, radii, rows, Rs, ztot)
+
+
+def _relaxed_points(model, l0, phi, s, settings, st) -> list:
+    """``(R̂, r̂, ẑ)`` at the output radii ``s`` of the hoop-wrinkled states ``(l0, phi)`` of a tension-field model,
+    shot as ``st``.
+
+    The meridian is integrated again as :func:`_points` does (the shooting's series start, trial pressure ``p̂t``
+    and tolerances, :func:`coexist.shooting.start_rows`; a stop at every output radius ``R = R̂k R*``) but segment
+    by segment between the switches the shooting located (``st.wrinkled_radii``, known to ~1e-13, times ``R*``),
+    on :func:`coexist.wrinkling.segment_equations`: the taut right-hand side up to a band's start, where the width
+    row is set to the hoop stretch (``w = ρ``: ``T̂2 = 0`` there) and the hoop-wrinkled one takes over (``R̂T̂1``
+    constant, the width polished on every evaluation, row 1 the geometric hoop stretch ``ρ``), the taut one again
+    from the band's end (``λ2 = ρ``). ``λ1, ρ, θ`` and the quadratures are continuous at a switch (only the slopes
+    jump), so each segment starts from the last one's end. The last stop is the shooting's clamp radius ``R*``;
+    one Newton step along the trajectory lands on ``ρ = λpre`` (``R*`` moves by ``d = (ρ − λpre)/ρ'``, about the
+    tolerance, and the landing's error is ``~ρ'' d²``)."""
+    from .wrinkling import TAUT, WRINKLED, segment_equations
+
+    m = l0.size
+    lam = model.prestretch
+    eqs = segment_equations(model)
+    fun = (eqs.taut, eqs.wrinkled)
+    R0 = settings.series_radius
+    pt, y0, atol0, rtol = start_rows(model, settings, l0, phi, False)
+    pt = np.asarray(pt, dtype=float) * np.ones(m)
+    # the relaxed rows: the state, the width (polished at every evaluation: not error-controlled), p̂t, Φ̂
+    y = np.vstack([y0[:7], y0[1:2], y0[7:]])
+    atol = np.vstack([atol0[:7], np.full((1, m), 1e300), atol0[7:]])
+    Rs_shot = np.asarray(st.clamp_radius, dtype=float)
+    k_last = s.size - 1
+    rows = np.full((s.size, 7, m), np.nan)  # the state at every output radius (trial units)
+    radii = np.outer(s, Rs_shot)
+    near = _series_rows(model, l0, pt, phi, radii, R0, rows)
+    # per state its stops in trial radius, in order: output radii (their index k), switches (−1), the clamp
+    SWITCH = -1
+    stops = []
+    for j in range(m):
+        sw = [x * Rs_shot[j] for a, b in st.wrinkled_radii[j] for x in (a, b) if x < 1.0]
+        out = [(radii[k, j], k) for k in range(1, k_last) if not near[k, j]]
+        stops.append(sorted(out + [(x, SWITCH) for x in sw], key=lambda e: e[0]) + [(Rs_shot[j], k_last)])
+    n_stops = max(len(x) for x in stops)
+    stop_R = np.array([[e[0] for e in x] + [np.nan] * (n_stops - len(x)) for x in stops]).T
+    stop_k = np.array([[e[1] for e in x] + [k_last] * (n_stops - len(x)) for x in stops]).T
+    mode = np.full(m, TAUT)  # TAUT (0) or WRINKLED (1), the index into fun
+    t = np.full(m, R0)
+    for i in range(n_stops):
+        target = stop_R[i]
+        live = np.isfinite(target)
+        for md in (TAUT, WRINKLED):
+            cols = np.flatnonzero((mode == md) & live & (target != t))
+            if not cols.size:
+                continue
+            res = _int.integrate(
+                fun[md], t[cols], y[:, cols], target[cols], rtol[cols], atol[:, cols], settings.max_steps
+            )
+            bad = (res.status != _int.REACHED_END) | ~np.all(np.isfinite(res.y), axis=0)
+            if bad.any():
+                j = cols[np.flatnonzero(bad)[0]]
+                raise SolverError(
+                    f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: the re-integration of the wrinkled "
+                    f"state stopped at R̂ = {t[j] / Rs_shot[j]:.6g}, before R̂ = {target[j] / Rs_shot[j]:.6g}"
+                )
+            t[cols], y[:, cols] = res.t, res.y
+        k = stop_k[i]
+        here = np.flatnonzero(live & (k >= 0) & (k < k_last))
+        rows[k[here], :, here] = y[:7, here].T
+        turns = [np.flatnonzero(live & (k == SWITCH) & (mode == md)) for md in (TAUT, WRINKLED)]
+        for md, turn in zip((TAUT, WRINKLED), turns):
+            if turn.size:
+                _turn(eqs, md, turn, t, y, rtol, Rs_shot, l0, phi)
+                mode[turn] = 1 - md
+    # every state is at the shooting's clamp radius: one Newton step along the trajectory onto ρ = λpre
+    f = np.empty_like(y)
+    for md in (TAUT, WRINKLED):
+        cols = np.flatnonzero(mode == md)
+        if cols.size:
+            f[:, cols] = fun[md](t[cols], y[:, cols])
+    d = (y[1] - lam) / f[1]
+    Rs = t - d
+    yc = y - f * d
+    if not (np.all(np.isfinite(Rs)) and np.all(np.isfinite(yc[:7]))):
+        j = int(np.flatnonzero(~np.isfinite(Rs) | ~np.all(np.isfinite(yc[:7]), axis=0))[0])
+        raise SolverError(
+            f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: the wrinkled state does not land on the clamp"
+        )
+    rows[k_last] = yc[:7]
+    rows[k_last, 1] = lam
+    radii[k_last] = Rs
+    ztot = yc[6]
+    apex = ztot / Rs
+    v_hat = QUADRATURE_FACTORS[0] * yc[3] / Rs**3
+    _agree(l0, phi, rtol, st, Rs, apex, v_hat)
+    return _scaled_points(l0, phi, radii, rows, Rs, ztot)
+
+
+def _turn(eqs, md, cols, t, y, rtol, Rs_shot, l0, phi) -> None:
+    """Switch the columns ``cols`` (in segments of kind ``md``, at the shooting's switch radius) to the other kind,
+    in place: the switch is moved onto this trajectory's own zero of the switching function ``g`` (``T̂2`` taut,
+    ``w − ρ`` wrinkled) by one Newton step along it, ``δ = −g/g'`` (the shooting located it on its own trajectory,
+    which differs from this one by the tolerance: switching at its radius would carry the jump of ``λ1'`` times
+    that offset into the rest of the meridian); a band's start sets the width row to ``ρ``. An offset beyond
+    ``AGREEMENT_FACTOR rtol R*`` is not the shooting's switch: :class:`SolverError`."""
+    from .wrinkling import TAUT
+
+    f = (eqs.taut, eqs.wrinkled)[md](t[cols], y[:, cols])
+    g, dg = eqs.switching(md, y[:, cols], f)
+    delta = -np.asarray(g, dtype=float).ravel() / np.asarray(dg, dtype=float).ravel()
+    off = ~(np.abs(delta) <= AGREEMENT_FACTOR * rtol[cols] * Rs_shot[cols])
+    if off.any():
+        j = cols[np.flatnonzero(off)[0]]
+        raise SolverError(
+            f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: the re-integrated meridian does not switch "
+            f"where the shooting did (R̂ = {t[j] / Rs_shot[j]:.12g}; its own switch is "
+            f"{float(delta[np.flatnonzero(off)[0]]) / Rs_shot[j]:.3g} away)"
+        )
+    t[cols] += delta
+    y[:, cols] += f * delta
+    if md == TAUT:  # T̂2 = 0 where the band starts: the width is the hoop stretch
+        y[eqs.width_row, cols] = y[1, cols]
+
+
+def _series_rows(model, l0, pt, phi, radii, R0, rows) -> np.ndarray:
+    """Fill ``rows[k]`` (the state in trial units at ``radii[k]``) below the series radius ``R0`` by the pole's
+    series itself (the pole is its ``R = 0``); returns where that was done (all but the last output radius)."""
+    near = radii < R0
+    near[-1] = False
+    for k in range(radii.shape[0] - 1):
+        cols = np.flatnonzero(near[k])
+        if cols.size:
+            vals = model.series_start(l0[cols], pt[cols], phi[cols], radii[k, cols])[:7]
+            rows[k][:, cols] = np.vstack([np.broadcast_to(np.asarray(v, dtype=float), (cols.size,)) for v in vals])
+    return near
+
+
+def _agree(l0, phi, rtol, st, Rs, apex, v_hat) -> None:
+    """The re-integrated state is the shooting's (clamp radius, apex height, volume to ``AGREEMENT_FACTOR rtol``),
+    or :class:`SolverError` naming the state and the quantity."""
     tol = AGREEMENT_FACTOR * rtol
     for name, mine, theirs in (
-        ("clamp radius", Rs, Rs_shot),
+        ("clamp radius", Rs, st.clamp_radius),
         ("apex height", apex, st.apex_height),
         ("volume", v_hat, st.v_hat),
     ):
-        off = np.abs(mine - theirs) > tol * np.maximum(np.abs(theirs), 1e-3)
+        off = ~(np.abs(mine - theirs) <= tol * np.maximum(np.abs(theirs), 1e-3))
         if off.any():
             j = int(np.flatnonzero(off)[0])
             raise SolverError(
                 f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: the re-integrated {name} "
                 f"{mine[j]:.12g} differs from the shooting's {theirs[j]:.12g}"
             )
+
+
+def _scaled_points(l0, phi, radii, rows, Rs, ztot) -> list:
+    """``(R̂, r̂, ẑ)`` per state from the trial rows at the output radii: ``R̂ = R/R*``, ``r̂ = λ2 R/R*`` (``ρ R/R*``
+    in a wrinkled band), ``ẑ = (z(R*) − z(R))/R*``; the pole at ``r̂ = 0``, the clamp at ``ẑ = 0``."""
     out = []
-    for j in range(m):
+    for j in range(l0.size):
         R = radii[:, j]
         r_hat = rows[:, 1, j] * R / Rs[j]
         z_hat = (ztot[j] - rows[:, 6, j]) / Rs[j]
@@ -482,8 +620,8 @@ def _points(model, l0, phi, s, settings, st) -> list:
 
 
 def equilibrium_profiles(model: MembraneModel, eq, zone_radius: float, points: int = 201, settings=None) -> list:
-    """The profile of every group of identical zones of an equilibrium (a hoop-wrinkled group: its apex numbers,
-    no points; :func:`profiles` with ``wrinkled="numbers"``).
+    """The profile of every group of identical zones of an equilibrium (:func:`profiles`; a hoop-wrinkled group
+    too, its points through the wrinkled band on the relaxed equations).
 
     Parameters
     ----------
@@ -505,9 +643,7 @@ def equilibrium_profiles(model: MembraneModel, eq, zone_radius: float, points: i
         ``(zones in the group, its profile)``, least inflated group first (as ``eq.pole_stretch``).
     """
     lam = np.asarray(eq.pole_stretch, dtype=float)
-    profs = profiles(
-        model, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings, wrinkled="numbers"
-    )
+    profs = profiles(model, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings)
     return list(zip((int(c) for c in eq.configuration.counts), profs))
 
 
@@ -664,7 +800,7 @@ def patterned_profiles(
 
 def _patterned_points(model, pattern, st, S, settings) -> list:
     """``(R̂, r̂, ẑ)`` at the reference radii ``S`` (interfaces among them) of the patterned states ``st``."""
-    from .patterned import interface_stretch
+    from .patterned import interface_stretch, pole_series_radius
     from .shooting import start_rows
 
     l0 = np.asarray(st.pole_stretch, dtype=float)
@@ -678,7 +814,7 @@ def _patterned_points(model, pattern, st, S, settings) -> list:
     eq = _integrators(model)
     Rs = np.asarray(st.clamp_radius, dtype=float)
     p_t = np.asarray(st.p_hat, dtype=float) / Rs
-    R0 = settings.series_radius
+    R0 = pole_series_radius(model, settings, ph[0], n[0], l0, p_t)  # the solver's start, per state
     rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam - 1))
     atol7 = start_rows(model, settings, l0, ph[0], False)[2][:7]
     for k in range(1, len(regions)):
@@ -694,7 +830,7 @@ def _patterned_points(model, pattern, st, S, settings) -> list:
             rows[k][:, cols] = np.vstack([np.broadcast_to(np.asarray(v, dtype=float), (cols.size,)) for v in vals])
     series = model.series_start(l0, p_t / n[0], ph[0], R0)[:7]
     y = np.vstack([np.broadcast_to(np.asarray(v, dtype=float), (m,)) for v in series] + [p_t / n[0], ph[0]])
-    t = np.full(m, R0)
+    t = R0.copy()
     for k in range(1, S.size):
         cols = np.arange(m) if k == S.size - 1 else np.flatnonzero(~near[k])
         if cols.size:

@@ -924,6 +924,10 @@ def solve_states(
         or a voltage is not zero for a model without electrostatics.
     """
     if getattr(model, "pattern", None) is not None:  # a patterned zone (coexist.patterned.PatternedModel)
+        if model.tension_field:  # its WRINKLED states shot again relaxed
+            from .patterned_relaxed import shoot_zone_relaxed
+
+            return shoot_zone_relaxed(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)
         from .patterned import shoot_zone
 
         return shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)

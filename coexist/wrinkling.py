@@ -38,6 +38,7 @@ Failures are named: ``slack`` (the meridional tension falls to zero: both tensio
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -70,6 +71,8 @@ HERMITE_ITERATIONS = 12
 PULL_IN_TOLERANCE = 1e-9
 
 TAUT, WRINKLED = 0, 1
+#: status of a column of :func:`shoot_relaxed` that reached its ``stop_radius`` (internal: never a state's status)
+STOPPED = 98
 _CLAMP, _SWITCH, _DIP = 1, 2, 3
 
 
@@ -180,6 +183,12 @@ class RelaxedShots:
     #: per state the smallest ``K/T̂11`` (``K = dT̂1ʷ/dλ1``) at the outer ends of its wrinkled bands, where
     #: ``λ1`` is smallest in the band; ``inf`` for a taut state. It falls to zero at the band's pull-in.
     band_stiffness: np.ndarray | None = None
+    #: with ``stop_radius`` only (:func:`shoot_relaxed`; None otherwise): where every column stopped, in the
+    #: trial scaling: ``R`` (the stop radius for status :data:`STOPPED`, the clamp radius for ``OK``), ``y`` (the
+    #: rows there, the layout of :class:`_Layout`: state, width ``w``, ``p̂t``, ``Φ̂``), ``mode`` (:data:`TAUT` or
+    #: :data:`WRINKLED` at the stop) and ``intervals`` (per column its wrinkled intervals in the trial scaling,
+    #: a band still open at the stop ending there)
+    end: dict | None = None
 
 
 class _Layout:
@@ -215,6 +224,18 @@ class _Equations:
         self.atol = np.zeros((lay.rows, 0))
         # per column: K/T̂11 at the outer ends of its wrinkled bands (smallest; see RelaxedShots)
         self.band_stiffness = np.zeros(0)
+        # per column the radius to stop at (shoot_relaxed's stop_radius); None: settings.max_radius_factor
+        self.t_end: np.ndarray | None = None
+
+    def end_of(self, cols) -> np.ndarray:
+        """Where the columns ``cols`` stop integrating: their ``stop_radius``, else ``settings.max_radius_factor``."""
+        if self.t_end is None:
+            return np.full(np.size(cols), self.settings.max_radius_factor)
+        return self.t_end[cols]
+
+    def reached_end(self) -> int:
+        """The status of a column that reached :meth:`end_of`: :data:`STOPPED` at a stop radius, else no clamp."""
+        return sh.NO_CLAMP if self.t_end is None else STOPPED
 
     def taut(self, R, y):
         lay, out = self.lay, np.empty_like(y)
@@ -331,7 +352,13 @@ def _hermite_dip(Ra, ga, da, Rb, gb, db):
 
 
 def shoot_relaxed(
-    model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool = False, start: dict | None = None
+    model: MembraneModel,
+    settings: SolverSettings,
+    l0,
+    phi,
+    derivatives: bool = False,
+    start: dict | None = None,
+    stop_radius=None,
 ) -> RelaxedShots:
     """Shoot the states ``(λ0, Φ̂)`` of a tension-field membrane from the pole to the clamp.
 
@@ -352,7 +379,17 @@ def shoot_relaxed(
         Per state a taut node to start from (what :func:`coexist.shooting._shoot` leaves in its
         ``restart``): ``R``, ``y`` (the rows of :func:`coexist.shooting.start_rows`), a step size ``h``,
         the smallest tension ``min_T`` and largest field ``max_E`` up to it; a column whose ``R`` is NaN
-        starts at the pole.
+        starts at the pole. Optional keys (for a start that is not the taut shot's, e.g. a region of a
+        patterned zone, :mod:`coexist.patterned_relaxed`): ``mode`` (per state :data:`TAUT` or :data:`WRINKLED`:
+        the segment the column starts in; a wrinkled start takes its natural width from
+        :func:`natural_width` and opens its wrinkled interval at ``R``) and ``atol`` (the absolute tolerances
+        of the rows of :func:`coexist.shooting.start_rows`, instead of those of ``l0, phi``).
+    stop_radius : array_like, optional
+        Per state a radius (trial scaling) at which to stop instead of going on to the clamp: a column that
+        reaches it without meeting the clamp stretch gets status :data:`STOPPED` and its rows there in
+        :attr:`RelaxedShots.end` (one that meets the clamp first lands there, status ``OK``, as without
+        it). Default: none (the clamp, within ``settings.max_radius_factor``); every result is then
+        unchanged.
 
     Returns
     -------
@@ -388,8 +425,21 @@ def shoot_relaxed(
         y[:, go] = np.vstack([ys[:S], ys[1:2], ys[S:]])
         R[go], h[go] = start["R"][go], start["h"][go]
         min_T[go], max_E[go] = start["min_T"][go], start["max_E"][go]
+        if "atol" in start:
+            given = start["atol"][:, go]
+            given = np.vstack([given[:S], atol[S : S + 1, go], given[S:]])
+            atol[:, go] = np.where(np.isfinite(given), given, 1e300)
+        if "mode" in start:
+            mode[go] = np.asarray(start["mode"], dtype=int)[go]
     fail_R = np.full(m, np.nan)
     wrinkled_from = np.full(m, np.nan)
+    if start is not None and "mode" in start:
+        wr = np.flatnonzero(mode == WRINKLED)
+        if wr.size:  # a wrinkled start: its natural width (T̂2(λ1, w) = 0, w ≥ ρ), its interval opens here
+            y[lay.W, wr] = natural_width(model, y[0, wr], y[lay.P + 1, wr], guess=y[1, wr])
+            wrinkled_from[wr] = R[wr]
+    if stop_radius is not None:
+        eqs.t_end = np.broadcast_to(np.asarray(stop_radius, dtype=float), (m,)).copy()
     intervals: list[list] = [[] for _ in range(m)]
     out = {k: np.full(m, np.nan) for k in ("p", "V", "Q", "Psi", "z", "R")}
     if derivatives:
@@ -404,6 +454,21 @@ def shoot_relaxed(
             if cols.size:
                 _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, node, rtol, atol, settings)
                 _handle_stops(eqs, md, cols, R, y, h, mode, status, switches, wrinkled_from, intervals, out, node)
+    end = None
+    if stop_radius is not None:
+        raw: list[list] = [list(v) for v in intervals]
+        R_end = R.copy()
+        end = {"R": R_end, "y": y.copy(), "mode": mode.copy(), "intervals": raw}
+        for i in np.flatnonzero(status == STOPPED):
+            if mode[i] == WRINKLED:
+                raw[i].append((wrinkled_from[i], R[i]))
+        stopped_wrinkled = np.flatnonzero((status == STOPPED) & (mode == WRINKLED))
+        if stopped_wrinkled.size:  # a band that reaches the stop ends there
+            f_stop = eqs.rhs(WRINKLED)(R[stopped_wrinkled], y[:, stopped_wrinkled])
+            _band_end(eqs, stopped_wrinkled, y[:, stopped_wrinkled], f_stop)
+        for i in np.flatnonzero(status == sh.OK):
+            R_end[i] = out["R"][i]
+            raw[i] = [(a, b if math.isfinite(b) else out["R"][i]) for a, b in intervals[i]]
     done = status == sh.OK
     for i in np.flatnonzero(done):
         Rs = out["R"][i]
@@ -412,7 +477,9 @@ def shoot_relaxed(
             min_T[i] = 0.0  # the hoop tension vanishes in the wrinkled region
     fail_radius = np.where(done, np.inf, fail_R / np.where(np.isfinite(out["R"]), out["R"], 1.0))
     band = np.where(done, eqs.band_stiffness, np.nan)
-    return RelaxedShots(out, status, min_T, max_E, steps, fail_radius, intervals, band)
+    if end is not None:
+        band = np.where(done | (status == STOPPED), eqs.band_stiffness, np.nan)
+    return RelaxedShots(out, status, min_T, max_E, steps, fail_radius, intervals, band, end)
 
 
 def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, node, rtol, atol, settings):
@@ -472,7 +539,7 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, node, 
         eqs.stepper(md, n),
         R[cols],
         y_start,
-        np.full(n, settings.max_radius_factor),
+        eqs.end_of(cols),
         rtol[cols],
         atol[:, cols],
         settings.max_steps,
@@ -486,7 +553,7 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, node, 
     crossed = st == _int.CROSSED
     status[cols[crossed]] = -2 - k_cross[crossed]
     h[cols[crossed]] = h_cross[crossed]
-    status[cols[st == _int.REACHED_END]] = sh.NO_CLAMP
+    status[cols[st == _int.REACHED_END]] = eqs.reached_end()
     status[cols[st == _int.STEP_LIMIT]] = sh.STEP_LIMIT
     failed = st >= _int.FAILED
     status[cols[failed]] = st[failed] - _int.FAILED
@@ -599,7 +666,7 @@ def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status
     n, rows = cols.size, lay.rows
     o = len(_HEAD)
     X = np.zeros((o + 3 * rows, n))
-    X[_H["t"]], X[_H["h"]], X[_H["t_end"]] = R[cols], h[cols], settings.max_radius_factor
+    X[_H["t"]], X[_H["h"]], X[_H["t_end"]] = R[cols], h[cols], eqs.end_of(cols)
     X[_H["rtol"]], X[_H["max_steps"]] = eqs.rtol[cols], settings.max_steps
     X[_H["g_last"]], X[_H["dg_last"]], X[_H["R_last"]] = g_last, dg_last, R[cols]
     X[_H["minT"]], X[_H["maxE"]], X[_H["failR"]], X[_H["h_cross"]] = min_T[cols], max_E[cols], np.nan, np.nan
@@ -618,7 +685,7 @@ def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status
     node[0, cols], node[1, cols] = X[_H["g_last"]], X[_H["dg_last"]]
     node[2:6, cols] = X[[_H["g_cross"], _H["dg_cross"], _H["l2_cross"], _H["f1_cross"]]]
     node[6, cols] = X[o + rows + 1]  # λ2' at the node
-    status[cols[st == _int.REACHED_END]] = sh.NO_CLAMP
+    status[cols[st == _int.REACHED_END]] = eqs.reached_end()
     status[cols[st == _int.STEP_LIMIT]] = sh.STEP_LIMIT
     failed = st >= _int.FAILED
     status[cols[failed]] = st[failed]
@@ -888,3 +955,58 @@ def _switch(eqs, md, idx, Rs, ys, fs, R, y, h, hc, mode, status, switches, wrink
             wrinkled_from[c] = Rs[i]
         else:
             intervals[c].append((wrinkled_from[c], Rs[i]))
+
+
+@dataclass(frozen=True)
+class SegmentEquations:
+    """The right-hand sides of :func:`shoot_relaxed`'s two kinds of segment, without sensitivities (from
+    :func:`segment_equations`).
+
+    Rows (one column per state): ``λ1``, ``λ2`` (taut; wrinkled: ``ρ``, the *geometric* hoop stretch), ``θ``,
+    ``V̂/π``, ``Q̂/2π``, ``Ψ̂/2π``, ``ẑ``, then the natural width ``w`` (row :attr:`width_row`), the trial pressure
+    ``p̂t`` and ``Φ̂``.
+    """
+
+    #: ``f(R̂, y) -> dy/dR̂`` of a taut segment (the membrane equations; ``w`` constant)
+    taut: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    #: ``f(R̂, y) -> dy/dR̂`` of a hoop-wrinkled segment (``R̂T̂1`` constant, ``θ' = p̂t λ1 ρ/T̂1``; the width polished
+    #: by Newton's method on ``T̂2(λ1, w) = 0`` at every evaluation, from the row ``w' = (dw/dλ1) λ1'``)
+    wrinkled: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    #: ``switching(mode, y, f) -> (g, dg/dR̂)``: the switching function of a segment of ``mode`` (:data:`TAUT`:
+    #: ``g = T̂2(λ1, λ2)``; :data:`WRINKLED`: ``g = w − ρ``, ``w`` polished) and its slope, at the nodes ``y`` with
+    #: their right-hand sides ``f``; a segment switches where its ``g`` falls to zero
+    switching: Callable[[int, np.ndarray, np.ndarray], tuple]
+    #: index of the width row ``w``: set it to ``ρ`` where a segment turns wrinkled (``T̂2 = 0`` there)
+    width_row: int
+    #: number of rows
+    rows: int
+
+
+def segment_equations(model: MembraneModel) -> SegmentEquations:
+    """The taut and hoop-wrinkled right-hand sides :func:`shoot_relaxed` integrates (numpy, all columns at once),
+    without sensitivities: for integrating a relaxed meridian again between its known switches (the profile of
+    a wrinkled state, :mod:`coexist.shapes`).
+
+    Taut: the membrane equations (:meth:`~coexist.model.MembraneModel.rhs`). Hoop-wrinkled (docs/physics.md,
+    section 10): ``λ1' = −T̂1/(R̂K)``, ``ρ' = (λ1 cos θ − ρ)/R̂``, ``θ' = p̂t λ1 ρ/T̂1``, ``K = T̂11 − T̂12²/T̂22``, the
+    tensions at ``(λ1, w)``, ``w`` the natural width (``T̂2(λ1, w) = 0``), the quadratures ``V̂, ẑ`` with the
+    geometric stretches and ``Q̂, Ψ̂`` with the material ones (:meth:`~coexist.model.MembraneModel.wrinkled_rhs`).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane.
+
+    Returns
+    -------
+    SegmentEquations
+        Both right-hand sides, their switching functions and the rows' layout.
+    """
+    lay = _Layout(False)
+    eqs = _Equations(model, lay)
+
+    def switching(mode, y, f):
+        g, dg, *_ = eqs.switching(mode, y, f)
+        return g, dg
+
+    return SegmentEquations(taut=eqs.taut, wrinkled=eqs.wrinkled, switching=switching, width_row=lay.W, rows=lay.rows)

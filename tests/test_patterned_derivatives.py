@@ -266,13 +266,15 @@ def test_the_cli_ramps_a_patterned_scene_with_its_shapes(tmp_path):
         assert len(group["profile"]["r_mm"]) >= 21  # the electrode edge among the points
 
 
-def test_a_patterned_model_refuses_tension_field_and_shapes(model):
+def test_a_patterned_model_takes_tension_field_and_refuses_shapes(model):
     from coexist.errors import SceneError
     from coexist.patterned import PatternedModel
 
-    with pytest.raises(SceneError, match='wrinkling must be "refuse"') as info:
-        PatternedModel.of(build_model("gent", jlim=97.0, wrinkling="tension-field"), ZonePattern.inner_circle(0.5))
-    assert info.value.field == "wrinkling"
+    # a tension-field membrane: its wrinkled states are relaxed (tests/test_patterned_wrinkled.py)
+    relaxed = PatternedModel.of(
+        build_model("gent", jlim=97.0, wrinkling="tension-field"), ZonePattern.inner_circle(0.5)
+    )
+    assert relaxed.tension_field
     zone = PatternedModel.of(model, ZonePattern.inner_circle(0.5))
     with pytest.raises(SceneError, match="meridian of a patterned zone"):
         solve_states(zone, [1.8], 0.1, shape=True)

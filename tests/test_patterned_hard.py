@@ -48,3 +48,33 @@ def test_charge_curve_is_one_branch_with_exact_derivatives(model):
     lhs = d.dp_dphi - d.dp_dl0 * d.dv_dphi / d.dv_dl0
     rhs = -d.dq_dl0 / d.dv_dl0
     assert np.max(np.abs(lhs - rhs) / np.maximum(np.abs(rhs), 1e-3)) < 1e-7
+
+
+@pytest.mark.parametrize("electrode_pole", [True, False])
+def test_charge_curve_of_a_two_layer_stack_is_the_one_layer_curve_scaled(electrode_pole):
+    """A zone of two layers everywhere, fully electroded, is the one-layer zone at ``Φ̂/2`` carrying ``p̂/2``: its
+    Φ̂–Q̂ curve at ``p̂`` has, at every pole stretch, twice the one-layer curve's voltage at ``p̂/2``, the same
+    volume and charge (1e-9). The voltage search must bracket the pole-wrinkling voltage of the stack, ``2²``
+    times the one-layer one (it missed every root above the one-layer bound before). A ring with a passive pole
+    region (whose pole never wrinkles by the voltage) finds the states the curve's own re-shot pressure confirms."""
+    from coexist.patterned import ZonePattern
+
+    sc = load_scene("inner-circle")
+    uniform = sc.model()
+    grid = np.linspace(1.05, 2.2, 24)
+    if electrode_pole:
+        stack = PatternedModel.of(uniform, ZonePattern([(0.5, 2, True), (1.0, 2, True)]))
+        two = voltage_charge_curve(stack, 1.5, grid).states
+        one = voltage_charge_curve(uniform, 0.75, grid).states
+        both = np.intersect1d(two.pole_stretch, one.pole_stretch)
+        assert both.size >= 5 and np.array_equal(two.pole_stretch, one.pole_stretch)
+        a, b = np.isin(two.pole_stretch, both), np.isin(one.pole_stretch, both)
+        assert np.allclose(two.phi_hat[a], 2 * one.phi_hat[b], rtol=1e-9, atol=0)
+        assert np.allclose(two.v_hat[a], one.v_hat[b], rtol=1e-9, atol=0)
+        assert np.allclose(two.q_hat[a], one.q_hat[b], rtol=1e-9, atol=0)
+    else:
+        ring = PatternedModel.of(uniform, ZonePattern.ring(0.3, 0.7, passive_layers=2))
+        c = voltage_charge_curve(ring, 2.0, grid).states
+        assert c.pole_stretch.size >= 10
+        again = solve_states(ring, c.pole_stretch, c.phi_hat)
+        assert np.allclose(again.p_hat, 2.0, rtol=1e-9, atol=0)

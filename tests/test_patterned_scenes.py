@@ -4,8 +4,8 @@
 errors naming the field, exit 2 from the CLI), turned into the :class:`~coexist.patterned.ZonePattern` of the
 library, listed among the effects only when a scene names them; scenes without them are unchanged. ``coexist
 curves`` computes a patterned zone's p̂–V̂ curves with :func:`~coexist.patterned.patterned_pressure_volume_curve`
-(the same numbers as the direct call); the commands that do not take patterned zones yet (fit, sweep,
-``ramp --shapes``) refuse them with one line.
+(the same numbers as the direct call); the commands that do not take patterned zones yet (fit, sweep) refuse
+them with one line.
 """
 
 import json
@@ -217,7 +217,8 @@ def _pv(result):
 
 def test_curves_of_the_inner_circle_scene_are_the_patterned_library_curves():
     data, curves = _pv(invoke(["curves", "--scene", "inner-circle", "--phi-hat", "0.1", "--json"]))
-    assert [c["family"] for c in data["curves"]] == ["pressure_volume"]  # no Φ̂–Q̂ curves for a patterned zone
+    # the default Φ̂–Q̂ curves too, as for a uniform zone (p̂ 1.2, 1.5, 1.7)
+    assert [c["family"] for c in data["curves"]] == ["pressure_volume"] + ["voltage_charge"] * 3
     assert data["model"]["pattern"]["regions"] == [
         {"outer": 0.5, "layers": 1, "electrode": True},
         {"outer": 1.0, "layers": 2, "electrode": False},
@@ -266,9 +267,9 @@ def test_patterned_curves_go_to_csv_and_a_figure(tmp_path):
     assert result.exit_code == 0, result.output
     rows = csv_path.read_text().splitlines()
     assert rows[0].startswith("family,fixed_name,fixed_value") and len(rows) > 10
-    assert {r.split(",")[0] for r in rows[1:]} == {"pressure_volume"}
+    # both families by default, as for a uniform zone
+    assert {r.split(",")[0] for r in rows[1:]} == {"pressure_volume", "voltage_charge"}
     assert png.stat().st_size > 1000
-    assert "voltage–charge curves take seconds each and are computed when asked for" in result.stderr
 
 
 @pytest.mark.parametrize(
@@ -290,14 +291,13 @@ def test_bad_pattern_options_are_one_line_errors(args, fragments):
     one_line_error(invoke(["curves", *args, "--phi-hat", "0.1", "--points", "10"]), *fragments)
 
 
-# --- the commands that do not take patterned zones yet refuse them (ramp and coexistence take them:
-# tests/test_patterned_derivatives.py) ----------------------------------------------------------------------
+# --- the commands that do not take patterned zones yet refuse them (ramp, ramp --shapes and coexistence take
+# them: tests/test_patterned_derivatives.py) ----------------------------------------------------------------------
 @pytest.mark.parametrize(
     "args, command",
     [
         (["fit", "inner-circle", "--transition-kV", "3.9"], "fit"),
         (["sweep", "inner-circle", "--vary", "chamber.volume_ml=300"], "sweep"),
-        (["ramp", "-", "--shapes"], "ramp --shapes"),
     ],
 )
 def test_the_n_zone_commands_refuse_a_patterned_scene_in_one_line(args, command):

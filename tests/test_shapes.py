@@ -285,17 +285,20 @@ def test_ramp_shapes_json():
     assert f"{step['shapes'][-1]['apex_height_mm']:.2f}/" in plain.stdout
 
 
-def test_wrinkled_states_give_apex_numbers_and_no_points():
+def test_wrinkled_states_get_their_profile_too():
     """A hoop-wrinkled state of a tension-field model (neo-Hookean, Φ̂ = 0.3, λ0 = 1.03: a ring at the clamp,
-    docs/physics.md section 10) is refused by default (its meridian through the ring is not integrated here);
-    with ``wrinkled="numbers"`` it has the shooting's apex height, the Laplace-law curvature (the pole is
-    taut) and no points, while a taut state of the same batch has its full profile."""
+    docs/physics.md section 10) gets its points like the taut state of the same batch (the wrinkled profiles are
+    checked in tests/test_shapes_wrinkled.py), with the shooting's apex height and the Laplace-law curvature (the
+    pole is taut); ``wrinkled="numbers"`` and ``"raise"``, the values of the time it had none, give the same."""
     model = MembraneModel(NeoHookean(), IdealDielectric(), wrinkling="tension-field")
-    with pytest.raises(ModelRangeError, match="hoop-wrinkled"):
-        profiles(model, [1.03, 1.06], 0.3, zone_radius=1.0)
     st = solve_states(model, [1.03, 1.06], 0.3)
-    wr, taut = profiles(model, [1.03, 1.06], 0.3, zone_radius=1.0, points=11, wrinkled="numbers")
-    assert wr.wrinkled_radii and wr.r_hat.size == 0 and wr.to_dict()["profile"] is None
-    assert wr.apex_height_hat == st.apex_height[0]
+    wr, taut = profiles(model, [1.03, 1.06], 0.3, zone_radius=1.0, points=11)
+    assert wr.wrinkled_radii and wr.r_hat.size == 11 and wr.to_dict()["profile"] is not None
+    assert wr.apex_height_hat == st.apex_height[0] and wr.z_hat[0] == pytest.approx(st.apex_height[0], abs=1e-9)
     assert wr.apex_curvature_hat == apex_curvature_hat(model, 1.03, 0.3, st.p_hat[0])
     assert not taut.wrinkled_radii and taut.r_hat.size == 11 and taut.z_hat[0] == pytest.approx(st.apex_height[1])
+    for value in ("numbers", "raise"):
+        again = profiles(model, [1.03, 1.06], 0.3, zone_radius=1.0, points=11, wrinkled=value)[0]
+        assert np.array_equal(again.z_hat, wr.z_hat) and np.array_equal(again.r_hat, wr.r_hat)
+    with pytest.raises(SceneError, match="wrinkled"):
+        profiles(model, 1.03, 0.3, zone_radius=1.0, wrinkled="skip")

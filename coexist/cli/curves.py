@@ -75,9 +75,9 @@ from .common import (
 @click.option(
     "--pole-stretch",
     "pole_stretch",
-    default="1.01,4",
-    show_default=True,
-    help="Pole-stretch range 'start,stop' of every curve.",
+    default=None,
+    help="Pole-stretch range 'start,stop' of every curve (default 1.01 λpre to max(4, 1.5 λpre); 1.01,4 without "
+    "prestretch).",
 )
 @click.option("--points", type=click.IntRange(3, 5000), default=200, show_default=True, help="States per curve.")
 @click.option("-o", "--plot", "plot", default=None, help="Write the figure here (.png, .svg or .pdf).")
@@ -115,8 +115,7 @@ def curves(
 
     A patterned zone (--pattern inner-circle or ring, or a scene's [electrodes] pattern): an electrode
     region of one layer, passive regions of --passive-layers layers (coexist.patterned). Both families are
-    computed, shot region by region (the Φ̂–Q̂ curves only when --p-hat asks for them: seconds each); its charge
-    Q̂ is the electrode's only.
+    computed, shot region by region (a Φ̂–Q̂ curve in under a second); its charge Q̂ is the electrode's only.
     """
     import numpy as np
 
@@ -132,17 +131,14 @@ def curves(
     fields = _pattern_fields(sc, pattern, inner_fraction, outer_fraction, passive_layers)
     patterned = fields["electrode_pattern"] != "full"
     phis = parse_floats(phi_hat, "--phi-hat", nonnegative=True)
-    if patterned and p_hat is None:
-        info(
-            "note: a patterned zone's voltage–charge curves take seconds each and are computed when asked for "
-            "(--p-hat P1,P2,...): its p̂–V̂ curves follow"
-        )
+    defaulted_pressures = p_hat is None
     if p_hat is None:
-        p_hat = "none" if patterned else "1.2,1.5,1.7"
+        p_hat = "1.2,1.5,1.7"
     pressures = [] if p_hat.strip().lower() == "none" else parse_floats(p_hat, "--p-hat", positive=True)
-    lo, hi = parse_floats(pole_stretch, "--pole-stretch", positive=True, count=(2,))
-    if hi <= lo:
-        raise InputError(f"--pole-stretch: the range must increase, got {pole_stretch!r}")
+    if pole_stretch is not None:
+        lo, hi = parse_floats(pole_stretch, "--pole-stretch", positive=True, count=(2,))
+        if hi <= lo:
+            raise InputError(f"--pole-stretch: the range must increase, got {pole_stretch!r}")
     if jlim is not None and not jlim > 0:
         raise InputError(f"--jlim: must be positive, got {jlim:g}")
     if material != "gent" and jlim is not None:
@@ -151,6 +147,8 @@ def curves(
         model = build_model(material, jlim=jlim, voltage=True, prestretch=prestretch, wrinkling=wrinkling)
     except SceneError as exc:
         raise InputError(f"--{(exc.field or 'material').replace('_', '-')}: {exc.message}") from None
+    if pole_stretch is None:  # the library's default range, which follows the prestretch
+        lo, hi = 1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch)
     if lo <= model.prestretch:
         raise InputError(f"--pole-stretch: must start above the prestretch {model.prestretch:g}, got {lo:g}")
     out = Outputs(overwrite)
@@ -165,8 +163,6 @@ def curves(
         from coexist.scene import zone_pattern
 
         zone = zone_pattern(*fields.values())
-        if wrinkling == "tension-field":
-            info("note: a patterned zone refuses wrinkled states whatever --wrinkling (coexist.patterned)")
     for phi in phis:
         if zone is not None:
             from coexist.patterned import patterned_pressure_volume_curve
@@ -180,8 +176,17 @@ def curves(
 
         # the zone's model (refusing wrinkled states): solve_states shoots it region by region
         zone_model = PatternedModel(model.elasticity, model.electrostatics, model.prestretch, "refuse", zone)
+    from coexist.errors import ModelRangeError
+
     for p in pressures:
-        vq.append(voltage_charge_curve(model if zone is None else zone_model, p, grid, settings))
+        try:
+            vq.append(voltage_charge_curve(model if zone is None else zone_model, p, grid, settings))
+        except ModelRangeError as exc:
+            if not defaulted_pressures:
+                raise
+            # a default pressure this zone does not reach with any voltage: said, not fatal
+            info(f"note: no Φ̂–Q̂ curve at the default p̂ = {p:g}: {exc}")
+            continue
         _note(vq[-1])
     data = {
         "model": model.describe() | ({} if zone is None else {"pattern": _pattern_dict(fields, zone)}),

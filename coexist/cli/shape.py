@@ -63,7 +63,9 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
     apex height (mm), apex curvature (1/m: the curvature of the meridian at the pole, a lens's focal
     figure of merit, exact from the Laplace law p = 2 t κ0 of the equibiaxial pole) with its radius
     of curvature (mm), and the electrode edge (mm; the clamp for a uniform electrode). -o draws the
-    zones side by side at each voltage, to scale.
+    zones side by side at each voltage, to scale. A hoop-wrinkled zone (a tension-field scene) has its
+    profile too, integrated through the wrinkled band on the relaxed equations; there r is the geometric
+    radius of the wrinkled surface (docs/physics.md section 11), and -o marks the band.
 
     A patterned zone (one zone, e.g. the inner-circle scene): the states on its gas (or at its controlled
     pressure) continued from the closing state, each a converged patterned state; the states stop where none
@@ -283,9 +285,11 @@ def _table(data):
         for label, g in _zones(e):
             roc = "inf" if g["radius_of_curvature_mm"] is None else f"{g['radius_of_curvature_mm']:.4f}"
             edge = f"({g['electrode_edge_mm'][0]:.4f}, {g['electrode_edge_mm'][1]:.4f})"
+            bands = g.get("wrinkled_radii") or []
+            wrinkled = "".join(f"; wrinkled for R/A {a:.4f}-{b:.4f}" for a, b in bands)
             click.echo(
                 f"{e['voltage_kV']:>10.3f} {label:>5} {g['pole_stretch']:>12.6f} {g['apex_height_mm']:>14.6f} "
-                f"{g['apex_curvature_per_m']:>20.6f} {roc:>22} {edge:>24}  {e['configuration']}"
+                f"{g['apex_curvature_per_m']:>20.6f} {roc:>22} {edge:>24}  {e['configuration']}{wrinkled}"
             )
     click.echo(
         f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e}; "
@@ -294,10 +298,11 @@ def _table(data):
 
 
 def _figure(sc, rows, path):
-    """Side view: one panel per voltage, the zones side by side (true scale), as the paper's Fig. 6."""
+    """Side view: one panel per voltage, the zones side by side (true scale), as the paper's Fig. 6; hoop-wrinkled
+    bands marked (:func:`coexist.plotting.mark_wrinkled_bands`)."""
     import textwrap
 
-    from coexist.plotting import pyplot, save_figure
+    from coexist.plotting import mark_wrinkled_bands, pyplot, save_figure
 
     plt = pyplot()
     A = sc.zone_radius * 1e3
@@ -322,26 +327,17 @@ def _figure(sc, rows, path):
         else:
             drawn = [(n, p) for n, p in groups]
         bulged = groups[-1][1] if st is not None and st.k > 0 and len(groups) > 1 else None
+        wrinkle_label = False  # one legend entry per panel
         for i, (n, p) in enumerate(drawn):
             c = i * pitch
-            if not p.r_hat.size:  # a wrinkled state: its apex numbers only
-                ax.plot([c], [p.apex_height * 1e3], "v", color="C1")
-                ax.annotate(
-                    f"h {p.apex_height * 1e3:.2f} mm\nκ0 {p.apex_curvature:.1f} /m\nwrinkled: no profile yet",
-                    (c, p.apex_height * 1e3),
-                    xytext=(0, 3),
-                    textcoords="offset points",
-                    ha="center",
-                    va="bottom",
-                    fontsize=7,
-                )
-                continue
             r, z = p.r * 1e3, p.z * 1e3
             xs = [c - x for x in r[::-1]] + [c + x for x in r]
             zs = list(z[::-1]) + list(z)
             color = "C3" if p is bulged else "C0"
             ax.fill(xs, zs, color=color, alpha=0.18, lw=0)
             ax.plot(xs, zs, color=color, lw=1.6)
+            if mark_wrinkled_bands(ax, p, c, label=None if wrinkle_label else "hoop-wrinkled band (r: geometric)"):
+                wrinkle_label = True
             er, ez = (x * 1e3 for x in p.electrode_edge)
             ax.plot([c - er, c + er], [ez, ez], "|", color="k", ms=9, mew=1.5)
             label = f"h {p.apex_height * 1e3:.2f} mm\nκ0 {p.apex_curvature:.1f} /m"
@@ -367,5 +363,7 @@ def _figure(sc, rows, path):
         if st is None:
             why = textwrap.fill(step.note or "outside the model's range", 70)
             ax.text(0.5, 0.5, why, transform=ax.transAxes, ha="center", va="center", fontsize=8)
+        if wrinkle_label:
+            ax.legend(loc="upper right", fontsize=7)
     axes[-1, 0].set_xlabel("r (mm): the zones side by side, to scale")
     save_figure(fig, path)

@@ -128,8 +128,8 @@ def tensions(model: MembraneModel, l1, l2, phi):
         The membrane.
     l1, l2 : array_like
         Stretches.
-    phi : float
-        Normalised voltage.
+    phi : float or array_like
+        Normalised voltage (one, or one per stretch: e.g. per element of a patterned zone, ``Φ̂/n`` or 0).
 
     Returns
     -------
@@ -137,16 +137,45 @@ def tensions(model: MembraneModel, l1, l2, phi):
     """
     l1, l2 = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(l2, dtype=float))
     f = _tension_functions(model).map(l1.size)
+    if np.ndim(phi):
+        phi = np.broadcast_to(np.asarray(phi, dtype=float), l1.shape).ravel()[None, :]
     out = f(l1.ravel()[None, :], l2.ravel()[None, :], phi)
     return tuple(np.asarray(x).reshape(l1.shape) for x in out)
 
 
+def element_layers(pattern, Rm: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per element (midpoint ``Rm``) the layer count ``n`` and the electrode flag ``e`` (1 or 0) of a patterned
+    zone: the region whose reference radii hold the midpoint (docs/physics.md, section 12). No pattern: one
+    layer with electrode everywhere.
+
+    Parameters
+    ----------
+    pattern : ZonePattern or None
+        The regions (:class:`coexist.patterned.ZonePattern`).
+    Rm : ndarray
+        Element midpoints.
+
+    Returns
+    -------
+    layers, electrode : ndarray
+    """
+    if pattern is None:
+        return np.ones(Rm.size), np.ones(Rm.size)
+    outer = np.array([r.outer for r in pattern.regions])
+    k = np.minimum(np.searchsorted(outer, Rm), outer.size - 1)
+    layers = np.array([float(r.layers) for r in pattern.regions])[k]
+    electrode = np.array([1.0 if r.electrode else 0.0 for r in pattern.regions])[k]
+    return layers, electrode
+
+
 @functools.lru_cache(maxsize=32)
-def _solver(model: MembraneModel, n: int, kind: str, control: str):
-    """The NLP on one mesh; parameters ``(Φ̂, p̂ or V̂target)``."""
+def _solver(model: MembraneModel, n: int, kind: str, control: str, pattern=None):
+    """The NLP on one mesh; parameters ``(Φ̂, p̂ or V̂target)``. A patterned zone: an element of a region of
+    ``n`` layers carries ``n W*(b, a; e Φ̂/n)`` (``e`` its electrode flag), the pressure term unchanged."""
     R = mesh(n, kind)
     dR = np.diff(R)
     Rm = 0.5 * (R[:-1] + R[1:])
+    layers, electrode = element_layers(pattern, Rm)
     lam_pre = model.prestretch
     # unknowns: r_1..r_{n-1}, z_0..z_{n-1}, a_0..a_{n-1}, b_0..b_{n-1}
     r_in = ca.SX.sym("r", n - 1)
@@ -158,7 +187,10 @@ def _solver(model: MembraneModel, n: int, kind: str, control: str):
     z = ca.vertcat(z_in, 0)
     dr, dz = r[1:] - r[:-1], z[1:] - z[:-1]
     l2geo = (r[:-1] + r[1:]) / (2 * Rm)
-    W = _energy(model, b, a, phi)
+    if pattern is None:
+        W = _energy(model, b, a, phi)
+    else:
+        W = ca.DM(layers) * _energy(model, b, a, phi * ca.DM(electrode / layers))
     psi = ca.dot(W, ca.DM(2 * math.pi * Rm * dR))
     vol = math.pi / 3 * ca.sum1((r[:-1] ** 2 + r[:-1] * r[1:] + r[1:] ** 2) * (z[:-1] - z[1:]))
     x = ca.vertcat(r_in, z_in, a, b)
@@ -232,6 +264,26 @@ def _regions(Rm: np.ndarray, s: np.ndarray, R: np.ndarray) -> list[tuple[float, 
     return out
 
 
+def _patterned_regions(pattern, R: np.ndarray, Rm: np.ndarray, s: np.ndarray) -> list[tuple[float, float]]:
+    """:func:`_regions` region by region of a patterned zone (the formal tensions jump at its interfaces, so a
+    zero is never extrapolated across one; an interval that reaches an interface ends there), intervals that
+    meet at an interface merged."""
+    outer = np.array([r.outer for r in pattern.regions])
+    k_el = np.minimum(np.searchsorted(outer, Rm), outer.size - 1)
+    out: list[tuple[float, float]] = []
+    for k in range(outer.size):
+        el = np.flatnonzero(k_el == k)
+        if not el.size:
+            continue
+        nodes = R[el[0] : el[-1] + 2]
+        for lo, hi in _regions(Rm[el], s[el], nodes):
+            if out and abs(out[-1][1] - lo) <= 1e-12:
+                out[-1] = (out[-1][0], hi)
+            else:
+                out.append((lo, hi))
+    return out
+
+
 def relaxed_state(
     model: MembraneModel,
     p_hat: float | None = None,
@@ -242,6 +294,7 @@ def relaxed_state(
     mesh_kind: str = "uniform",
     initial=None,
     height: float = 0.3,
+    pattern=None,
 ) -> dict:
     """The equilibrium of the relaxed energy of the discretised membrane (a local minimum).
 
@@ -265,6 +318,12 @@ def relaxed_state(
         :data:`COARSE` elements, whose result then starts the requested mesh.
     height : float
         Height of the default starting cap.
+    pattern : ZonePattern, optional
+        A patterned, layered zone (:class:`coexist.patterned.ZonePattern`): an element whose midpoint lies in a
+        region of ``n`` layers carries ``n W*(b, a; Φ̂/n)`` with electrode, ``n W*(b, a; 0)`` without (docs/physics.md
+        section 12), the pressure term unchanged; its charge is that of the electrode's elements. Put the
+        interfaces on nodes (``fk n`` whole on a uniform mesh) for ``O(h²)`` errors. Default: one layer with
+        electrode everywhere.
 
     Returns
     -------
@@ -277,16 +336,21 @@ def relaxed_state(
         T2_formal`` (taut formula at the geometric stretch across, negative where wrinkled), the
         regions ``hoop_wrinkled_radii``, ``meridional_wrinkled_radii`` (lists of ``(R_start, R_end)``),
         ``slack_radii``, ``wrinkled_radii`` (where any tension vanishes), ``wrinkled_fraction`` (its
-        reference area over ``π``), ``hoop_wrinkled_fraction``, ``iterations``.
+        reference area over ``π``), ``hoop_wrinkled_fraction``, ``iterations``. With a ``pattern`` the
+        tensions are those of one layer of each element's stack (at its ``Φ̂/n`` or 0).
     """
     if (p_hat is None) == (volume is None):
         raise ValueError("give exactly one of p_hat and volume")
     control = "pressure" if volume is None else "volume"
     if initial is None and n > COARSE:
-        initial = relaxed_state(model, p_hat, phi_hat, volume=volume, n=COARSE, mesh_kind=mesh_kind, height=height)
-    solver, aux, R = _solver(model, int(n), mesh_kind, control)
+        initial = relaxed_state(
+            model, p_hat, phi_hat, volume=volume, n=COARSE, mesh_kind=mesh_kind, height=height, pattern=pattern
+        )
+    solver, aux, R = _solver(model, int(n), mesh_kind, control, pattern)
     Rm = 0.5 * (R[:-1] + R[1:])
     dR = np.diff(R)
+    layers, electrode = element_layers(pattern, Rm)
+    phi_el = float(phi_hat) * electrode / layers  # the per-layer voltage of every element
     r0, z0 = _initial_guess(model, R, initial, height)
     r0[0], r0[-1], z0[-1] = 0.0, model.prestretch, 0.0
     l2g = (r0[:-1] + r0[1:]) / (2 * Rm)
@@ -318,15 +382,22 @@ def relaxed_state(
         p_out = -float(np.asarray(sol["lam_g"]).ravel()[-1])
     else:
         p_out = float(p_hat)  # type: ignore[arg-type]
-    W, T1, T2 = tensions(model, b, a, phi_hat)
-    _, _, T2f = tensions(model, b, l2geo, phi_hat)
-    _, T1f, _ = tensions(model, l1geo, a, phi_hat)
+    phi_t = phi_hat if pattern is None else phi_el
+    W, T1, T2 = tensions(model, b, a, phi_t)
+    _, _, T2f = tensions(model, b, l2geo, phi_t)
+    _, T1f, _ = tensions(model, l1geo, a, phi_t)
     # formal tensions: taut where the material stretch equals the geometric one (the constraint is
     # active, its gap at the interior-point solution ~1e-10), so there the formal tension is the tension
-    hoop = _regions(Rm, T2f, R)
-    mer = _regions(Rm, T1f, R)
-    slack = _regions(Rm, np.maximum(T1f, T2f), R)
-    anyw = _regions(Rm, np.minimum(T1f, T2f), R)
+    if pattern is None:
+        hoop = _regions(Rm, T2f, R)
+        mer = _regions(Rm, T1f, R)
+        slack = _regions(Rm, np.maximum(T1f, T2f), R)
+        anyw = _regions(Rm, np.minimum(T1f, T2f), R)
+    else:  # the formal tensions jump at an interface: their zeros are located inside each region
+        hoop = _patterned_regions(pattern, R, Rm, T2f)
+        mer = _patterned_regions(pattern, R, Rm, T1f)
+        slack = _patterned_regions(pattern, R, Rm, np.maximum(T1f, T2f))
+        anyw = _patterned_regions(pattern, R, Rm, np.minimum(T1f, T2f))
 
     def fraction(regions):
         return float(sum(hi**2 - lo**2 for lo, hi in regions))
@@ -335,7 +406,10 @@ def relaxed_state(
     status = "ok" if ipopt_status in CONVERGED else ipopt_status
     if np.max(np.maximum(a, b)) > 0.99 * cap:
         status = "runaway"
-    q = float(phi_hat) * float(np.sum(b**2 * a**2 * 2 * math.pi * Rm * dR))
+    if pattern is None:
+        q = float(phi_hat) * float(np.sum(b**2 * a**2 * 2 * math.pi * Rm * dR))
+    else:  # the electrode's elements: per layer q̂ = (Φ̂/n) λ1²λ2², the stack's charge with no factor
+        q = float(np.sum(phi_el * b**2 * a**2 * 2 * math.pi * Rm * dR))
     return {
         "status": status,
         "control": control,

@@ -1,0 +1,754 @@
+"""Patterned zones that wrinkle: the tension-field relaxation carried region by region and across interfaces.
+
+A patterned zone (:mod:`coexist.patterned`, docs/physics.md section 12) whose taut state would need a negative
+hoop tension somewhere — typically on the electrode side of an electrode edge at low inflation, where the
+passive annulus holds back the active disc — wrinkles there. This module shoots such zones with the relaxed
+equations of :mod:`coexist.wrinkling` in every region (docs/physics.md section 12, "Wrinkled regions"):
+
+* region ``k`` (``nk`` layers, per-layer voltage ``φk = Φ̂/nk`` with electrode, ``0`` without, pressure
+  ``p̂t/nk``) is integrated by :func:`coexist.wrinkling.shoot_relaxed` from its start node to its end radius
+  ``s fk`` (``stop_radius``), or to the clamp ``ρ = λpre`` in the last region, switching taut ↔ hoop-wrinkled
+  inside the region exactly as a uniform zone does (switches located inside the step);
+* at an interface ``ρ``, ``θ`` (and the quadratures) are continuous and the meridional force per reference hoop
+  length is, ``n⁻ T̂1ʳ⁻ = n⁺ T̂1ʳ⁺``, with the *relaxed* meridional tension ``T̂1ʳ = T̂1(λ1, ρ; φ)`` on a taut side
+  and ``T̂1ʷ(λ1; φ) = T̂1(λ1, λ2*(λ1); φ)`` on a wrinkled one (:func:`relaxed_interface_stretch`); the far side is
+  taut where the formal hoop tension ``T̂2(λ1⁺, ρ; φ⁺)`` at the taut root is not negative, else wrinkled;
+* the interface scale ``s`` (interfaces at ``s fk``) is solved per state by a safeguarded secant iteration on
+  ``G(σ) = ln R*(e^σ) − σ`` (:func:`solve_patterned_relaxed`), as :func:`coexist.patterned.solve_patterned_states`
+  does with Newton's method.
+
+Exact derivatives of relaxed patterned states are not computed: ``derivatives=True`` is refused by name
+(:func:`solve_patterned_relaxed` raises; :func:`shoot_zone_relaxed` leaves such states ``WRINKLED`` with the
+reason in ``failure_detail``, so the N-zone layer treats them as out of its range and says why).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import validation
+from .errors import ModelRangeError, SceneError
+from .model import QUADRATURE_FACTORS, MembraneModel
+from .patterned import (
+    LAST_REGION_REACH,
+    MAX_FAILED_TRIALS,
+    MAX_SCALE_ITERATIONS,
+    MAX_SCALE_STEP,
+    SLOPE_CEILING,
+    PatternedModel,
+    PatternedStates,
+    ZonePattern,
+    _Layout,
+    _layout,
+    _patterned,
+    _pole_region_scale,
+    _pole_start,
+    _sub_layout,
+    _take_pole,
+    _trial,
+    _uniform,
+    interface_stretch,
+)
+from .settings import SolverSettings
+from .shooting import (
+    BELOW_RESOLUTION,
+    FLAT_LIMIT,
+    LOCKED,
+    LOCKING_LIMIT,
+    LOST_ELLIPTICITY,
+    NO_CLAMP,
+    NOT_FINITE,
+    OK,
+    PULL_IN,
+    WRINKLED,
+    WRINKLED_AT_POLE,
+    MembraneStates,
+    checked_state_inputs,
+    reason_text,
+    solve_states,
+)
+from .wrinkling import STOPPED, TAUT, natural_width, shoot_relaxed
+from .wrinkling import WRINKLED as WRINKLED_MODE
+
+__all__ = [
+    "NO_RELAXED_DERIVATIVES",
+    "describe_wrinkles",
+    "relax_wrinkled",
+    "relaxed_interface_stretch",
+    "relaxed_meridional_tension",
+    "shoot_zone_relaxed",
+    "solve_patterned_relaxed",
+]
+
+#: the reason a relaxed patterned state has no derivatives (the text of the error and of ``failure_detail``)
+NO_RELAXED_DERIVATIVES = (
+    "a wrinkled patterned zone has no exact derivatives yet (its relaxed states are computed without the "
+    "variational equations), so it is out of the range of curves' limit points, equilibria and the ramp"
+)
+#: Newton iterations of the relaxed interface jump at most
+JUMP_ITERATIONS = 80
+#: internal codes of an iterate (never a state's status), as in :mod:`coexist.patterned`
+_EARLY_CLAMP = 90
+_FAR_CLAMP = 91
+
+
+# --- the interface -----------------------------------------------------------------------------------------
+
+
+def relaxed_meridional_tension(model: MembraneModel, l1, rho, phi, wrinkled, width_guess=None):
+    """The relaxed meridional tension ``T̂1ʳ`` of one layer and its slope ``dT̂1ʳ/dλ1`` at fixed ``ρ``.
+
+    Taut (``wrinkled`` False): ``T̂1(λ1, ρ; φ)`` and ``T̂11``. Hoop-wrinkled: ``T̂1ʷ(λ1) = T̂1(λ1, w; φ)`` at the
+    natural width ``w = λ2*(λ1; φ)`` (``T̂2(λ1, w) = 0``, :func:`coexist.wrinkling.natural_width`) and
+    ``K = T̂11 − T̂12²/T̂22`` (docs/physics.md section 10); ``ρ`` does not enter.
+
+    Parameters
+    ----------
+    model : MembraneModel
+    l1, rho, phi : ndarray
+        Meridional stretch, geometric hoop stretch and per-layer voltage.
+    wrinkled : ndarray of bool
+        Which side is hoop-wrinkled.
+    width_guess : ndarray, optional
+        Starting natural widths.
+
+    Returns
+    -------
+    T1, dT1, w : ndarray
+        The tension, its slope and the material hoop stretch (``ρ`` where taut, the natural width where
+        wrinkled; NaN where there is none: pull-in).
+    """
+    l1, rho, phi, wrinkled = np.broadcast_arrays(
+        np.asarray(l1, dtype=float), np.asarray(rho, dtype=float), np.asarray(phi, dtype=float), wrinkled
+    )
+    w = np.array(rho, dtype=float, copy=True)
+    if np.any(wrinkled):
+        guess = None if width_guess is None else np.broadcast_to(width_guess, l1.shape)[wrinkled]
+        w[wrinkled] = natural_width(model, l1[wrinkled], phi[wrinkled], guess=guess)
+    T1, _, T11, T12, _, _, T22 = (np.asarray(a, dtype=float) * np.ones(l1.shape) for a in model.tensions(l1, w, phi))
+    with np.errstate(all="ignore"):
+        slope = np.where(wrinkled, T11 - T12 * T12 / T22, T11)
+    return T1, slope, w
+
+
+def _increasing_root(fun, target, x0):
+    """Roots of ``fun(x)[0] = target`` on the branch where ``fun`` increases, from ``x0``: the bracket widened
+    from ``x0`` (halving its lower end, doubling its upper one while the slope is positive), then Newton's
+    method with bisection where a step leaves the bracket. NaN where no such root is bracketed (a NaN value
+    counts as beyond the root). Returns ``(x, ok)``."""
+    x0 = np.asarray(x0, dtype=float)
+    lo, hi = 0.5 * x0, 2.0 * x0
+    ok = np.ones(x0.shape, dtype=bool)
+    with np.errstate(all="ignore"):
+        for _ in range(80):
+            g_lo = fun(lo)[0] - target
+            g_hi, d_hi = fun(hi)[:2]
+            g_hi = g_hi - target
+            low_bad = g_lo >= 0
+            high_bad = (g_hi <= 0) & (d_hi > 0)
+            if not (low_bad.any() or high_bad.any()):
+                break
+            lo = np.where(low_bad, 0.5 * lo, lo)
+            hi = np.where(high_bad, 2.0 * hi, hi)
+        # a NaN at the upper end (no natural width there) is beyond the root: the bracket stays
+        ok &= (g_lo < 0) & ~(g_hi <= 0) & np.isfinite(g_lo)
+        x = np.clip(x0, lo, hi)
+        x = np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi))
+        for _ in range(JUMP_ITERATIONS):
+            g, d = fun(x)[:2]
+            g = g - target
+            lo = np.where(g < 0, x, lo)
+            hi = np.where(~(g < 0), x, hi)
+            step = g / d
+            nxt = x - step
+            settled = (g == 0) | (np.abs(step) <= 4e-16 * np.abs(x))
+            bad = ~np.isfinite(nxt) | (nxt <= lo) | (nxt >= hi) | ~(d > 0)
+            nxt = np.where(bad & ~settled, 0.5 * (lo + hi), nxt)
+            nxt = np.where(settled, x, nxt)
+            done = np.abs(nxt - x) <= 4e-16 * np.abs(x)
+            x = nxt
+            if done.all():
+                break
+        g, d = fun(x)[:2]
+        ok &= np.isfinite(x) & (d > 0) & (np.abs(g - target) <= 1e-13 * np.maximum(1.0, np.abs(target)))
+    return np.where(ok, x, np.nan), ok
+
+
+def relaxed_interface_stretch(model: MembraneModel, l1_in, w_in, wrinkled_in, rho, phi_in, n_in, phi_out, n_out):
+    """``λ1⁺`` and the mode across an interface of a relaxed patterned zone: ``n⁺ T̂1ʳ⁺ = n⁻ T̂1ʳ⁻``.
+
+    ``T̂1ʳ`` is the relaxed meridional tension (:func:`relaxed_meridional_tension`), ``ρ`` continuous. The far side
+    is taut where the root of the taut equation ``n⁺ T̂1(λ1⁺, ρ; φ⁺) = n⁻ T̂1ʳ⁻`` (:func:`coexist.patterned.
+    interface_stretch` where the near side is taut) leaves a formal hoop tension ``T̂2(λ1⁺, ρ; φ⁺) ≥ 0``; else
+    it is hoop-wrinkled, ``λ1⁺`` the root of ``n⁺ T̂1ʷ(λ1⁺; φ⁺) = n⁻ T̂1ʳ⁻`` with its natural width ``w⁺ ≥ ρ``
+    (docs/physics.md section 12, "Wrinkled regions": ``T̂1ʳ(·, ρ)`` is continuous and increasing, so exactly
+    one of the two roots is consistent).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        One layer.
+    l1_in, w_in : ndarray
+        ``λ1⁻`` and the near side's material hoop stretch (``ρ`` taut, the natural width wrinkled).
+    wrinkled_in : ndarray of bool
+        Whether the near side is hoop-wrinkled.
+    rho : ndarray
+        The geometric hoop stretch at the interface.
+    phi_in, phi_out, n_in, n_out : ndarray
+        Per-layer voltages and layer counts of both sides.
+
+    Returns
+    -------
+    l1_out : ndarray
+        ``λ1⁺`` (NaN where no consistent root).
+    wrinkled_out : ndarray of bool
+        Whether the far side is hoop-wrinkled (also where it would have to be but has no root: the wrinkled side's
+        ``T̂1ʷ`` stays below the force, its pull-in).
+    w_out : ndarray
+        The far side's material hoop stretch.
+    force : ndarray
+        ``n⁻ T̂1ʳ⁻``, the meridional force per reference hoop length.
+    ok : ndarray of bool
+    """
+    l1_in, w_in, wrinkled_in, rho, phi_in, n_in, phi_out, n_out = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (l1_in, w_in, wrinkled_in, rho, phi_in, n_in, phi_out, n_out))
+    )
+    wr_in = wrinkled_in > 0
+    T1_in, _, w_near = relaxed_meridional_tension(model, l1_in, rho, phi_in, wr_in, width_guess=w_in)
+    force = n_in * T1_in
+    target = force / n_out
+    taut_l1 = np.full(l1_in.shape, np.nan)
+    plain = ~wr_in
+    if plain.any():  # the patterned jump itself (the same numbers as a taut patterned zone)
+        taut_l1[plain] = interface_stretch(
+            model, l1_in[plain], rho[plain], phi_in[plain], n_in[plain], phi_out[plain], n_out[plain]
+        )[0]
+    if wr_in.any():
+        sel = wr_in
+
+        def taut_side(x):
+            T = model.tensions(x, rho[sel], phi_out[sel])
+            return np.asarray(T[0]) * np.ones_like(x), np.asarray(T[2]) * np.ones_like(x)
+
+        taut_l1[sel] = _increasing_root(taut_side, target[sel], l1_in[sel])[0]
+    with np.errstate(all="ignore"):
+        T2_formal = np.asarray(model.tensions(taut_l1, rho, phi_out)[1]) * np.ones(l1_in.shape)
+    taut_ok = np.isfinite(taut_l1) & (T2_formal >= 0)
+    l1_out = np.where(taut_ok, taut_l1, np.nan)
+    wrinkled_out = np.zeros(l1_in.shape, dtype=bool)
+    w_out = np.where(taut_ok, rho, np.nan)
+    need = np.flatnonzero(~taut_ok)
+    if need.size:
+
+        def wrinkled_side(x):
+            T1, K, _ = relaxed_meridional_tension(model, x, rho[need], phi_out[need], np.ones(x.shape, dtype=bool))
+            return T1, K
+
+        start = np.where(np.isfinite(taut_l1[need]), taut_l1[need], l1_in[need])
+        x, found = _increasing_root(wrinkled_side, target[need], start)
+        w = np.full(need.size, np.nan)
+        if found.any():
+            w[found] = natural_width(model, x[found], phi_out[need][found], guess=rho[need][found])
+        good = found & (w >= rho[need])
+        l1_out[need[good]] = x[good]
+        wrinkled_out[need] = good | np.isfinite(taut_l1[need])  # a taut root with a negative hoop tension
+        w_out[need[good]] = w[good]
+    ok = np.isfinite(l1_out)
+    del w_near
+    return l1_out, wrinkled_out, w_out, force, ok
+
+
+# --- one pass over the regions ---------------------------------------------------------------------------------
+
+
+def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
+    """One relaxed shooting of every state with the interfaces at ``s fk`` (``s = e^σ``).
+
+    Returns a dict: ``status`` (0 where the clamp was reached in the last region, :data:`_EARLY_CLAMP` where
+    before it, :data:`_FAR_CLAMP` where not within ``LAST_REGION_REACH·s``, else a failure code), ``R`` (the
+    clamp radius, or where the clamp stretch was met early), the quadratures ``p, V, Q, Psi, z`` (trial scaling,
+    with their factors), ``minT`` (smallest stack tension ``n T̂``, relaxed), ``maxE``, ``steps``, ``failR``,
+    ``intervals`` (per state the wrinkled intervals, trial scaling, contiguous ones merged), ``stiffness``
+    (smallest ``K/T̂11`` at the bands' outer ends), ``edges`` (``(m, K − 1, 2, 5)``: both sides of every interface
+    as ``(R̂, r̂, ẑ, θ, n T̂1ʳ)``), ``edge_modes`` (``(m, K − 1, 2)``, 1 where wrinkled) and ``detail`` (the region
+    of a failure)."""
+    K = lay.f.size
+    m = l0.size
+    s = np.exp(sigma)
+    # the pole region's start (its series radius: per state where :func:`coexist.patterned._pole_start` gives one)
+    y0, atol0, _series, T0, E0, *series_radius = pole
+    R0 = np.broadcast_to(series_radius[0] if series_radius else settings.series_radius, (m,)).astype(float)
+    res = {
+        "status": np.zeros(m, dtype=int),
+        "R": np.full(m, np.nan),
+        "steps": np.zeros(m, dtype=int),
+        "failR": np.full(m, np.nan),
+        "minT": lay.n[0] * T0,
+        "maxE": E0.copy(),
+        "stiffness": np.full(m, np.inf),
+        "edges": np.full((m, K - 1, 2, 5), np.nan),
+        "edge_modes": np.zeros((m, K - 1, 2), dtype=int),
+        "region": np.zeros(m, dtype=int),
+    }
+    for name in ("p", "V", "Q", "Psi", "z"):
+        res[name] = np.full(m, np.nan)
+    intervals: list[list] = [[] for _ in range(m)]
+    start = {
+        "R": R0.copy(),
+        "y": y0.copy(),
+        "h": R0.copy(),
+        "min_T": T0.copy(),
+        "max_E": E0.copy(),
+        "atol": atol0.copy(),
+        "mode": np.full(m, TAUT),
+    }
+    live = np.arange(m)
+    fV, fQ, fPsi, _ = QUADRATURE_FACTORS
+    for k in range(K):
+        if live.size == 0:
+            break
+        last = k == K - 1
+        stop = s[live] * (min(LAST_REGION_REACH, settings.max_radius_factor) if last else lay.f[k])
+        sub = {key: (v[..., live] if isinstance(v, np.ndarray) else v) for key, v in start.items()}
+        shots = shoot_relaxed(model, settings, l0[live], lay.phi[k, live], start=sub, stop_radius=stop)
+        res["steps"][live] += shots.steps
+        end = shots.end
+        assert end is not None
+        st = shots.status
+        n_k = lay.n[k, live]
+        res["minT"][live] = np.minimum(res["minT"][live], n_k * shots.min_tension)
+        res["maxE"][live] = np.maximum(res["maxE"][live], shots.max_field)
+        band = shots.band_stiffness if shots.band_stiffness is not None else np.full(live.size, np.inf)
+        res["stiffness"][live] = np.fmin(res["stiffness"][live], np.where(np.isfinite(band), band, np.inf))
+        for j, i in enumerate(live):
+            for a, b in end["intervals"][j]:
+                if intervals[i] and abs(intervals[i][-1][1] - a) <= 1e-14 * max(1.0, abs(a)):
+                    intervals[i][-1] = (intervals[i][-1][0], b)  # a band that goes on across the interface
+                else:
+                    intervals[i].append((a, b))
+        failed = (st != OK) & (st != STOPPED)
+        res["status"][live[failed]] = st[failed]
+        res["failR"][live[failed]] = shots.fail_radius[failed]
+        res["region"][live[failed]] = k
+        if last:
+            landed = st == OK
+            res["status"][live[st == STOPPED]] = _FAR_CLAMP
+            i = live[landed]
+            res["R"][i] = shots.out["R"][landed]
+            res["p"][i] = shots.out["p"][landed] * n_k[landed]
+            res["V"][i] = shots.out["V"][landed]
+            res["Q"][i] = shots.out["Q"][landed]
+            res["Psi"][i] = shots.out["Psi"][landed] * n_k[landed]
+            res["z"][i] = shots.out["z"][landed]
+            break
+        early = st == OK
+        res["status"][live[early]] = _EARLY_CLAMP
+        res["R"][live[early]] = shots.out["R"][early]
+        go = np.flatnonzero(st == STOPPED)
+        cols = live[go]
+        if go.size == 0:
+            live = cols
+            break
+        ye = end["y"][:, go]  # rows: state (7), width, p̂t/nk, φk
+        wr_in = end["mode"][go] == WRINKLED_MODE
+        n_in, n_out = lay.n[k, cols], lay.n[k + 1, cols]
+        phi_in, phi_out = lay.phi[k, cols], lay.phi[k + 1, cols]
+        R_i = end["R"][go]
+        l1p, wr_out, w_out, force, ok = relaxed_interface_stretch(
+            model, ye[0], ye[7], wr_in, ye[1], phi_in, n_in, phi_out, n_out
+        )
+        # no root: pull-in where the far side would wrinkle (or the near one is), else past the taut instability
+        res["status"][cols[~ok]] = np.where(wr_in[~ok] | wr_out[~ok], PULL_IN, LOST_ELLIPTICITY)
+        res["region"][cols[~ok]] = k + 1
+        T1_out, _, _ = relaxed_meridional_tension(model, l1p, ye[1], phi_out, wr_out, width_guess=w_out)
+        for side, (l1, N, wr) in enumerate(((ye[0], force, wr_in), (l1p, n_out * T1_out, wr_out))):
+            res["edges"][cols, k, side] = np.stack([R_i, ye[1] * R_i, ye[6], ye[2], N], axis=-1)
+            res["edge_modes"][cols, k, side] = wr.astype(int)
+            del l1
+        keep = np.flatnonzero(ok)
+        cols = cols[keep]
+        ye = ye[:, keep]
+        y_next = np.vstack([ye[:7], p_t[cols] / n_out[keep], phi_out[keep]])
+        y_next[0] = l1p[keep]
+        y_next[5] = ye[5] * n_in[keep] / n_out[keep]  # the Ψ̂ row holds Ψ̂/(2π n) of the current region
+        # the far side's first node: its relaxed tensions (taut: both; wrinkled: the meridional one)
+        T1s, T2s, _, _, _, Es, _ = (
+            np.asarray(a) * np.ones(keep.size)
+            for a in model.tensions(y_next[0], np.where(wr_out[keep], w_out[keep], ye[1]), phi_out[keep])
+        )
+        minT_start = np.where(wr_out[keep], T1s, np.minimum(T1s, T2s))
+        res["minT"][cols] = np.minimum(res["minT"][cols], n_out[keep] * minT_start)
+        span = s[cols] * ((LAST_REGION_REACH if k + 1 == K - 1 else lay.f[k + 1]) - lay.f[k])
+        start = {
+            "R": np.full(m, np.nan),
+            "y": np.full((9, m), np.nan),
+            "h": np.full(m, np.nan),
+            "min_T": np.full(m, np.nan),
+            "max_E": np.full(m, np.nan),
+            "atol": atol0.copy(),
+            "mode": np.full(m, TAUT),
+        }
+        start["R"][cols] = R_i[keep]
+        start["y"][:, cols] = y_next
+        start["h"][cols] = np.minimum(0.05 * s[cols], 0.25 * span)
+        start["min_T"][cols] = minT_start
+        start["max_E"][cols] = np.abs(Es)
+        start["mode"][cols] = np.where(wr_out[keep], WRINKLED_MODE, TAUT)
+        live = cols
+    res["intervals"] = intervals
+    return res
+
+
+# --- the states ----------------------------------------------------------------------------------------------
+
+
+def describe_wrinkles(pattern: ZonePattern, intervals) -> str:
+    """Where a relaxed patterned state is wrinkled, in words: each interval ``R̂start ≤ R/A ≤ R̂end`` with the
+    region(s) it lies in and, where it ends at an electrode edge, on which side of the edge.
+
+    Parameters
+    ----------
+    pattern : ZonePattern
+    intervals : list of (float, float)
+        The state's ``wrinkled_radii`` (unit membrane).
+
+    Returns
+    -------
+    str
+        ``"taut"`` for no interval.
+    """
+    if not intervals:
+        return "taut"
+    edges = [r.outer for r in pattern.regions[:-1]]
+    parts = []
+    for a, b in intervals:
+        mid = 0.5 * (a + b)
+        k = next(i for i, r in enumerate(pattern.regions) if mid <= r.outer or i == len(pattern.regions) - 1)
+        reg = pattern.regions[k]
+        text = f"wrinkled for {a:.6g} ≤ R/A ≤ {b:.6g} in region {k + 1} ({reg.describe()})"
+        near = [e for e in edges if min(abs(a - e), abs(b - e)) <= 1e-9]
+        for e in near:
+            text += f", on its side of the edge at R/A = {e:g}"
+        if abs(b - 1.0) <= 1e-9:
+            text += ", at the clamp"
+        parts.append(text)
+    return "; ".join(parts)
+
+
+def _tension_field(model: MembraneModel) -> MembraneModel:
+    validation.membrane_model(model)
+    if isinstance(model, PatternedModel):
+        model = model.uniform
+    if not model.tension_field:
+        raise SceneError(
+            'relaxed patterned states need a tension-field membrane (wrinkling = "tension-field"), not '
+            f"{model.wrinkling!r}",
+            "wrinkling",
+        )
+    return model
+
+
+def solve_patterned_relaxed(
+    model: MembraneModel,
+    pattern: ZonePattern,
+    pole_stretch,
+    phi_hat=0.0,
+    settings: SolverSettings | None = None,
+    scale_guess=None,
+    derivatives: bool = False,
+) -> PatternedStates:
+    """The relaxed (tension-field) states of a patterned zone: taut where both tensions are positive, hoop-wrinkled
+    where the taut state would need a negative hoop tension.
+
+    Region ``k`` obeys the relaxed one-layer equations of docs/physics.md section 10 at ``p̂t/nk`` and
+    ``φk = ek Φ̂/nk``, switching taut ↔ hoop-wrinkled inside it (:func:`coexist.wrinkling.shoot_relaxed`); at an
+    interface ``ρ, θ`` and the quadratures are continuous and ``n⁻T̂1ʳ⁻ = n⁺T̂1ʳ⁺``
+    (:func:`relaxed_interface_stretch`). The interface scale ``s`` solves ``G(σ) = ln R*(e^σ) − σ = 0``
+    (``σ = ln s``) per state by secant steps (the first with the uniform zone's slope ``−1``), kept inside the
+    bracket the iterates build (bisection where a step leaves it; an iterate whose trajectory meets the clamp
+    stretch before the last region bounds ``s`` above and proposes that radius, one that does not reach the
+    clamp within ``8s`` bounds it below). It stops at ``|G| ≤ rtol``. The unit membrane has ``p̂ = p̂t R*``,
+    ``V̂ = V̂t/R*³``, ``Q̂ = Q̂t/R*²`` (the electrode's charge), ``Ψ̂ = Σ nk ∫ W_rel dA``, ``wrinkled_radii`` the
+    wrinkled intervals over ``R*`` (a band that crosses an interface is one interval).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        One layer of the membrane, with ``wrinkling="tension-field"`` (or a :class:`~coexist.patterned.
+        PatternedModel` of such a membrane; the pattern used is ``pattern``).
+    pattern : ZonePattern
+        The regions.
+    pole_stretch, phi_hat, settings
+        As for :func:`coexist.patterned.solve_patterned_states`.
+    scale_guess : array_like, optional
+        Starting ``ln s`` per state; default that of the pole region's uniform zone.
+    derivatives : bool
+        Must be False (:data:`NO_RELAXED_DERIVATIVES`).
+
+    Returns
+    -------
+    PatternedStates
+        With ``wrinkled_radii`` and ``wrinkled_stiffness`` (``K/T̂11`` at the outer ends of the bands, as for a
+        uniform zone; ``inf`` when taut); ``min_tension`` is 0 for a wrinkled state; ``interfaces`` holds the
+        relaxed force ``n T̂1ʳ`` on both sides. Failed states carry their status and ``failure_detail``.
+
+    Raises
+    ------
+    ModelRangeError
+        For ``derivatives=True`` (reason ``no-derivatives``).
+    SceneError
+        For a membrane that refuses wrinkling, and as :func:`~coexist.patterned.solve_patterned_states`.
+    """
+    if derivatives:
+        raise ModelRangeError(NO_RELAXED_DERIVATIVES, "no-derivatives")
+    model = _tension_field(model)
+    validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
+    settings, l0, phi = checked_state_inputs(model, pole_stretch, phi_hat, settings)
+    if len(pattern.regions) == 1:  # a uniform zone: solve_states of the tension-field membrane, scaled
+        return _one_region(model, pattern, l0, phi, settings)
+    m = l0.size
+    lay = _layout(pattern, phi)
+    status = np.zeros(m, dtype=int)
+    with np.errstate(all="ignore"):
+        T0, alpha, _, _, _ = (np.asarray(x, dtype=float) * np.ones(m) for x in model.pole(l0, lay.phi[0]))
+        margin0 = np.asarray(model.tensions(l0, l0, lay.phi[0])[4]) * np.ones(m)
+    status[l0 - model.prestretch < FLAT_LIMIT * model.prestretch] = BELOW_RESOLUTION
+    status[(status == OK) & (margin0 <= LOCKING_LIMIT)] = LOCKED
+    status[(status == OK) & ((T0 <= 0) | ~np.isfinite(T0))] = WRINKLED_AT_POLE
+    status[(status == OK) & (alpha <= 0)] = LOST_ELLIPTICITY
+    detail: list = [None if s == OK else f"{reason_text(s)} (at the pole)" for s in status]
+    live = np.flatnonzero(status == OK)
+    K = len(pattern.regions)
+    out = {k: np.full(m, np.nan) for k in ("R", "p", "V", "Q", "Psi", "z", "minT", "maxE", "failR", "stiffness")}
+    edges = np.full((m, K - 1, 2, 5), np.nan)
+    radii: list = [[] for _ in range(m)]
+    steps = np.zeros(m, dtype=int)
+    if live.size:
+        if scale_guess is not None:
+            g = validation.real_array(scale_guess, "scale_guess")
+            sigma0 = np.broadcast_to(g, (m,)).astype(float).copy()
+        else:
+            sigma0 = _pole_region_scale(model, settings, lay, l0)
+        with np.errstate(all="ignore"):
+            _secant(model, pattern, settings, lay, l0, sigma0, live, status, out, steps, detail, edges, radii)
+    bad = status != OK
+    R = out["R"]
+    wrinkled = np.array([bool(r) for r in radii])
+    states = MembraneStates(
+        pole_stretch=l0,
+        phi_hat=phi,
+        p_hat=np.where(bad, np.nan, out["p"] * R),
+        v_hat=np.where(bad, np.nan, out["V"] / R**3),
+        q_hat=np.where(bad, np.nan, out["Q"] / R**2),
+        psi_hat=np.where(bad, np.nan, out["Psi"] / R**2),
+        apex_height=np.where(bad, np.nan, out["z"] / R),
+        max_field=np.where(bad, np.nan, out["maxE"]),
+        min_tension=np.where(bad, np.nan, np.where(wrinkled, 0.0, out["minT"])),
+        clamp_radius=np.where(bad, np.nan, R),
+        status=status,
+        fail_radius=np.where(bad, out["failR"], np.inf),
+        steps=steps,
+        wrinkled_radii=[[] if b else r for r, b in zip(radii, bad)],
+        wrinkled_stiffness=np.where(bad, np.nan, out["stiffness"]),
+    )
+    edges[bad] = np.nan
+    return _patterned(states, detail, edges)
+
+
+def _one_region(model, pattern, l0, phi, settings, derivatives=False) -> PatternedStates:
+    """A one-region pattern: :func:`coexist.patterned._uniform` (``solve_states`` of the tension-field membrane at
+    ``Φ̂/n``, which relaxes its wrinkled states, scaled to the stack), with the ``wrinkled_stiffness`` it does not
+    carry over (the wrinkled states shot once more: a uniform zone's ``K/T̂11`` needs no scaling, it is a ratio)."""
+    st = _uniform(model, pattern, l0, phi, settings, derivatives)
+    stiffness = np.where(st.ok, np.inf, np.nan)
+    wr = np.flatnonzero(st.ok & np.array([bool(r) for r in (st.wrinkled_radii or [[]] * l0.size)]))
+    if wr.size:
+        region = pattern.regions[0]
+        per_layer = phi[wr] / region.layers if region.electrode else np.zeros(wr.size)
+        again = solve_states(model, l0[wr], per_layer, settings)
+        if again.wrinkled_stiffness is not None:
+            stiffness[wr] = again.wrinkled_stiffness
+    st.wrinkled_stiffness = stiffness
+    return st
+
+
+def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out, steps, detail, edges_out, radii):
+    """The safeguarded secant iteration on ``σ = ln s`` for the live states; fills the outputs in place."""
+    m = live.size
+    l0 = l0_all[live]
+    lay = _sub_layout(lay_all, live)
+    p_t, rtol = _trial(model, settings, lay, l0)
+    tol = np.maximum(rtol, 4e-16)
+    pole = _pole_start(model, settings, lay, l0, p_t)
+    sigma = sigma0[live].copy()
+    lo, hi = np.full(m, -np.inf), np.full(m, np.inf)
+    prev_sigma, prev_G = np.full(m, np.nan), np.full(m, np.nan)
+    good_sigma = np.full(m, np.nan)
+    failures = np.zeros(m, dtype=int)
+    last_code = np.zeros(m, dtype=int)
+    open_ = np.ones(m, dtype=bool)
+    final = np.zeros(m, dtype=int)
+    for _ in range(MAX_SCALE_ITERATIONS):
+        idx = np.flatnonzero(open_)
+        if idx.size == 0:
+            break
+        sub = _Layout(n=lay.n[:, idx], phi=lay.phi[:, idx], f=lay.f, electrode=lay.electrode)
+        res = _relaxed_pass(model, settings, sub, l0[idx], p_t[idx], sigma[idx], _take_pole(pole, idx))
+        steps[live[idx]] += res["steps"]
+        okp = res["status"] == 0
+        G = np.where(okp, np.log(res["R"]) - sigma[idx], np.nan)
+        conv = okp & (np.abs(G) <= tol[idx])
+        for j in np.flatnonzero(conv):
+            i, gi = idx[j], live[idx[j]]
+            Rs = res["R"][j]
+            out["R"][gi] = Rs
+            for key in ("V", "Q", "Psi", "z", "minT", "maxE", "stiffness"):
+                out[key][gi] = res[key][j]
+            out["p"][gi] = p_t[i]
+            radii[gi] = [(a / Rs, b / Rs) for a, b in res["intervals"][j]]
+            edge = res["edges"][j].copy()
+            edge[..., :3] /= Rs
+            edges_out[gi] = edge
+            open_[i] = False
+        for j in np.flatnonzero(~conv):
+            i = idx[j]
+            code = int(res["status"][j])
+            if okp[j]:
+                good_sigma[i] = sigma[i]
+                if G[j] > 0:
+                    lo[i] = sigma[i]
+                else:
+                    hi[i] = sigma[i]
+                slope = -1.0
+                if np.isfinite(prev_G[i]) and prev_sigma[i] != sigma[i]:
+                    secant = (G[j] - prev_G[i]) / (sigma[i] - prev_sigma[i])
+                    if np.isfinite(secant) and secant < SLOPE_CEILING:
+                        slope = secant
+                prev_sigma[i], prev_G[i] = sigma[i], G[j]
+                nxt = sigma[i] + float(np.clip(-G[j] / slope, -MAX_SCALE_STEP, MAX_SCALE_STEP))
+            elif code == _EARLY_CLAMP and np.isfinite(res["R"][j]) and res["R"][j] > 0:
+                hi[i] = sigma[i]
+                nxt = math.log(res["R"][j])
+            elif code == _FAR_CLAMP:
+                lo[i] = sigma[i]
+                nxt = sigma[i] + MAX_SCALE_STEP
+            else:
+                last_code[i] = code
+                failures[i] += 1
+                if failures[i] >= MAX_FAILED_TRIALS:
+                    final[i] = code
+                    detail[live[i]] = (
+                        f"{reason_text(code)} (in region {int(res['region'][j]) + 1}, at every one of "
+                        f"{MAX_FAILED_TRIALS} placements of the interfaces tried, the last at interface scale "
+                        f"{math.exp(sigma[i]):.6g})"
+                    )
+                    open_[i] = False
+                    continue
+                if np.isfinite(good_sigma[i]) and good_sigma[i] > sigma[i]:
+                    lo[i] = sigma[i]
+                else:
+                    hi[i] = sigma[i]
+                nxt = sigma[i] + (MAX_SCALE_STEP if hi[i] > sigma[i] else -MAX_SCALE_STEP)
+            if not lo[i] < nxt < hi[i]:
+                if np.isfinite(lo[i]) and np.isfinite(hi[i]):
+                    nxt = 0.5 * (lo[i] + hi[i])
+                elif np.isfinite(lo[i]):
+                    nxt = lo[i] + MAX_SCALE_STEP
+                else:
+                    nxt = hi[i] - MAX_SCALE_STEP
+            if np.isfinite(hi[i]) and hi[i] - lo[i] <= 1e-12 * max(1.0, abs(hi[i])):
+                final[i] = last_code[i] if last_code[i] else NO_CLAMP
+                detail[live[i]] = (
+                    f"{reason_text(final[i])} (no placement of the interfaces at their fractions of the clamp "
+                    f"radius gives a relaxed state: the trials fail beyond interface scale {math.exp(hi[i]):.6g})"
+                )
+                open_[i] = False
+            sigma[i] = nxt
+    for i in np.flatnonzero(open_):
+        final[i] = last_code[i] if last_code[i] else NOT_FINITE
+        detail[live[i]] = (
+            f"{reason_text(final[i])} (the interfaces of the relaxed state were not placed at their fractions of the "
+            f"clamp radius within {MAX_SCALE_ITERATIONS} iterations)"
+        )
+    status[live] = final
+
+
+# --- the dispatch ----------------------------------------------------------------------------------------------
+
+
+def shoot_zone_relaxed(model, pole_stretch, phi_hat, settings, shape=False, derivatives=False, formal=False):
+    """:func:`coexist.shooting.solve_states` of a tension-field :class:`~coexist.patterned.PatternedModel`: the
+    taut patterned states (:func:`~coexist.patterned.shoot_zone`), the ``WRINKLED`` ones shot again relaxed
+    (:func:`solve_patterned_relaxed`), as :func:`~coexist.shooting.solve_states` does for a uniform zone.
+
+    With ``derivatives=True`` the wrinkled states stay ``WRINKLED`` with :data:`NO_RELAXED_DERIVATIVES` in their
+    ``failure_detail`` (the N-zone layer then treats them as out of range and says why); ``formal=True`` is the
+    taut patterned shooting unchanged.
+
+    Parameters
+    ----------
+    model : PatternedModel
+        With ``wrinkling="tension-field"``.
+    pole_stretch, phi_hat, settings, shape, derivatives, formal
+        As for :func:`~coexist.shooting.solve_states`.
+
+    Returns
+    -------
+    PatternedStates
+        ``wrinkled_radii`` and ``wrinkled_stiffness`` set for every state (empty and ``inf`` when taut).
+    """
+    from .patterned import shoot_zone
+
+    if len(model.pattern.regions) == 1 and not formal and not shape:  # a uniform zone: solve_states relaxes it
+        settings, l0, phi = checked_state_inputs(model.uniform, pole_stretch, phi_hat, settings)
+        return _one_region(model.uniform, model.pattern, l0, phi, settings, derivatives)
+    taut = shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)
+    if formal:
+        return taut
+    return relax_wrinkled(model.uniform, model.pattern, taut, settings, derivatives)
+
+
+def relax_wrinkled(model, pattern: ZonePattern, taut: PatternedStates, settings=None, derivatives=False):
+    """The taut patterned states ``taut`` with their ``WRINKLED`` ones shot again relaxed (in place).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        One layer of a tension-field membrane.
+    pattern : ZonePattern
+    taut : PatternedStates
+        From :func:`coexist.patterned.solve_patterned_states` (or :func:`~coexist.patterned.shoot_zone`).
+    settings : SolverSettings, optional
+    derivatives : bool
+        Whether ``taut`` carries derivatives: the wrinkled states then stay ``WRINKLED``, with
+        :data:`NO_RELAXED_DERIVATIVES` added to their ``failure_detail``.
+
+    Returns
+    -------
+    PatternedStates
+        ``taut``, with ``wrinkled_radii`` and ``wrinkled_stiffness`` set for every state.
+    """
+    n = taut.status.size
+    if taut.wrinkled_radii is None:
+        taut.wrinkled_radii = [[] for _ in range(n)]
+    if taut.wrinkled_stiffness is None:
+        taut.wrinkled_stiffness = np.where(taut.ok, np.inf, np.nan)
+    again = np.flatnonzero(taut.status == WRINKLED)
+    if not again.size:
+        return taut
+    if derivatives:
+        for i in again:
+            taut.failure_detail[i] = f"{taut.failure_detail[i]}; {NO_RELAXED_DERIVATIVES}"
+        return taut
+    rel = solve_patterned_relaxed(model, pattern, taut.pole_stretch[again], taut.phi_hat[again], settings)
+    for name, value in rel.__dict__.items():
+        mine = taut.__dict__.get(name)
+        if isinstance(value, np.ndarray) and isinstance(mine, np.ndarray) and mine.shape[:1] == (n,):
+            mine[again] = value
+    for j, i in enumerate(again):
+        taut.wrinkled_radii[i] = rel.wrinkled_radii[j] if rel.wrinkled_radii is not None else []
+        taut.failure_detail[i] = rel.failure_detail[j]
+    taut.interfaces[again] = rel.interfaces
+    return taut
