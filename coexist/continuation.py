@@ -418,6 +418,8 @@ class Tracer:
         self.breakdown = breakdown
         self.M = system.groups
         self.counts = np.asarray(system.configuration.counts)
+        # the tight states of the last pull-in extrapolation beyond the branch's last point (pull_in_end)
+        self._end_points: list = []
 
     # points -------------------------------------------------------------------------------------------
     def _point(self, corr: Corrected, i: int, orient, index) -> Point:
@@ -578,12 +580,17 @@ class Tracer:
                 codes = [c[2] for c in getattr(failure, "failed_states", {}).values() if c[2] is not None]
                 invalid = bool(codes)
                 if invalid and (WRINKLED in codes or h < 1e-2):
+                    self._end_points = []
                     end = self._range_end(prev, cur, h, failure)
                     if end is not None:
+                        pts.extend(self._end_points)  # a pull-in's last tight states (pull_in_end)
                         break
                 if h <= cfg.min_step:
                     if invalid:
+                        self._end_points = []
                         end = self._range_end(prev, cur, 2 * cfg.min_step, failure)
+                        if end is not None:
+                            pts.extend(self._end_points)
                     if end is None:
                         notes.append(f"continuation stopped at Φ̂ = {cur.phi:.8g}: {failure.reason[0]} (step {h:.1e})")
                     break
@@ -899,8 +906,10 @@ class Tracer:
         Returns
         -------
         tuple or None
-            ``(best, z_end, error, lo, hi)``: the valid state nearest the end, the extrapolated ``z`` of the
-            end, the error of its offset (arclength) and the final validity bracket; None where the states
+            ``(best, z_end, error, lo, hi, near)``: the valid state nearest the end, the extrapolated ``z`` of the
+            end, the error of its offset (arclength), the final validity bracket and the tight states of the
+            extrapolation beyond ``cur`` in order (the branch's last points: states asked for between them and
+            the end start from them, not from a predictor across the whole last step); None where the states
             carry no wrinkled stiffness or the extrapolation does not settle inside the bracket (the caller
             then bisects on validity).
         """
@@ -979,7 +988,8 @@ class Tracer:
         zs = np.array([x[2] for x in samples[-3:]])
         coef = np.polyfit(sig, zs, 2)
         z_end = coef[0] * star**2 + coef[1] * star + coef[2]
-        return samples[-1][3], z_end, float(change), lo, hi
+        near = [x[3] for x in samples if x[0] > 0]
+        return samples[-1][3], z_end, float(change), lo, hi, near
 
     def _range_end(self, prev, cur: Point, h, failure):
         """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or
@@ -1017,7 +1027,7 @@ class Tracer:
                 # a wrinkled band's pull-in: a smooth function of the states falls to zero there
                 ext = self.pull_in_end(cur, h, 0.0, float(h))
                 if ext is not None:
-                    best, z_end, err, lo, hi = ext
+                    best, z_end, err, lo, hi, self._end_points = ext
                     tag, text = failure_reason(code)
                     return Event(
                         kind="range_end",
@@ -1138,7 +1148,7 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
             if _is_pull_in(event.note):
                 ext = tight.pull_in_end(pts[0], 2 * delta, 0.0, 2 * delta, end_guess=delta)
                 if ext is not None:
-                    best, z_end, err, _, _ = ext
+                    best, z_end, err, _, _, _ = ext
                     change = abs(float(z_end[M]) / tight.w - event.phi_hat) + abs(best.tangent[M]) * err / tight.w
                     break
             found = tight.validity_bisection(base, 2 * delta, -delta, delta, _validity_tol(event.note))

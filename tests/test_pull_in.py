@@ -68,3 +68,20 @@ def test_located_pull_in_separates_states_from_none(tricircle):
     assert before is not None and min(before.eq.wrinkled_stiffness) > 0
     assert beyond is None or not beyond.tangent @ ev.tangent > 0
     assert abs(before.phi - end.phi_hat) < 1e-7
+
+
+def test_states_just_below_the_pull_in_converge():
+    """A voltage 1e-6 kV below the located pull-in has its state (the branch keeps the extrapolation's tight
+    states, so the corrector starts next to it; from the last regular point it stepped past the end and failed)."""
+    import json
+
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+
+    r = CliRunner().invoke(cli, ["shape", "tricircle", "--voltage-kV", "4.33662,4.336628", "--json"])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    bulged = [g for step in data["voltages"] for g in step["groups"] if g["wrinkled_radii"]]
+    assert len(bulged) == 2 and all(0.22 < g["wrinkled_radii"][0][0] < 0.25 for g in bulged)
+    assert all(len(g["profile"]["r_mm"]) > 10 for g in bulged)
