@@ -57,7 +57,7 @@ WIDTH_TOL = 1e-13
 WIDTH_MAX_ITER = 200
 #: Newton steps polishing the integrated width at every right-hand side evaluation (the row is
 #: accurate to the integration tolerance, so one step leaves its square; the second is roundoff)
-WIDTH_POLISH = 2
+WIDTH_POLISH = 1
 #: relative location of a switch or of the clamp within its step
 LOCATE_RTOL = 1e-14
 #: a Newton step of the location below this fraction of its point ends it: the new point is then within about the
