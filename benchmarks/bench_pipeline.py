@@ -72,6 +72,11 @@ SCENE = "tricircle"
 BISECT_KV = 1e-9
 #: the baseline's voltages must agree with the fast path's to this (kV); the script fails otherwise
 AGREE_KV = 1e-6
+#: ... except the pull-in end, which the baseline can only bisect on whether its root-finder still converges:
+#: near the end the states approach a singular meridian and scipy's root fails a little before it (measured
+#: 9.2e-6 kV), while the fast path extrapolates the end from a smooth function of the states (error 5e-8 kV).
+#: The baseline's end must lie below the fast path's and within this of it
+PULL_IN_AGREE_KV = 3e-5
 #: the baseline's root counts as converged when its states are valid and its residual is at most this
 RESIDUAL_TOL = 1e-12
 #: step of the baseline's 5-point central difference of dp̂/dλ
@@ -377,7 +382,9 @@ def bench_baseline(report, repeats: int) -> dict:
     )
     out["seconds"] = spread(times)
     out["difference_kV"] = diff
-    bad = {k: v for k, v in diff.items() if not v <= AGREE_KV}
+    bad = {k: v for k, v in diff.items() if not v <= AGREE_KV and k != "range_end"}
+    if not (out["range_end"] <= fast["range_end"]["kV"] + AGREE_KV and diff["range_end"] <= PULL_IN_AGREE_KV):
+        bad["range_end"] = diff["range_end"]
     if bad:
         raise AssertionError(f"baseline and fast path disagree by more than {AGREE_KV} kV: {bad}")
     return {"baseline": out}
