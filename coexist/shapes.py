@@ -621,7 +621,8 @@ def _scaled_points(l0, phi, radii, rows, Rs, ztot) -> list:
 
 def equilibrium_profiles(model: MembraneModel, eq, zone_radius: float, points: int = 201, settings=None) -> list:
     """The profile of every group of identical zones of an equilibrium (:func:`profiles`; a hoop-wrinkled group
-    too, its points through the wrinkled band on the relaxed equations).
+    too, its points through the wrinkled band on the relaxed equations; a patterned zone's by
+    :func:`patterned_profiles`).
 
     Parameters
     ----------
@@ -643,7 +644,13 @@ def equilibrium_profiles(model: MembraneModel, eq, zone_radius: float, points: i
         ``(zones in the group, its profile)``, least inflated group first (as ``eq.pole_stretch``).
     """
     lam = np.asarray(eq.pole_stretch, dtype=float)
-    profs = profiles(model, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings)
+    pattern = getattr(model, "pattern", None)
+    if pattern is not None:  # a patterned zone (PatternedModel): region by region, its edges among the points
+        profs = patterned_profiles(
+            model.uniform, pattern, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings
+        )
+    else:
+        profs = profiles(model, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings)
     return list(zip((int(c) for c in eq.configuration.counts), profs))
 
 

@@ -283,3 +283,30 @@ def test_a_patterned_model_takes_tension_field_and_refuses_shapes(model):
     b = solve_patterned_states(model, ZonePattern.inner_circle(0.5), [1.8, 2.2], 0.2, TIGHT, derivatives=True)
     assert np.array_equal(a.p_hat, b.p_hat) and np.array_equal(a.derivatives.dv_dphi, b.derivatives.dv_dphi)
     assert zone.describe()["pattern"]["regions"][0] == {"outer": 0.5, "layers": 1, "electrode": True}
+
+
+def test_coexist_shape_draws_patterned_zones_on_one_gas(tmp_path):
+    """``coexist shape`` on three patterned zones on one gas: the ramp's state at 3.9 kV (one bulged, two not),
+    each group's profile region by region, its apex the direct profile's (1e-9), the electrode edge inside."""
+    import json
+
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+    from coexist.shapes import patterned_profiles
+
+    scene = tmp_path / "tri.toml"
+    scene.write_text(TRICIRCLE_INNER)
+    r = CliRunner().invoke(cli, ["shape", str(scene), "--voltage-kV", "3.9", "--json"])
+    assert r.exit_code == 0, r.output
+    (step,) = json.loads(r.stdout)["voltages"]
+    assert step["configuration"] == "1 of 3 bulged" and len(step["groups"]) == 2
+    from coexist.scene import parse_scene
+
+    sc = parse_scene(TRICIRCLE_INNER)
+    for g in step["groups"]:
+        prof = patterned_profiles(
+            sc.model(), sc.zone_pattern(), [g["pole_stretch"]], sc.phi_hat(3.9e3), zone_radius=sc.zone_radius
+        )[0]
+        assert g["apex_height_mm"] == pytest.approx(prof.to_dict()["apex_height_mm"], rel=1e-9)
+        assert g["electrode_edge_mm"] == pytest.approx(prof.to_dict()["electrode_edge_mm"], rel=1e-9)

@@ -67,9 +67,10 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
     profile too, integrated through the wrinkled band on the relaxed equations; there r is the geometric
     radius of the wrinkled surface (docs/physics.md section 11), and -o marks the band.
 
-    A patterned zone (one zone, e.g. the inner-circle scene): the states on its gas (or at its controlled
-    pressure) continued from the closing state, each a converged patterned state; the states stop where none
-    exists (snap-through, wrinkling, pull-in: named, the voltage bisected); -o draws the lens figure.
+    One patterned zone (e.g. the inner-circle scene): the states on its gas (or at its controlled pressure)
+    continued from the closing state, each a converged patterned state; the states stop where none exists
+    (snap-through, wrinkling, pull-in: named, the voltage bisected); -o draws the lens figure. Several patterned
+    zones on one gas: the ramp's states, as for uniform zones, each zone's profile region by region.
     """
     from coexist.ramp import Ramp
     from coexist.shapes import equilibrium_profiles
@@ -86,7 +87,7 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
         over = [v for v in kv if v > stop * (1 + 1e-12)]
         if over:
             raise InputError(f"--voltage-kV: {over[0]:g} kV is above the scene's stop, {stop:g} kV ([voltage])")
-    if sc.patterned:
+    if sc.patterned and sc.zone_count == 1:  # one patterned zone: its own path, and the lens figure
         _patterned(sc, settings, kv, plot, as_json, points, overwrite)
         return
     with Outputs(overwrite) as out:
@@ -153,24 +154,12 @@ def parse_voltages(text: str) -> list[float]:
 
 
 def _patterned(sc, settings, kv, plot, as_json, points, overwrite):
-    """``coexist shape`` for a patterned zone: its states along the voltages (one zone on its gas or at its
-    controlled pressure, :func:`coexist.shapes.scene_zone_path`), their profiles and the lens figure."""
+    """``coexist shape`` for one patterned zone: its states along the voltages (on its gas or at its controlled
+    pressure, :func:`coexist.shapes.scene_zone_path`), their profiles and the lens figure (the voltages already
+    checked by the caller). Patterned zones on one gas (several) take the ramp's path, as uniform ones."""
     from coexist.errors import SceneError
     from coexist.shapes import lens_ratio, patterned_profiles, scene_zone_path
 
-    if sc.zone_count != 1:
-        raise InputError(
-            f"{sc.name or sc.source}: [zones].count: shape takes one patterned zone so far, the scene has "
-            f"{sc.zone_count} (zones on one gas may split, which needs the patterned states' derivatives)"
-        )
-    if sc.voltage is None:
-        if any(v != 0 for v in kv):
-            raise InputError(f"--voltage-kV: the scene {sc.name or sc.source} has no [voltage]; only 0 kV is possible")
-    else:
-        stop = sc.voltage.peak / 1e3
-        over = [v for v in kv if v > stop * (1 + 1e-12)]
-        if over:
-            raise InputError(f"--voltage-kV: {over[0]:g} kV is above the scene's stop, {stop:g} kV ([voltage])")
     with Outputs(overwrite) as out:
         plot_path = out.figure(plot, "--plot")
         info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
