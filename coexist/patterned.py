@@ -1635,19 +1635,9 @@ def _newton(
                     )
                     open_[i] = False
                     continue
-                if np.isfinite(good_sigma[i]) and good_sigma[i] > sigma[i]:
-                    lo[i] = sigma[i]
-                else:
-                    hi[i] = sigma[i]
-                nxt = sigma[i] + (MAX_SCALE_STEP if hi[i] > sigma[i] else -MAX_SCALE_STEP)
-            if not lo[i] < nxt < hi[i]:
-                if np.isfinite(lo[i]) and np.isfinite(hi[i]):
-                    nxt = 0.5 * (lo[i] + hi[i])
-                elif np.isfinite(lo[i]):
-                    nxt = lo[i] + MAX_SCALE_STEP
-                else:
-                    nxt = hi[i] - MAX_SCALE_STEP
-            if np.isfinite(hi[i]) and hi[i] - lo[i] <= 1e-12 * max(1.0, abs(hi[i])):
+                nxt = _after_failed_trial(i, sigma, lo, hi, good_sigma)
+            nxt = _keep_bracketed(nxt, lo[i], hi[i])
+            if _bracket_closed(lo[i], hi[i]):
                 # the bracket closed on the edge of the iterates' domain, not on a root: no state here
                 final[i] = last_code[i] if last_code[i] else NO_CLAMP
                 detail[live[i]] = (
@@ -1665,6 +1655,31 @@ def _newton(
     status[live] = final
     for k in out:
         out[k][live] = result[k]
+
+
+def _after_failed_trial(i, sigma, lo, hi, good_sigma) -> float:
+    """After an iterate ``σ_i`` that fails (not a state): it bounds the bracket on the side away from the last
+    good ``σ`` (the trials fail beyond it), and the next ``σ`` steps :data:`MAX_SCALE_STEP` back inside."""
+    if np.isfinite(good_sigma[i]) and good_sigma[i] > sigma[i]:
+        lo[i] = sigma[i]
+    else:
+        hi[i] = sigma[i]
+    return sigma[i] + (MAX_SCALE_STEP if hi[i] > sigma[i] else -MAX_SCALE_STEP)
+
+
+def _keep_bracketed(nxt: float, lo: float, hi: float) -> float:
+    """The next ``σ``: ``nxt`` inside the bracket ``(lo, hi)``, else its midpoint, or :data:`MAX_SCALE_STEP` from
+    its one finite end."""
+    if lo < nxt < hi:
+        return nxt
+    if np.isfinite(lo) and np.isfinite(hi):
+        return 0.5 * (lo + hi)
+    return lo + MAX_SCALE_STEP if np.isfinite(lo) else hi - MAX_SCALE_STEP
+
+
+def _bracket_closed(lo: float, hi: float) -> bool:
+    """Has the bracket of ``σ`` closed (to 1e-12) on the edge of the iterates' domain (no state there)?"""
+    return bool(np.isfinite(hi) and hi - lo <= 1e-12 * max(1.0, abs(hi)))
 
 
 # --- curves ---------------------------------------------------------------------------------------------------

@@ -40,6 +40,9 @@ from .patterned import (
     PatternedModel,
     PatternedStates,
     ZonePattern,
+    _after_failed_trial,
+    _bracket_closed,
+    _keep_bracketed,
     _Layout,
     _layout,
     _patterned,
@@ -646,19 +649,9 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
                     )
                     open_[i] = False
                     continue
-                if np.isfinite(good_sigma[i]) and good_sigma[i] > sigma[i]:
-                    lo[i] = sigma[i]
-                else:
-                    hi[i] = sigma[i]
-                nxt = sigma[i] + (MAX_SCALE_STEP if hi[i] > sigma[i] else -MAX_SCALE_STEP)
-            if not lo[i] < nxt < hi[i]:
-                if np.isfinite(lo[i]) and np.isfinite(hi[i]):
-                    nxt = 0.5 * (lo[i] + hi[i])
-                elif np.isfinite(lo[i]):
-                    nxt = lo[i] + MAX_SCALE_STEP
-                else:
-                    nxt = hi[i] - MAX_SCALE_STEP
-            if np.isfinite(hi[i]) and hi[i] - lo[i] <= 1e-12 * max(1.0, abs(hi[i])):
+                nxt = _after_failed_trial(i, sigma, lo, hi, good_sigma)
+            nxt = _keep_bracketed(nxt, lo[i], hi[i])
+            if _bracket_closed(lo[i], hi[i]):
                 final[i] = last_code[i] if last_code[i] else NO_CLAMP
                 detail[live[i]] = (
                     f"{reason_text(final[i])} (no placement of the interfaces at their fractions of the clamp "

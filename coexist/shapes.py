@@ -646,8 +646,9 @@ def equilibrium_profiles(model: MembraneModel, eq, zone_radius: float, points: i
     lam = np.asarray(eq.pole_stretch, dtype=float)
     pattern = getattr(model, "pattern", None)
     if pattern is not None:  # a patterned zone (PatternedModel): region by region, its edges among the points
+        one_layer = getattr(model, "uniform", model)
         profs = patterned_profiles(
-            model.uniform, pattern, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings
+            one_layer, pattern, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings
         )
     else:
         profs = profiles(model, lam, float(eq.phi_hat), zone_radius=zone_radius, points=points, settings=settings)
