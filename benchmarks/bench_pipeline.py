@@ -74,7 +74,7 @@ BISECT_KV = 1e-9
 AGREE_KV = 1e-6
 #: ... except the pull-in end, which the baseline can only bisect on whether its root-finder still converges:
 #: near the end the states approach a singular meridian and scipy's root fails a little before it (measured
-#: 9.2e-6 kV), while the fast path extrapolates the end from a smooth function of the states (error 5e-8 kV).
+#: 9.2e-6 kV), while the fast path extrapolates the end from a smooth function of the states (error 2e-8 kV).
 #: The baseline's end must lie below the fast path's and within this of it
 PULL_IN_AGREE_KV = 3e-5
 #: the baseline's root counts as converged when its states are valid and its residual is at most this

@@ -78,7 +78,7 @@ def test_tricircle_transitions_measured(tricircle):
     the bulged zone, wrinkled above 4.3318063 kV, pulls in at 4.336628993 kV (the scene relaxes
     wrinkled states by tension-field theory), back down at 3.5492408 kV (a fold), equal free energy
     at 3.5802558 kV. The asserted values are this code's, re-measured; the tolerance 1e-6 kV is 100×
-    the largest measured error but the pull-in end's (5.2e-8 kV: 20×)."""
+    the largest measured error but the pull-in end's (2.2e-8 kV: 45×)."""
     _, _, report = tricircle
     t = transitions(report)
     expected = {
@@ -88,7 +88,7 @@ def test_tricircle_transitions_measured(tricircle):
         ("equal_free_energy", "either", "homogeneous", "1 of 3 bulged"): 3.58025579,
     }
     # the pull-in end is extrapolated from the valid side (a wrinkled band's stiffness K/T11 falling to zero;
-    # Tracer.pull_in_end): measured error 5.2e-8 kV, most of it the extrapolation's own stopping bracket
+    # Tracer.pull_in_end): measured error 2.2e-8 kV, most of it the extrapolation's own stopping bracket
     loose = {("no_stable_state", "up", "1 of 3 bulged", "none"): 2e-7}
     for key, kv in expected.items():
         assert t[key][0] == pytest.approx(kv, abs=loose.get(key, 1e-6)), key

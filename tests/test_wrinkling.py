@@ -215,7 +215,7 @@ def test_scene_field():
 def test_paper_scene_with_tension_field_ends_by_pull_in():
     """The README's claim: the paper's scene (``wrinkling = "tension-field"``) follows the bulged zone past the
     taut model's end (4.331806 kV, its hoop tension reaching zero) and loses it at 4.33662899 kV (measured
-    error 5.2e-8 kV), where the wrinkled zone pulls in (electromechanical instability); the transitions below are the
+    error 2.2e-8 kV), where the wrinkled zone pulls in (electromechanical instability); the transitions below are the
     taut model's."""
     from coexist.scene import builtin_scene_text
     from coexist.simulation import simulate_ramp
