@@ -127,6 +127,24 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 3600:.1f} h"
 
 
+def ramp_solving_seconds(scene) -> float:
+    """The estimated solving time of ``scene``'s ramp, its output aside: ``SECONDS_BASE + SECONDS_PER_VOLTAGE ·
+    voltages``, times :data:`PATTERNED_TIME_FACTOR` for patterned zones (the ramp's and a sweep point's estimate).
+
+    Parameters
+    ----------
+    scene : Scene
+        A scene with a ``[voltage]`` path.
+
+    Returns
+    -------
+    float
+        Seconds.
+    """
+    solving = SECONDS_BASE + SECONDS_PER_VOLTAGE * len(scene.voltage_hat_path)
+    return solving * (PATTERNED_TIME_FACTOR if getattr(scene, "patterned", False) else 1.0)
+
+
 def ramp_cost(scene, every: int = 1) -> RampCost:
     """The estimated cost of ramping ``scene`` (see the module for the model and its coefficients; patterned
     zones: the solving part times :data:`PATTERNED_TIME_FACTOR`).
@@ -159,9 +177,6 @@ def ramp_cost(scene, every: int = 1) -> RampCost:
     groups = min(MAX_GROUPS, zones)
     rows = min(voltages, math.ceil(voltages / every) + 8)  # + a few changes of configuration
     numbers = rows * (2 * zones + 3 * groups + 8)
-    solving = SECONDS_BASE + SECONDS_PER_VOLTAGE * voltages
-    if getattr(scene, "patterned", False):
-        solving *= PATTERNED_TIME_FACTOR
-    seconds = solving + SECONDS_PER_NUMBER * numbers
+    seconds = ramp_solving_seconds(scene) + SECONDS_PER_NUMBER * numbers
     memory = BYTES_PER_VOLTAGE * voltages + BYTES_PER_NUMBER * numbers
     return RampCost(voltages, zones, rows, numbers, seconds, memory)

@@ -16,7 +16,7 @@ from .errors import CoexistError, ModelRangeError, SceneError
 from .numerics.roots import bracketed_root
 from .scene import Scene
 from .settings import SolverSettings
-from .simulation import Simulation, pole_stretch_max, snap_through
+from .simulation import Simulation, pole_stretch_max, snap_through, zone_model
 
 
 @dataclass
@@ -47,7 +47,7 @@ class Shared:
         """
         settings = validation.settings_or_default(settings)
         validation.scene(scene)
-        model = scene.model()
+        model = zone_model(scene)  # a patterned scene's zones: their PatternedModel
         return cls(model, snap_through(model, settings, pole_stretch_max(scene, settings)), settings)
 
 

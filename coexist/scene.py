@@ -419,8 +419,9 @@ class Scene:
     def require_uniform(self, what: str) -> None:
         """Raise :class:`SceneError` naming ``[electrodes].pattern`` if the zones are patterned.
 
-        The fit, the sweep and the shapes take uniform zones only so far (the equilibria, the continuation and
-        the ramp take patterned ones: :class:`~coexist.patterned.PatternedModel`).
+        For a computation that takes the one-layer membrane only (every command and :class:`Simulation` take
+        patterned zones through their :class:`~coexist.patterned.PatternedModel`; a Simulation given another
+        model refuses them).
 
         Parameters
         ----------
@@ -434,9 +435,8 @@ class Scene:
         """
         if self.patterned:
             raise SceneError(
-                f'patterned zones (pattern "{self.electrode_pattern}") are supported by `coexist curves`, '
-                f"`coexist ramp` and `coexist coexistence` (coexist.patterned) only so far: {what} takes zones with "
-                "a full electrode",
+                f'patterned zones (pattern "{self.electrode_pattern}") are shot with their own model '
+                f"(coexist.patterned.PatternedModel): {what} takes zones with a full electrode",
                 "[electrodes].pattern",
             )
 

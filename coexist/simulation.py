@@ -30,6 +30,27 @@ from .settings import SolverSettings
 from .shooting import StateDerivatives, solve_states
 
 
+def zone_model(scene: Scene):
+    """The model of one of ``scene``'s zones: :meth:`Scene.model`, or for patterned zones the
+    :class:`~coexist.patterned.PatternedModel` that carries their pattern (every zone shot region by region, with
+    exact derivatives; docs/physics.md section 12).
+
+    Parameters
+    ----------
+    scene : Scene
+
+    Returns
+    -------
+    MembraneModel
+    """
+    model = scene.model()
+    if scene.patterned:
+        from .patterned import PatternedModel
+
+        model = PatternedModel.of(model, scene.zone_pattern())
+    return model
+
+
 def pole_stretch_max(scene: Scene, settings: SolverSettings | None = None) -> float:
     """Upper end of the zone curves of ``scene`` (:func:`stretch_range_end` of its material).
 
@@ -274,11 +295,7 @@ class Simulation:
         settings = validation.settings_or_default(settings)
         validation.scene(scene)
         if model is None:
-            model = scene.model()
-            if scene.patterned:  # every zone shot region by region, with exact derivatives (coexist.patterned)
-                from .patterned import PatternedModel
-
-                model = PatternedModel.of(model, scene.zone_pattern())
+            model = zone_model(scene)
         elif scene.patterned and getattr(model, "pattern", None) != scene.zone_pattern():
             scene.require_uniform("a Simulation with a model that does not carry the scene's pattern")
         lam_max = pole_stretch_max(scene, settings)

@@ -354,12 +354,9 @@ def scene_document(scene: Scene) -> dict:
     -------
     dict
 
-    Raises
-    ------
-    SceneError
-        For a patterned scene (:meth:`coexist.scene.Scene.require_uniform`): its pattern has no place here yet.
+    A patterned scene keeps its ``[electrodes]`` (pattern and radius fractions) and ``[layers]`` (``passive``, or
+    every region's ``regions``) sections, so a sweep point rebuilds the same zones.
     """
-    scene.require_uniform("a sweep")  # a patterned scene's document would lose its pattern
     membrane: dict = {
         "material": scene.material,
         "shear_modulus_Pa": scene.shear_modulus,
@@ -379,6 +376,17 @@ def scene_document(scene: Scene) -> dict:
     if scene.controlled_pressure is not None:
         zones["pressure_Pa"] = scene.controlled_pressure
     doc: dict = {"name": scene.name, "description": scene.description, "membrane": membrane, "zones": zones}
+    if scene.patterned:
+        electrodes: dict = {"pattern": scene.electrode_pattern}
+        for name in ("inner_fraction", "outer_fraction"):
+            if getattr(scene, name) is not None:
+                electrodes[name] = getattr(scene, name)
+        doc["electrodes"] = electrodes
+        doc["layers"] = (
+            {"regions": list(scene.region_layers)}
+            if scene.region_layers is not None
+            else {"passive": scene.passive_layers}
+        )
     if scene.chamber is not None:
         doc["chamber"] = {
             "volume_m3": scene.chamber.volume,
@@ -576,22 +584,15 @@ def make_spec(scene, vary, settings: SolverSettings | None = None) -> SweepSpec:
     ------
     SceneError
         For a bad key or value, a scene with no voltage (and none swept), or when the scene cannot be built at
-        any corner of the grid (the first corner's error); for a patterned scene or a swept ``electrodes.*`` or
-        ``layers.*`` key (a sweep takes zones with a full electrode; patterned zones are taken by ``coexist
-        curves``, ``ramp``, ``coexistence``, ``shape``, ``phase-diagram`` and ``check``).
+        any corner of the grid (the first corner's error). A patterned scene is swept like any other (its
+        ``[electrodes]`` and ``[layers]`` keys too: ``electrodes.inner_fraction=0.4,0.6``); a pattern key on a
+        scene without a pattern is an error of the corners, naming the field.
     """
     from . import validation
 
     sc = scene if isinstance(scene, Scene) else load_scene(scene)
     settings = validation.settings_or_default(settings)
     axes = make_axes(vary)
-    for ax in axes:
-        if ax.section in ("electrodes", "layers"):
-            raise SceneError(
-                f"{ax.key}: a sweep takes zones with a full electrode; patterned zones are taken by `coexist curves`, "
-                "`coexist ramp`, `coexist coexistence`, `coexist shape`, `coexist phase-diagram` and `coexist check`",
-                "--vary",
-            )
     spec = SweepSpec(scene_document(sc), sc.source, axes, settings)
     if spec.size > MAX_POINTS:
         raise SceneError(f"{spec.size:,} points; a sweep takes at most {MAX_POINTS:,}", "--vary")
@@ -870,7 +871,8 @@ SECONDS_WORKER_START = 1.5
 
 def sweep_cost(spec: SweepSpec, workers: int = 1) -> SweepCost:
     """The estimated cost of ``spec`` on ``workers`` workers: the costliest valid corner's ramp
-    (:func:`coexist.cost.ramp_cost`, without its output) times the points, divided by the workers.
+    (:func:`coexist.cost.ramp_solving_seconds`: without its output; patterned zones at their factor) times the
+    points, divided by the workers.
 
     Parameters
     ----------
@@ -882,18 +884,17 @@ def sweep_cost(spec: SweepSpec, workers: int = 1) -> SweepCost:
     -------
     SweepCost
     """
-    from .cost import BYTES_PER_VOLTAGE, SECONDS_BASE, SECONDS_PER_VOLTAGE
+    from .cost import BYTES_PER_VOLTAGE, SECONDS_BASE, ramp_solving_seconds
 
-    voltages = 1
+    voltages, per_point = 1, SECONDS_BASE
     for index in _corners(spec):
         try:
             sc = spec.scene_at(index)
         except SceneError:
             continue
-        path = sc.voltage_hat_path
-        if path is not None:
-            voltages = max(voltages, len(path))
-    per_point = SECONDS_BASE + SECONDS_PER_VOLTAGE * voltages
+        if sc.voltage_hat_path is not None:
+            voltages = max(voltages, len(sc.voltage_hat_path))
+            per_point = max(per_point, ramp_solving_seconds(sc))
     workers = max(1, int(workers))
     start = SECONDS_WORKER_START if workers > 1 else 0.0
     wall = start + spec.size * per_point / min(workers, spec.size)

@@ -310,3 +310,44 @@ def test_coexist_shape_draws_patterned_zones_on_one_gas(tmp_path):
         )[0]
         assert g["apex_height_mm"] == pytest.approx(prof.to_dict()["apex_height_mm"], rel=1e-9)
         assert g["electrode_edge_mm"] == pytest.approx(prof.to_dict()["electrode_edge_mm"], rel=1e-9)
+
+
+def test_fit_and_sweep_take_patterned_zones(tmp_path):
+    """``coexist fit`` and ``coexist sweep`` on three inner-circle zones on one gas. The fitted radius, put in the
+    scene, ramps to its split at the target voltage (1e-6 kV); a sweep of the electrode's radius fraction gives
+    at 0.8 the split of the patterned ramp itself (3.7997343 kV, 1e-6)."""
+    import json
+    import re
+
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+
+    scene = tmp_path / "tri.toml"
+    scene.write_text(TRICIRCLE_INNER)
+    runner = CliRunner()
+    fit = runner.invoke(cli, ["fit", str(scene), "--transition-kV", "3.75", "--no-sensitivity", "--json"])
+    assert fit.exit_code == 0, fit.output
+    radius = json.loads(fit.stdout)["zone_radius_mm"]
+    fitted = tmp_path / "fitted.toml"
+    fitted.write_text(re.sub(r"zone_radius_mm = [0-9.]+", f"zone_radius_mm = {radius!r}", TRICIRCLE_INNER))
+    ramp = runner.invoke(cli, ["ramp", str(fitted), "--json"])
+    assert ramp.exit_code == 0, ramp.output
+    ups = [t for t in json.loads(ramp.stdout)["transitions"] if t["kind"] == "spinodal" and t["direction"] == "up"]
+    assert len(ups) == 1 and ups[0]["voltage_kV"] == pytest.approx(3.75, abs=1e-6)
+    sweep = runner.invoke(
+        cli,
+        [
+            "sweep",
+            str(scene),
+            "--vary",
+            "electrodes.inner_fraction=0.7,0.8",
+            "--workers",
+            "1",
+            "-o",
+            str(tmp_path / "s.nc"),
+        ],
+    )
+    assert sweep.exit_code == 0, sweep.output
+    row = next(ln for ln in sweep.stdout.splitlines() if ln.strip().startswith("0.8"))
+    assert float(row.split()[1]) == pytest.approx(3.7997343, abs=1e-6)

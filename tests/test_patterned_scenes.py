@@ -4,8 +4,8 @@
 errors naming the field, exit 2 from the CLI), turned into the :class:`~coexist.patterned.ZonePattern` of the
 library, listed among the effects only when a scene names them; scenes without them are unchanged. ``coexist
 curves`` computes a patterned zone's p̂–V̂ curves with :func:`~coexist.patterned.patterned_pressure_volume_curve`
-(the same numbers as the direct call); the commands that do not take patterned zones yet (fit, sweep) refuse
-them with one line.
+(the same numbers as the direct call); every N-zone command takes patterned zones
+(tests/test_patterned_derivatives.py).
 """
 
 import json
@@ -291,37 +291,18 @@ def test_bad_pattern_options_are_one_line_errors(args, fragments):
     one_line_error(invoke(["curves", *args, "--phi-hat", "0.1", "--points", "10"]), *fragments)
 
 
-# --- the commands that do not take patterned zones yet refuse them (ramp, ramp --shapes and coexistence take
-# them: tests/test_patterned_derivatives.py) ----------------------------------------------------------------------
-@pytest.mark.parametrize(
-    "args, command",
-    [
-        (["fit", "inner-circle", "--transition-kV", "3.9"], "fit"),
-        (["sweep", "inner-circle", "--vary", "chamber.volume_ml=300"], "sweep"),
-    ],
-)
-def test_the_n_zone_commands_refuse_a_patterned_scene_in_one_line(args, command):
-    stdin = RING if "-" in args else None
-    one_line_error(
-        invoke(args, stdin=stdin), "[electrodes].pattern", "supported by `coexist curves`", f"`coexist {command}`"
-    )
-
-
-def test_a_sweep_of_a_pattern_field_and_the_library_entry_points_refuse_too():
+def test_a_pattern_field_swept_on_a_uniform_scene_and_a_model_without_the_pattern_are_refused():
+    """Every N-zone command takes patterned zones (tests/test_patterned_derivatives.py); what stays refused: a swept
+    pattern key on a scene without a pattern (its corners are no scenes, naming the field), and a Simulation
+    given a model that does not carry the scene's pattern."""
     one_line_error(
         invoke(["sweep", "tricircle", "--vary", "electrodes.inner_fraction=0.3,0.5"]),
         "--vary",
-        "electrodes.inner_fraction",
-        "coexist curves",
+        "inner_fraction",
     )
     from coexist.simulation import Simulation
-    from coexist.sweep import make_spec
 
     scene = load_scene("inner-circle")
-    # a patterned scene's own model carries its pattern (coexist.patterned.PatternedModel); a model without it
-    # is refused
-    with pytest.raises(SceneError, match="supported by `coexist curves`") as info:
+    with pytest.raises(SceneError, match="does not carry the scene's pattern") as info:
         Simulation.from_scene(scene, model=scene.model())
     assert info.value.field == "[electrodes].pattern"
-    with pytest.raises(SceneError, match="a sweep takes zones with a full electrode"):
-        make_spec(scene, ["chamber.volume_ml=300"])

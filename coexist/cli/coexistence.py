@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import accuracy_option, info, library_errors, parse_floats, settings_from, uniform_scene_arg, write_json
+from .common import accuracy_option, info, library_errors, load_scene_arg, parse_floats, settings_from, write_json
 from .ramp import format_voltage
 
 #: with more zones than this, the configurations to list must be named with --bulged (each is a continuation)
@@ -35,7 +35,7 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
 
     from .common import InputError
 
-    sc = uniform_scene_arg(scene, "coexistence")
+    sc = load_scene_arg(scene)
     settings = settings_from(accuracy, rtol)
     N = sc.zone_count
     ks = None

@@ -377,46 +377,6 @@ def load_scene_arg(scene):
         raise InputError(f"{scene or 'default scene'}: {exc}") from None
 
 
-#: the N-zone commands that take patterned zones: their zones are shot through the scene's model, a
-#: :class:`~coexist.patterned.PatternedModel` (region by region, with exact derivatives)
-PATTERNED_COMMANDS = ("ramp", "coexistence")
-
-
-def uniform_scene_arg(scene, command: str):
-    """A scene as :func:`load_scene_arg` loads it, refused (exit 2, one line) if its zones are patterned and
-    ``command`` is not one of :data:`PATTERNED_COMMANDS`.
-
-    ``coexist ramp`` (with ``--shapes``) and ``coexist coexistence`` take patterned zones; fit and sweep take
-    zones with a full electrode only so far (:meth:`coexist.scene.Scene.require_uniform`).
-
-    Parameters
-    ----------
-    scene : str or None
-        Built-in scene name, path of a scene file, or ``-`` for a scene on stdin.
-    command : str
-        The command's name for the message, e.g. ``"ramp"``.
-
-    Returns
-    -------
-    Scene
-
-    Raises
-    ------
-    InputError
-        If the scene cannot be loaded or its ``[electrodes] pattern`` is not ``"full"``.
-    """
-    from coexist.errors import SceneError
-
-    sc = load_scene_arg(scene)
-    if command in PATTERNED_COMMANDS:
-        return sc
-    try:
-        sc.require_uniform(f"`coexist {command}`")
-    except SceneError as exc:
-        raise InputError(f"{scene or 'default scene'}: {exc}") from None
-    return sc
-
-
 def stderr_progress(length, label):
     """A click progress bar on stderr.
 

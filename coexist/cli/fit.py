@@ -6,7 +6,7 @@ from dataclasses import replace
 
 import click
 
-from .common import InputError, accuracy_option, info, library_errors, settings_from, uniform_scene_arg, write_json
+from .common import InputError, accuracy_option, info, library_errors, load_scene_arg, settings_from, write_json
 from .ramp import format_voltage
 
 
@@ -42,7 +42,7 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
 
     if not target_kv > 0:
         raise InputError(f"--transition-kV: must be positive, got {target_kv:g}")
-    sc = uniform_scene_arg(scene, "fit")
+    sc = load_scene_arg(scene)
     settings = settings_from(accuracy, rtol)
     if sc.chamber is None or sc.voltage is None:
         raise InputError(f"{sc.name}: fitting needs a scene with [chamber] and [voltage]")

@@ -9,9 +9,9 @@ from .common import (
     accuracy_option,
     info,
     library_errors,
+    load_scene_arg,
     settings_from,
     stderr_progress,
-    uniform_scene_arg,
     write_json,
 )
 
@@ -56,7 +56,7 @@ def ramp(scene, plot, states_plot, as_json, every, shapes, overwrite, accuracy, 
     """
     from coexist.simulation import Simulation
 
-    sc = uniform_scene_arg(scene, "ramp")  # patterned zones too (their shapes region by region)
+    sc = load_scene_arg(scene)  # patterned zones too (their shapes region by region)
     settings = settings_from(accuracy, rtol)
     with Outputs(overwrite) as out:
         plot_path = out.figure(plot, "--plot")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from .common import InputError, Outputs, accuracy_option, info, library_errors, settings_from, uniform_scene_arg
+from .common import InputError, Outputs, accuracy_option, info, library_errors, load_scene_arg, settings_from
 
 
 @click.command()
@@ -55,7 +55,7 @@ def sweep(scene, vary, output, plot, variable, workers, scheduler, resume, overw
         raise InputError("--vary: give at least one KEY=START:STOP:N or KEY=v1,v2,...")
     if resume and output is None:
         raise InputError("--resume: needs -o FILE.nc (the parts of an interrupted sweep are kept beside it)")
-    sc = uniform_scene_arg(scene, "sweep")
+    sc = load_scene_arg(scene)
     settings = settings_from(accuracy, rtol)
     spec = sw.make_spec(sc, list(vary), settings)
     if variable not in sw.FLOAT_FIELDS:
