@@ -1706,7 +1706,15 @@ def _scale_guess(known_l0: list, known_sigma: list, x: np.ndarray) -> np.ndarray
 
 def _take_patterned(st: PatternedStates, mask) -> PatternedStates:
     """The states of ``st`` where ``mask`` holds."""
-    kw: dict = {k: (v[mask] if isinstance(v, np.ndarray) else None) for k, v in st.__dict__.items()}
+    keep = np.flatnonzero(mask)
+    kw: dict = {}
+    for k, v in st.__dict__.items():
+        if isinstance(v, np.ndarray):
+            kw[k] = v[mask]
+        elif k == "wrinkled_radii" and v is not None:  # a relaxed state's bands (coexist.patterned_relaxed)
+            kw[k] = [v[i] for i in keep]
+        else:
+            kw[k] = None
     return _patterned(
         MembraneStates(**kw), [d for d, keep in zip(st.failure_detail, mask) if keep], st.interfaces[mask]
     )
@@ -1717,11 +1725,21 @@ def _merge(x, first_mask, first: PatternedStates, rest: PatternedStates) -> Patt
     kw: dict = {}
     for name, a in first.__dict__.items():
         b = rest.__dict__[name]
-        if isinstance(a, np.ndarray):
-            merged = np.empty(x.size, dtype=a.dtype)
-            merged[first_mask] = a
-            merged[~first_mask] = b
+        if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+            like = a if isinstance(a, np.ndarray) else b
+            merged = np.full(x.size, np.nan if like.dtype.kind == "f" else 0, dtype=like.dtype)
+            if isinstance(a, np.ndarray):
+                merged[first_mask] = a
+            if isinstance(b, np.ndarray):
+                merged[~first_mask] = b
             kw[name] = merged
+        elif name == "wrinkled_radii" and (a is not None or b is not None):  # relaxed states' bands
+            bands: list = [[] for _ in range(x.size)]
+            for i, w in zip(np.flatnonzero(first_mask), a or [[]] * int(first_mask.sum())):
+                bands[i] = w
+            for i, w in zip(np.flatnonzero(~first_mask), b or [[]] * int((~first_mask).sum())):
+                bands[i] = w
+            kw[name] = bands
         else:
             kw[name] = None
     detail: list = [None] * x.size

@@ -208,6 +208,10 @@ def test_cli_curves_of_a_tension_field_patterned_scene_go_through_wrinkled_state
     assert curve["pole_stretch"][0] == 1.017 and "starts_because" not in curve
     assert curve["min_tension_hat"][0] == 0.0 and curve["min_tension_hat"][-1] > 0
     assert np.all(np.diff(curve["p_hat"]) > 0)
+    # each state's wrinkled band travels with it through the curve (inside the electrode disc, R̂ < 0.5)
+    bands = curve["wrinkled_radii"]
+    assert len(bands) == len(curve["p_hat"]) and bands[0] and not bands[-1]
+    assert all(0 < a < b <= 0.5 + 1e-9 for ws in bands for a, b in ws)
     taut = runner.invoke(cli, [*args[:2], "inner-circle", *args[3:], "--json"])
     assert taut.exit_code == 0
     assert json.loads(taut.stdout)["curves"][0]["starts_because"].startswith("wrinkling")
