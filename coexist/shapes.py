@@ -283,11 +283,7 @@ def profiles(
     SolverError
         If the re-integration does not reach the clamp or disagrees with the shooting.
     """
-    settings = validation.settings_or_default(settings)
-    validation.membrane_model(model)
-    A = validation.real(zone_radius, "zone_radius", lo=0.0, lo_open=True)
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < MIN_POINTS:
-        raise SceneError(f"must be an integer of at least {MIN_POINTS}, got {points!r}", "points")
+    settings, A = _checked_profile_inputs(model, zone_radius, points, settings)
     if wrinkled not in WRINKLED_OPTIONS:
         raise SceneError(f"must be one of {', '.join(map(repr, WRINKLED_OPTIONS))}, got {wrinkled!r}", "wrinkled")
     l0, phi = validation.broadcastable(
@@ -619,6 +615,17 @@ def _scaled_points(l0, phi, radii, rows, Rs, ztot) -> list:
     return out
 
 
+def _checked_profile_inputs(model, zone_radius, points, settings):
+    """The settings (default :class:`SolverSettings`) and the zone radius ``A`` of a profile request, its model,
+    radius and point count checked (:class:`SceneError` naming the input)."""
+    settings = validation.settings_or_default(settings)
+    validation.membrane_model(model)
+    A = validation.real(zone_radius, "zone_radius", lo=0.0, lo_open=True)
+    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < MIN_POINTS:
+        raise SceneError(f"must be an integer of at least {MIN_POINTS}, got {points!r}", "points")
+    return settings, A
+
+
 def equilibrium_profiles(model: MembraneModel, eq, zone_radius: float, points: int = 201, settings=None) -> list:
     """The profile of every group of identical zones of an equilibrium (:func:`profiles`; a hoop-wrinkled group
     too, its points through the wrinkled band on the relaxed equations; a patterned zone's by
@@ -761,12 +768,8 @@ def patterned_profiles(
     """
     from .patterned import ZonePattern, solve_patterned_states
 
-    settings = validation.settings_or_default(settings)
-    validation.membrane_model(model)
+    settings, A = _checked_profile_inputs(model, zone_radius, points, settings)
     validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
-    A = validation.real(zone_radius, "zone_radius", lo=0.0, lo_open=True)
-    if isinstance(points, bool) or not isinstance(points, (int, np.integer)) or points < MIN_POINTS:
-        raise SceneError(f"must be an integer of at least {MIN_POINTS}, got {points!r}", "points")
     st = solve_patterned_states(model, pattern, pole_stretch, phi_hat, settings).require_ok()
     l0 = np.asarray(st.pole_stretch, dtype=float)
     phi = np.asarray(st.phi_hat, dtype=float)
