@@ -24,6 +24,7 @@ from . import validation
 from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
 from .numerics.roots import bracketed_root, chebyshev_extremum
+from .numerics.sets import unique_sorted
 from .settings import SolverSettings
 from .shooting import (
     NO_VOLTAGE,
@@ -872,7 +873,7 @@ def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> Membran
     known (:func:`_beyond_first_run`)."""
     n = l0.size
     roots = _VoltageRoots(model, l0, p_hat, settings)
-    coarse = np.unique(np.r_[np.arange(0, n, COARSE_STRIDE), n - 1])
+    coarse = unique_sorted(np.r_[np.arange(0, n, COARSE_STRIDE), n - 1])
     roots.zero(coarse)
     need, beyond = _zero_voltage_plan(roots, coarse)
     roots.zero(need)
@@ -886,7 +887,7 @@ def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> Membran
         # the ends of every run of open pole stretches are coarse, and every COARSE_STRIDE-th in between
         edges = np.flatnonzero(np.diff(np.r_[False, is_open, False].astype(int)))
         firsts, lasts = edges[::2], edges[1::2] - 1
-        nodes = np.unique(np.r_[coarse[is_open[coarse]], firsts, lasts])
+        nodes = unique_sorted(np.r_[coarse[is_open[coarse]], firsts, lasts])
         roots.zero(nodes[~roots.known[nodes]])  # a run end next to an exact zero-voltage root (rare)
         nodes = nodes[~roots.finished[nodes]]
         handed, handed_x, handed_slope = roots.newton(

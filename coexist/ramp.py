@@ -29,6 +29,8 @@ from .continuation import EquilibriumMap, Event, StableSegment
 from .equilibria import Configuration, Equilibrium, merged, zone_index_on_curve
 from .errors import ModelRangeError, SceneError, SolverError
 from .numerics.roots import bracketed_root, newton
+from .numerics.sets import unique_sorted
+from .numerics.splines import values_and_slopes
 from .numerics.stiff import rosenbrock2
 from .settings import SolverSettings
 
@@ -125,7 +127,10 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     In ``u`` the flow reads ``duj/dt = −(p̂(uj) − p̂_gas)/(dV̂/du)(uj)`` (the slope floored at 1e-6 of its
     largest value on the curve), integrated by the Rosenbrock method ROS2
     (:func:`~coexist.numerics.stiff.rosenbrock2`, local error of its embedded first-order step 1e-4
-    relative) until every zone's pressure is within 1e-8 of the pressure scale of the gas pressure.
+    relative) until every zone's pressure is within 1e-8 of the pressure scale of the gas pressure. Its
+    Jacobian is exact on the splines: ``∂fj/∂uk = −(p̂j' δjk + c nk V̂k')/Dj + (p̂j − p̂_gas) V̂j'' δjk/Dj²``
+    (``Dj`` the floored slope ``V̂j'``, ``c = −dp̂_gas/dΣV̂`` the gas stiffness; the second term only where the
+    floor is not active), with ``p̂, V̂`` and their slopes from one interval search per evaluation.
 
     Parameters
     ----------
@@ -163,26 +168,38 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     # the flow only decides the basin (its end is then solved exactly): a few digits settle it
     tol = 1e-8 * p_scale
     snaps: list[tuple[float, float]] = []
+    pv = (curve.p, curve.v)
     for _ in range(max_snaps + 1):
         n = np.asarray(counts, dtype=float)
 
-        def rhs(t, x, n=n):
-            x = np.clip(x, lo, hi)
-            pg = gas.pressure(float(n @ curve.v(x)))
-            return -(curve.p(x) - pg) / np.maximum(curve.dv(x), dv_floor)
+        def terms(x, n=n):
+            # p̂, V̂ and their slopes in u from one interval search (the flow evaluates them thousands of times)
+            (p, v), (dp, dv), (_, ddv) = values_and_slopes(pv, np.clip(x, lo, hi))
+            total = float(n @ v)
+            return p, dp, dv, ddv, gas.pressure(total), float(gas.stiffness(total))
 
-        def settled(t, x, n=n):
-            x = np.clip(x, lo, hi)
-            pg = gas.pressure(float(n @ curve.v(x)))
-            return float(np.max(np.abs(curve.p(x) - pg))) - tol
+        def rhs(t, x):
+            p, _, dv, _, pg, _ = terms(x)
+            return -(p - pg) / np.maximum(dv, dv_floor)
+
+        def jac(t, x, n=n):
+            # ∂/∂u_k of −(p̂_j − p̂_gas)/D_j, D_j = max(dV̂/du, floor), dp̂_gas/du_k = −c n_k dV̂_k/du
+            p, dp, dv, ddv, pg, c = terms(x)
+            D = np.maximum(dv, dv_floor)
+            J = -(np.diag(dp) + c * np.outer(np.ones(p.size), n * dv)) / D[:, None]
+            return J + np.diag(np.where(dv > dv_floor, (p - pg) * ddv / D**2, 0.0))
+
+        def settled(t, x):
+            p, _, _, _, pg, _ = terms(x)
+            return float(np.max(np.abs(p - pg))) - tol
 
         def vfold(t, x):
-            return float(np.min(curve.dv(np.clip(x, lo, hi)))) - 10 * dv_floor
+            return float(np.min(values_and_slopes(pv, np.clip(x, lo, hi))[1][1])) - 10 * dv_floor
 
         def out_of_range(t, x):
             return float(min(np.min(x) - lo, hi - np.max(x)))
 
-        flow = rosenbrock2(rhs, u, t_max, events=(settled, vfold, out_of_range), rtol=1e-4, atol=1e-7)
+        flow = rosenbrock2(rhs, u, t_max, events=(settled, vfold, out_of_range), rtol=1e-4, atol=1e-7, jac=jac)
         u = flow.u
         if flow.event == 2:
             return counts, u, "range_end", snaps
@@ -669,7 +686,7 @@ def equal_free_energy(segments: list) -> list:
             pb, Gb, dGb = _g_of(B)
             if pa.size < 2 or pb.size < 2:
                 continue
-            grid = np.unique(np.concatenate([pa, pb, [lo, hi]]))
+            grid = unique_sorted(np.concatenate([pa, pb, [lo, hi]]))
             grid = grid[(grid >= lo) & (grid <= hi)]
             d = np.array([_hermite_at(x, pa, Ga, dGa) - _hermite_at(x, pb, Gb, dGb) for x in grid])
             for k in np.flatnonzero(d[:-1] * d[1:] < 0):

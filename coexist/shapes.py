@@ -38,6 +38,7 @@ from . import validation
 from .errors import ModelRangeError, SceneError, SolverError
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
+from .numerics.sets import unique_sorted
 from .settings import SolverSettings
 from .shooting import ROUNDOFF_TOLERANCE, _integrators, solve_states, start_rows
 
@@ -775,7 +776,7 @@ def patterned_profiles(
     phi = np.asarray(st.phi_hat, dtype=float)
     kappa = np.atleast_1d(patterned_apex_curvature_hat(model, pattern, l0, phi, st.p_hat))
     f = np.array(pattern.interfaces, dtype=float)
-    S = np.unique(np.concatenate([np.linspace(0.0, 1.0, int(points)), f]))
+    S = unique_sorted(np.concatenate([np.linspace(0.0, 1.0, int(points)), f]))
     pts = _patterned_points(model, pattern, st, S, settings)
     lam = model.prestretch
     out = []
@@ -1075,7 +1076,7 @@ def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH
         x = hi - Fhi * (hi - lo) / (Fhi - Flo)
         x = min(max(x, lo + 0.01 * (hi - lo)), hi - 0.01 * (hi - lo))
         eps = max(1e-4 * (hi - lo), tol_x)
-        pts = np.unique(np.clip([x - eps, x, x + eps], lo + tol_x / 4, hi - tol_x / 4))
+        pts = unique_sorted(np.clip([x - eps, x, x + eps], lo + tol_x / 4, hi - tol_x / 4))
         bal(pts)
         order = np.argsort(bal.x)
         X, Fa = bal.x[order], bal.F[order]

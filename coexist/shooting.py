@@ -391,6 +391,8 @@ def _cap_angle(l0):
     rather than through the general :func:`~coexist.numerics.roots.newton` because every shooting calls it
     (that cost 0.3 ms of a 2 ms small batch)."""
     target = 1.0 / np.asarray(l0, dtype=float)
+    if target.ndim == 1 and target.size <= _SCALAR_CAP_ANGLES:
+        return np.array([_cap_angle_one(float(x)) for x in target])
     a = np.minimum(np.sqrt(6.0 * (1.0 - target)), 3.0)
     lo = np.full_like(a, 1e-300)
     hi = np.full_like(a, math.pi * (1 - 1e-12))
@@ -408,7 +410,32 @@ def _cap_angle(l0):
     return a
 
 
-def trial_pressure(model: MembraneModel, l0, phi):
+#: batches up to this size take the cap angle element by element in floats (numpy's per-call cost dominates there)
+_SCALAR_CAP_ANGLES = 16
+
+
+def _cap_angle_one(target: float) -> float:
+    """:func:`_cap_angle` of one pole stretch ``1/target``, in floats: the same safeguarded Newton iteration."""
+    a = min(math.sqrt(6.0 * (1.0 - target)), 3.0)
+    lo, hi = 1e-300, math.pi * (1 - 1e-12)
+    for _ in range(40):
+        g = math.sin(a) - target * a  # positive below the root
+        if g > 0:
+            lo = a
+        else:
+            hi = a
+        slope = math.cos(a) - target
+        new = a - g / slope if slope != 0 else math.nan
+        if not (math.isfinite(new) and lo <= new <= hi):
+            new = 0.5 * (lo + hi)
+        done = abs(new - a) <= 1e-14 * abs(new)
+        a = new
+        if done:
+            break
+    return a
+
+
+def trial_pressure(model: MembraneModel, l0, phi, pole_tension=None):
     """Spherical-cap estimate of ``p̂`` at pole stretch ``λ0``: ``p̂ ≈ 2 T̂1(λ0, λ0) α / λ0²``.
 
     Only used to scale the trial integration so that it reaches the clamp near ``R̂ = 1``.
@@ -424,13 +451,15 @@ def trial_pressure(model: MembraneModel, l0, phi):
         Pole stretches ``λ0 > λpre``.
     phi : float or ndarray
         Normalised voltages ``Φ̂``, broadcast against ``l0``.
+    pole_tension : ndarray, optional
+        ``T̂1(λ0, λ0)`` if the caller has it already (else computed here).
 
     Returns
     -------
     ndarray
         The trial pressures ``p̂t``.
     """
-    T0 = model.pole(l0, phi)[0]
+    T0 = model.pole(l0, phi)[0] if pole_tension is None else pole_tension
     stretch = l0 / model.prestretch
     alpha = _cap_angle(np.maximum(stretch, 1 + 1e-12))
     return 2 * T0 * alpha / l0**2
@@ -1028,7 +1057,7 @@ def solve_states(
     )
 
 
-def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool):
+def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool, pole_tension=None):
     """The integrator's start at the series radius, and its tolerances, for pole stretches ``l0``.
 
     Rows ``λ1, λ2, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ`` (then, with ``derivatives``, their sensitivities
@@ -1044,6 +1073,8 @@ def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivati
         Pole stretches and voltages, one per state.
     derivatives : bool
         With the sensitivity rows.
+    pole_tension : ndarray, optional
+        ``T̂1(λ0, λ0)`` per state if the caller has it (passed to :func:`trial_pressure`).
 
     Returns
     -------
@@ -1056,7 +1087,7 @@ def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivati
     rtol : ndarray
         Relative tolerance per column (``settings.rtol``, raised to what roundoff allows).
     """
-    p = trial_pressure(model, l0, phi)
+    p = trial_pressure(model, l0, phi, pole_tension)
     R0 = settings.series_radius
     m = l0.size
     lam_clamp = model.prestretch
@@ -1128,7 +1159,7 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
     l0, phi, T0 = (a[live] for a in (l0, phi, T0))
     m = live.size
     R0 = settings.series_radius
-    p, y0, atol, rtol = start_rows(model, settings, l0, phi, derivatives)
+    p, y0, atol, rtol = start_rows(model, settings, l0, phi, derivatives, T0)
     P = y0.shape[0] - 2  # row of the trial pressure; the voltage is the next
     local_min_T = T0.copy()
     local_max_E = max_field[live].copy()
@@ -1382,13 +1413,31 @@ def run_attempts(entry: dict, X: np.ndarray, status_row: int) -> None:
         Row of the status in ``X``.
     """
     active = np.arange(X.shape[1])
+    rows = X.shape[0]
     while active.size:
         n = active.size
-        fun = entry["maps"].get(n)
-        if fun is None:
-            fun = entry["maps"][n] = entry["fun"].map(n, "serial") if n > 1 else entry["fun"]
-        X[:, active] = fun(X[:, active]).full()
+        call = entry["maps"].get(n)
+        if call is None:
+            call = entry["maps"][n] = _buffered(entry["fun"].map(n, "serial") if n > 1 else entry["fun"], rows, n)
+        x_in, x_out, trigger, _ = call  # (the buffer itself is kept alive with them)
+        # CasADi's buffers are column-major: one trajectory's packed state is one contiguous row here
+        x_in[:] = X[:, active].T
+        trigger()
+        X[:, active] = x_out.T
         active = active[X[status_row, active] == 0]
+
+
+def _buffered(fun, rows: int, n: int, rows_out: int | None = None):
+    """``fun`` (one input of ``rows × n``, one output of ``rows_out × n``, default ``rows``) bound to
+    preallocated arrays: ``(x_in, x_out, trigger, buffer)``, both arrays transposed (CasADi is column-major).
+
+    A call through CasADi's buffer interface costs about 1 µs, against some 25 µs for converting numpy arrays to
+    and from CasADi matrices on every call: the attempt functions are called thousands of times in a ramp."""
+    x_in, x_out = np.zeros((n, rows)), np.zeros((n, rows if rows_out is None else rows_out))
+    buf, trigger = fun.buffer()
+    buf.set_arg(0, x_in.data)
+    buf.set_res(0, x_out.data)
+    return x_in, x_out, trigger, buf
 
 
 def _integrate_attempts(

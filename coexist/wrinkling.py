@@ -326,10 +326,13 @@ class _Equations:
         n = y.shape[1]
         fn = self._switching_function(mode)
         x = np.vstack([y[0], y[1], y[2], y[lay.W], y[lay.P + 1], f[0], f[1], f[lay.W]])
-        mapped = self._maps.get((mode, n))
-        if mapped is None:
-            mapped = self._maps[(mode, n)] = fn.map(n, "serial") if n > 1 else fn
-        g, dg, T1, E, stiff, margin, w = mapped(x).full()
+        call = self._maps.get((mode, n))
+        if call is None:
+            call = self._maps[(mode, n)] = sh._buffered(fn.map(n, "serial") if n > 1 else fn, 8, n, 7)
+        x_in, x_out, trigger, _ = call
+        x_in[:] = x.T
+        trigger()
+        g, dg, T1, E, stiff, margin, w = x_out.T.copy()
         code = np.zeros(np.shape(y[0]), dtype=int)
         code[np.abs(y[2]) > math.pi] = sh.FOLDED_BACK
         code[~(stiff > 0)] = sh.LOST_ELLIPTICITY if mode == TAUT else sh.PULL_IN

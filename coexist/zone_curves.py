@@ -19,6 +19,7 @@ import numpy as np
 from .errors import ModelRangeError
 from .model import MembraneModel
 from .numerics.roots import bracketed_root
+from .numerics.sets import unique_sorted
 from .numerics.splines import interpolating_cubics
 from .settings import SolverSettings
 from .shooting import first_valid_run, reason_tag, reason_text, solve_states
@@ -230,7 +231,7 @@ class ZoneCurve:
         lo, hi = self.span
         p_turn = self._critical(self.p)
         v_turn = self._critical(self.v)
-        cuts = np.unique(np.concatenate([[lo], p_turn, v_turn, [hi]]))
+        cuts = unique_sorted(np.concatenate([[lo], p_turn, v_turn, [hi]]))
         out = []
         for i, (a, b) in enumerate(zip(cuts[:-1], cuts[1:])):
             mid = 0.5 * (a + b)

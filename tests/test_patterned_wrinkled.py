@@ -18,10 +18,10 @@ from click.testing import CliRunner
 from numpy.polynomial import chebyshev as C
 
 from coexist.cli.main import cli
-from coexist.errors import ModelRangeError, SceneError
+from coexist.errors import SceneError
 from coexist.model import MembraneModel
 from coexist.patterned import PatternedModel, ZonePattern, solve_patterned_states
-from coexist.patterned_relaxed import NO_RELAXED_DERIVATIVES, describe_wrinkles, solve_patterned_relaxed
+from coexist.patterned_relaxed import describe_wrinkles, solve_patterned_relaxed
 from coexist.settings import SolverSettings
 from coexist.shooting import OK, WRINKLED, solve_states
 from coexist.studies.wrinkled_reference import relaxed_state
@@ -160,19 +160,20 @@ def test_ipopt_reference_converges_to_the_relaxed_shooting(membrane):
 
 def test_patterned_model_with_tension_field_relaxes_through_solve_states(membrane):
     """``PatternedModel.of`` takes a tension-field membrane; ``solve_states`` relaxes its WRINKLED states (the
-    numbers of ``solve_patterned_relaxed``) and, with derivatives, leaves them WRINKLED with the reason;
-    ``solve_patterned_relaxed`` refuses derivatives and a membrane that refuses wrinkling, by name."""
+    numbers of ``solve_patterned_relaxed``) and, with derivatives, returns them OK with their exact derivatives
+    (those of ``solve_patterned_relaxed``, tests/test_patterned_relaxed_derivatives.py); ``solve_patterned_relaxed``
+    refuses a membrane that refuses wrinkling, by name."""
     zone = PatternedModel.of(membrane, INNER)
     st = solve_states(zone, [1.018, 1.05], PHI, TIGHT)
     direct = solve_patterned_relaxed(membrane, INNER, [1.018], PHI, TIGHT)
     assert np.all(st.ok) and st.p_hat[0] == direct.p_hat[0] and st.wrinkled_radii[0] == direct.wrinkled_radii[0]
     assert st.wrinkled_radii[1] == [] and st.wrinkled_stiffness[1] == np.inf
     with_d = solve_states(zone, [1.018, 1.05], PHI, TIGHT, derivatives=True)
-    assert with_d.status[0] == WRINKLED and NO_RELAXED_DERIVATIVES in with_d.failure_detail[0]
-    assert with_d.status[1] == OK and np.isfinite(with_d.derivatives.dp_dl0[1])
-    with pytest.raises(ModelRangeError, match="no exact derivatives") as err:
-        solve_patterned_relaxed(membrane, INNER, [1.018], PHI, derivatives=True)
-    assert err.value.reason == "no-derivatives"
+    assert np.all(with_d.status == OK) and with_d.failure_detail[0] is None
+    assert with_d.p_hat[0] == direct.p_hat[0] and with_d.wrinkled_radii[0] == direct.wrinkled_radii[0]
+    assert np.isfinite(with_d.derivatives.dp_dl0).all() and with_d.derivatives.dp_dl0[0] > 0
+    d = solve_patterned_relaxed(membrane, INNER, [1.018], PHI, TIGHT, derivatives=True).derivatives
+    assert d is not None and d.dv_dl0[0] == with_d.derivatives.dv_dl0[0]
     with pytest.raises(SceneError, match="tension-field") as bad:
         solve_patterned_relaxed(MembraneModel(), INNER, [1.018], PHI)
     assert bad.value.field == "wrinkling"

@@ -19,7 +19,16 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["FastCubic", "casadi_piecewise", "casadi_spline", "interpolating_cubics", "not_a_knot_basis"]
+from .sets import unique_sorted
+
+__all__ = [
+    "FastCubic",
+    "casadi_piecewise",
+    "casadi_spline",
+    "interpolating_cubics",
+    "not_a_knot_basis",
+    "values_and_slopes",
+]
 
 
 class FastCubic:
@@ -127,10 +136,57 @@ class FastCubic:
         hi = np.where(extrapolate & (piece == h.size - 1), np.inf, h[piece] + slack)
         keep = np.isfinite(d) & (d >= lo) & (d <= hi)
         d = np.where(extrapolate, d[keep], np.clip(d[keep], 0.0, h[piece[keep]])) if keep.any() else d[keep]
-        roots = np.unique(self.x[piece[keep]] + d)
+        roots = unique_sorted(self.x[piece[keep]] + d)
         if roots.size > 1:  # a root on a breakpoint is found by both of its pieces
             roots = roots[np.concatenate([[True], np.diff(roots) > 1e-14 * np.maximum(1.0, np.abs(roots[1:]))])]
         return roots
+
+
+def values_and_slopes(splines, u) -> tuple:
+    """Several cubics on one grid at ``u``, with their first and second derivatives, from one interval search.
+
+    For each spline ``s = ((c0 d + c1) d + c2) d + c3`` (``d = u − x_i``): ``s``, ``s' = (3 c0 d + 2 c1) d + c2``
+    and ``s'' = 6 c0 d + 2 c1``. What a small system evaluated thousands of times (the gradient flow of
+    :func:`coexist.ramp.gradient_flow`) needs, at the cost of one spline call instead of five.
+
+    Parameters
+    ----------
+    splines : sequence of FastCubic
+        Splines sharing their breakpoints (checked).
+    u : ndarray, shape (m,)
+        Where.
+
+    Returns
+    -------
+    values, first, second : ndarray, shape (k, m)
+        One row per spline.
+
+    Raises
+    ------
+    ValueError
+        If the splines do not share their breakpoints.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> x = np.linspace(0.0, 1.0, 8)
+    >>> a, b = interpolating_cubics(x, np.column_stack([x**3, x**2]))
+    >>> val, d1, d2 = values_and_slopes((a, b), np.array([0.5]))
+    >>> np.round([val[0, 0], d1[0, 0], d2[0, 0], val[1, 0], d1[1, 0], d2[1, 0]], 12).tolist()
+    [0.125, 0.75, 3.0, 0.25, 1.0, 2.0]
+    """
+    first = splines[0]
+    if any(s.x is not first.x and not np.array_equal(s.x, first.x) for s in splines[1:]):
+        raise ValueError("values_and_slopes needs splines on one grid")
+    i = np.minimum(np.maximum(first.x.searchsorted(u, "right") - 1, 0), first._last)
+    d = u - first.x[i]
+    c0 = np.array([s._c0[i] for s in splines])
+    c1 = np.array([s._c1[i] for s in splines])
+    c2 = np.array([s._c2[i] for s in splines])
+    c3 = np.array([s._c3[i] for s in splines])
+    values = ((c0 * d + c1) * d + c2) * d + c3
+    slopes = (3 * c0 * d + 2 * c1) * d + c2
+    return values, slopes, 6 * c0 * d + 2 * c1
 
 
 class _Pieces:
