@@ -22,7 +22,12 @@ trajectory, which is zero in the pole region, gets ``S⁺ = D(S⁻ + f⁻ fi) �
 Jacobian of the jump, ``f∓`` the right-hand sides on the two sides) and is carried by the variational equations
 ``S' = (∂f/∂y) S`` in between; at the clamp ``dR*/ds = −S_λ2/λ2'``. All states of a call are iterated together
 (vectorised DOP853, :func:`coexist.numerics.dop853.integrate`); a state whose iterate fails (a trajectory that
-turns back, a jump without a stable root, no clamp) backtracks towards its last good iterate.
+turns back, a jump without a stable root, no clamp) backtracks towards its last good iterate. The passes of one
+iteration share what does not depend on ``s`` (:class:`_Warm`): the pole region is integrated once to just below
+its interface and taken up from there by the later passes (a step or two), each jump starts from the last pass's
+``λ1⁺``, and a pass integrates the variational equations (the slope) only where the last residual exceeded
+:data:`SLOPE_AGAIN` (elsewhere the last slope serves: off by ``O(|Δσ|)``, the step's error is ``O(|Δσ| |G|)``).
+The stopping rule is unchanged: a state is returned from a pass whose own residual is ``|G| ≤ rtol``.
 
 A pattern with one region is a uniform zone: it is :func:`coexist.shooting.solve_states` with the scaled
 pressure and voltage (``p̂ = n p̂1``, ``Ψ̂ = n Ψ̂1``).
@@ -99,6 +104,10 @@ _EARLY_CLAMP = 90
 _FAR_CLAMP = 91
 #: a slope ``dG/dσ`` above this is not trusted (the step uses ``−1``, the uniform zone's slope)
 SLOPE_CEILING = -0.05
+#: a Newton pass computes the slope ``dG/dσ`` only where the last residual ``|G|`` exceeded this (or there is no
+#: slope yet); elsewhere the last pass's slope serves (it is off by ``O(|Δσ|)``, so the step's error is
+#: ``O(|Δσ| |G|)``, far below the tolerance after one more pass) and the pass integrates no variational equations
+SLOPE_AGAIN = 1e-3
 #: iterates of one state that may fail (a trajectory that stops: no meridional tension, loss of ellipticity, ...)
 #: before the state is given up with that failure
 MAX_FAILED_TRIALS = 6
@@ -718,19 +727,21 @@ class _AttemptResult:
 
 def _attempt_region(fns, kind, t0, y0, t_end, rtol, atol, max_steps, start, last: bool) -> _AttemptResult:
     """Integrate one region of every column by the attempt function of ``kind`` (``"radius"``/``"radius_sens"``):
-    the same DOP853 steps as :func:`coexist.numerics.dop853.integrate` (Hairer's starting step, the same step
-    control) with the checks of the region's event in ``_pass``: the meridional tension (the attempt function's
-    ``formal`` mode: the hoop tension is judged on the converged state only), locking, ellipticity, a meridian
-    folding back, and the clamp stretch (the landing in the last region; in another region a crossing means
-    the interfaces lie too far out, ``_EARLY_CLAMP``). ``start = (T̂1, T̂2, dT̂1/dR̂, dT̂2/dR̂, |Ê|)`` per layer
-    at the first node (for the cubic Hermite estimate of a minimum within the first step)."""
-    from .shooting import _H, _HEAD, run_attempts
+    the same DOP853 steps as :func:`coexist.numerics.dop853.integrate` (Hairer's starting step, from the plain
+    equations' rows, the same step control) with the checks of the region's event in ``_pass``: the meridional
+    tension (the attempt function's ``formal`` mode: the hoop tension is judged on the converged state only),
+    locking, ellipticity, a meridian folding back, and the clamp stretch (the landing in the last region; in another
+    region a crossing means the interfaces lie too far out, ``_EARLY_CLAMP``). ``start = (T̂1, T̂2, dT̂1/dR̂,
+    dT̂2/dR̂, |Ê|)`` per layer at the first node (for the cubic Hermite estimate of a minimum within the first
+    step)."""
+    from .shooting import _H, _HEAD
 
     R, m = y0.shape
-    fun = fns.radius if kind == "radius" else fns.radius_sens
     rtol = np.broadcast_to(np.asarray(rtol, dtype=float), (m,))
     atol = np.broadcast_to(np.asarray(atol, dtype=float), y0.shape)
-    h0 = _int.initial_step(fun, t0, y0, fun(t0, y0), np.ones(m), rtol[None, :], atol)
+    # Hairer's starting step from the plain equations' rows (the sensitivities follow the same trajectory)
+    y9, a9 = (y0, atol) if R == 9 else (y0[_PLAIN_ROWS], atol[_PLAIN_ROWS])
+    h0 = _int.initial_step(fns.radius, t0, y9, fns.radius(t0, y9), np.ones(m), rtol[None, :], a9)
     o = len(_HEAD)
     X = np.zeros((o + 4 * R, m))
     H = _H
@@ -740,17 +751,30 @@ def _attempt_region(fns, kind, t0, y0, t_end, rtol, atol, max_steps, start, last
     X[H["Ra"]], X[H["T1a"]], X[H["T2a"]], X[H["d1a"]], X[H["d2a"]] = t0, T1, T2, d1, d2
     X[H["minT"]], X[H["maxE"]], X[H["failR"]], X[H["cand_est"]] = np.inf, E, np.nan, np.inf
     X[o : o + R], X[o + 2 * R : o + 3 * R] = y0, np.where(np.isfinite(atol), atol, 1e300)
-    run_attempts(fns.attempts(kind), X, H["status"])
+    return _attempt_run(fns, kind, X, last)
+
+
+def _attempt_run(fns, kind, X, last: bool, steps_before=None) -> _AttemptResult:
+    """Run the attempt function of ``kind`` on the packed states ``X`` (:func:`_attempt_region`'s, or such states
+    taken up again with a further ``t_end``, :func:`_pole_region`) until every column stops; ``steps`` counts the
+    steps after ``steps_before`` (per column; default none)."""
+    from .shooting import _H, _HEAD, run_attempts
+
+    R = (X.shape[0] - len(_HEAD)) // 4
+    o = len(_HEAD)
+    H = _H
+    run_attempts(_attempts(fns, kind), X, H["status"])
     st = X[H["status"]].astype(int)
     failed = st >= _int.FAILED
     status = np.where(failed, _int.FAILED + st, st)
     if not last:
         status[st == _int.CROSSED] = _int.FAILED + _EARLY_CLAMP
+    steps = X[H["steps"]].astype(int)
     return _AttemptResult(
         t=np.where(failed, X[H["failR"]], X[H["t"]]),
         y=X[o : o + R].copy(),
         status=status,
-        steps=X[H["steps"]].astype(int),
+        steps=steps if steps_before is None else steps - steps_before,
         X=X,
     )
 
@@ -782,8 +806,30 @@ def _track_attempts(tracker: _Tracker, res: _AttemptResult, cols, n, region: int
 
 def _stepper(fns, kind: str, n: int):
     """The shooting's DOP853 stepper for ``n`` trajectories of ``kind``; once compiled (cached per machine) the
-    whole-step function serves batches up to a few hundred, where it beats numpy."""
-    return fns.stepper_of(kind, n, _ROWS[kind], getattr(fns, kind), lambda: fns._casadi_rhs(kind), medium=True)
+    whole-step function serves batches up to a few hundred, where it beats numpy (that stepper is then kept here:
+    asking the shooting for it again computes its cache key every time)."""
+    from .shooting import COMPILED_BATCH_LIMIT
+
+    kept = fns.__dict__.setdefault("_patterned_kept", {})
+    st = kept.get(("stepper", kind))
+    if st is not None and n <= COMPILED_BATCH_LIMIT:
+        return st
+    st = fns.stepper_of(kind, n, _ROWS[kind], getattr(fns, kind), lambda: fns._casadi_rhs(kind), medium=True)
+    if isinstance(st, _int.CasadiStepper) and fns._casadi.get(("stepper compiled", kind)):
+        kept[("stepper", kind)] = st
+    return st
+
+
+def _attempts(fns, kind: str) -> dict:
+    """The shooting's attempt function of ``kind`` (:meth:`~coexist.shooting._Integrators.attempts`); once compiled
+    its entry is kept here (asking the shooting for it again computes its cache key every time)."""
+    kept = fns.__dict__.setdefault("_patterned_kept", {})
+    entry = kept.get(("attempts", kind))
+    if entry is None:
+        entry = fns.attempts(kind)
+        if entry.get("fast"):
+            kept[("attempts", kind)] = entry
+    return entry
 
 
 def _dT1_dphi(model: MembraneModel, l1, l2, phi) -> np.ndarray:
@@ -928,7 +974,114 @@ def _take_pole(pole, cols):
     )
 
 
-def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool, lam_cols=None, fast=None, pole=None):
+#: the rows of the plain equations (``"radius"``) in the 19-row layout of ``"radius_sens"``
+_PLAIN_ROWS = np.r_[0:7, 17:19]
+#: a Newton iteration integrates its pole region first to this fraction below the first interface and keeps it
+#: (:class:`_Warm`): a later pass takes it up from there (a few steps instead of the whole region)
+POLE_MARGIN = 0.02
+#: Newton iterations of the interface jump from the last pass's ``λ1⁺`` at most (then :func:`interface_stretch`)
+QUICK_JUMP_ITERATIONS = 5
+
+
+class _Warm:
+    """What the Newton passes on the interface scale of one call keep for each other, per state of the iteration:
+    the pole region integrated up to a radius ``R`` just below the first interface (the packed attempt-function
+    states ``X``, :func:`_pole_region`; the pole region does not depend on ``s`` and its start is the same in
+    every pass at fixed ``p̂t``), and the stretch ``λ1⁺`` across every interface (the start of the next pass's
+    jump, :func:`_jump`)."""
+
+    def __init__(self, m: int):
+        self.X: np.ndarray | None = None
+        self.R = np.full(m, np.nan)
+        self.l1: dict = {}
+
+    def jump_guess(self, k: int, cols):
+        """The last ``λ1⁺`` across interface ``k`` of the states ``cols`` (NaN where none), or None."""
+        g = self.l1.get(k)
+        return None if g is None else g[cols]
+
+    def keep_jump(self, k: int, cols, l1) -> None:
+        """Keep ``λ1⁺`` across interface ``k`` of the states ``cols``."""
+        self.l1.setdefault(k, np.full(self.R.size, np.nan))[cols] = l1
+
+
+def _pole_region(fns, warm, R0, y0, t1, rtol, atol, max_steps, start) -> _AttemptResult:
+    """The pole region of every column up to ``t1 = s f1`` by the attempt function (:func:`_attempt_region`), taken
+    up from the kept integration (``warm = (_Warm, the columns' states)``) where it stops below ``t1``. Elsewhere it
+    is integrated from the pole to ``(1 − POLE_MARGIN) t1`` (kept) and then on to ``t1``: a later pass with a
+    slightly different ``s`` costs a step or two. The steps from the kept radius on are the same DOP853 steps as
+    one integration's would be after a node there (the state differs from one integration to ``t1`` at the level
+    of the integration's tolerance)."""
+    from .shooting import _H
+
+    store, cols = warm
+    kept = store.R[cols]
+    fresh = np.flatnonzero(~(np.isfinite(kept) & (kept <= t1)))
+    if fresh.size:
+        t_mid = (1.0 - POLE_MARGIN) * t1[fresh]
+        part = _attempt_region(
+            fns,
+            "radius",
+            R0[fresh],
+            y0[:, fresh],
+            t_mid,
+            rtol[fresh],
+            atol[:, fresh],
+            max_steps,
+            tuple(a[fresh] for a in start),
+            False,
+        )
+        if store.X is None:
+            store.X = np.full((part.X.shape[0], store.R.size), np.nan)
+        store.X[:, cols[fresh]] = part.X
+        store.R[cols[fresh]] = np.where(part.status == _int.REACHED_END, t_mid, np.nan)
+    X = store.X[:, cols].copy()
+    steps_before = X[_H["steps"]].copy()
+    steps_before[fresh] = 0.0  # a fresh column counts its steps from the pole
+    go = np.flatnonzero(X[_H["status"]] == _int.REACHED_END)
+    X[_H["t_end"], go] = t1[go]
+    X[_H["status"], go] = 0.0
+    return _attempt_run(fns, "radius", X, False, steps_before.astype(int))
+
+
+def _jump(model, l1_in, l2, phi_in, n_in, phi_out, n_out, T1_in, guess):
+    """:func:`interface_stretch` (``T1_in`` = ``T̂1(λ1⁻, λ2; Φ̂⁻)``), by Newton's method from ``guess`` (the last pass's
+    ``λ1⁺``) where there is one: a column whose step falls below ``1e-12 λ1⁺`` on the stable branch with a residual
+    below ``1e-10`` of the force within :data:`QUICK_JUMP_ITERATIONS` takes the next iterate (the root to rounding:
+    the convergence is quadratic); the others are solved by :func:`interface_stretch`."""
+    if guess is None:
+        return interface_stretch(model, l1_in, l2, phi_in, n_in, phi_out, n_out)
+    x = np.where(np.isfinite(guess), guess, l1_in)
+    target = n_in * T1_in / n_out
+    done = np.zeros(x.size, dtype=bool)
+    out = np.full(x.size, np.nan)
+    todo = np.flatnonzero(np.isfinite(guess) & np.isfinite(target))
+    for _ in range(QUICK_JUMP_ITERATIONS):
+        if todo.size == 0:
+            break
+        T = model.tensions(x[todo], l2[todo], phi_out[todo])
+        g = np.asarray(T[0]) * np.ones(todo.size) - target[todo]
+        d = np.asarray(T[2]) * np.ones(todo.size)
+        with np.errstate(all="ignore"):
+            step = g / d
+        nxt = x[todo] - step
+        fine = np.isfinite(nxt) & (d > 0)
+        small = np.abs(g) <= 1e-10 * np.maximum(1.0, np.abs(target[todo]))
+        conv = fine & small & (np.abs(step) <= 1e-12 * np.abs(x[todo]))
+        out[todo[conv]] = nxt[conv]
+        done[todo[conv]] = True
+        x[todo] = np.where(fine, nxt, x[todo])
+        todo = todo[fine & ~conv]
+    rest = np.flatnonzero(~done)
+    if rest.size:
+        sub = (a[rest] for a in np.broadcast_arrays(l1_in, l2, phi_in, n_in, phi_out, n_out))
+        out[rest], _ = interface_stretch(model, *sub)
+    return out, np.isfinite(out)
+
+
+def _pass(
+    model, settings, lay, l0, p_t, sigma, rtol, track: bool, lam_cols=None, fast=None, pole=None, warm=None, slope=True
+):
     """One shooting of every state with the interfaces at ``s fi`` (``s = e^σ``): the clamp radius ``R*``, the
     slope ``dR*/ds``, the quadratures, the tracked tensions, and a status per state (0 where it reached the
     clamp).
@@ -1005,7 +1158,11 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool, lam_cols=None
     if fast:
         # the pole node: both tensions T̂0 (per layer), no slope (even in R̂)
         start = (T0, T0, np.zeros(m), np.zeros(m), tracker.max_E.copy())
-        res = _attempt_region(fns, kind0, R0.copy(), y0, s * lay.f[0], rtol, atol_r1, settings.max_steps, start, False)
+        t1 = s * lay.f[0]
+        if warm is None or deriv:
+            res = _attempt_region(fns, kind0, R0.copy(), y0, t1, rtol, atol_r1, settings.max_steps, start, False)
+        else:
+            res = _pole_region(fns, warm, R0, y0, t1, rtol, atol_r1, settings.max_steps, start)
         _track_attempts(tracker, res, live, lay.n[0], 0, track)
     else:
         res = _int.integrate(
@@ -1037,6 +1194,7 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool, lam_cols=None
     dRs = np.full(m, np.nan)
     R_star = np.full(m, np.nan)
     quad = np.full((4, m), np.nan)
+    sens = np.ones(m, dtype=bool) if deriv else np.broadcast_to(np.asarray(slope, dtype=bool), (m,))
     for k in range(1, K):
         go = np.flatnonzero(status == 0)
         if go.size == 0:
@@ -1046,11 +1204,15 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool, lam_cols=None
         n_in, n_out = lay.n[k - 1, go], lay.n[k, go]
         phi_in, phi_out = lay.phi[k - 1, go], lay.phi[k, go]
         f_in = np.asarray(model.rhs(R_i, Yg[0], Yg[1], Yg[2], Yg[17], phi_in))
-        l1p, ok = interface_stretch(model, Yg[0], Yg[1], phi_in, n_in, phi_out, n_out)
+        T_in = [np.asarray(a) * np.ones_like(R_i) for a in model.tensions(Yg[0], Yg[1], phi_in)]
+        guess = None if warm is None else warm[0].jump_guess(k, warm[1][go])
+        l1p, ok = _jump(model, Yg[0], Yg[1], phi_in, n_in, phi_out, n_out, T_in[0], guess)
         status[go[~ok]] = LOST_ELLIPTICITY
+        if warm is not None:
+            warm[0].keep_jump(k, warm[1][go], l1p)
         # the jump's Jacobian on (λ1, λ2, θ): λ1⁺ = g(λ1⁻, λ2)
-        _, _, T11i, T12i = (np.asarray(a) * np.ones_like(R_i) for a in model.tensions(Yg[0], Yg[1], phi_in)[:4])
-        _, _, T11o, T12o = (np.asarray(a) * np.ones_like(R_i) for a in model.tensions(l1p, Yg[1], phi_out)[:4])
+        T_out = [np.asarray(a) * np.ones_like(R_i) for a in model.tensions(l1p, Yg[1], phi_out)]
+        T11i, T12i, T11o, T12o = T_in[2], T_in[3], T_out[2], T_out[3]
         g1 = n_in * T11i / (n_out * T11o)
         g2 = (n_in * T12i - n_out * T12o) / (n_out * T11o)
         S_in = Yg[7:10] + f_in[:3] * lay.f[k - 1]
@@ -1069,97 +1231,132 @@ def _pass(model, settings, lay, l0, p_t, sigma, rtol, track: bool, lam_cols=None
             Yn[9] = S_in[2] - f_out[2] * lay.f[k - 1]
             Yn[10:17] = 0.0
         Y[:, go] = Yn
-        N_in = n_in * np.asarray(model.tensions(Yg[0], Yg[1], phi_in)[0])
-        N_out = n_out * np.asarray(model.tensions(l1p, Yg[1], phi_out)[0])
-        for side, (YY, N) in enumerate(((Yg, N_in), (Y[:, go], N_out))):
-            edges[go, k - 1, side] = np.stack([R_i, YY[1] * R_i, YY[6], YY[2], N * np.ones_like(R_i)], axis=-1)
-        go_ok = go[ok]
-        if go_ok.size == 0:
-            break
-        Yn = Y[:, go_ok]
-        R_i = s[go_ok] * lay.f[k - 1]
+        N_in = n_in * T_in[0]
+        N_out = n_out * T_out[0]
+        for side, (YY, N) in enumerate(((Yg, N_in), (Yn, N_out))):
+            edges[go, k - 1, side] = np.stack([R_i, YY[1] * R_i, YY[6], YY[2], N], axis=-1)
+        # the region's first node (its interface, clamp side): per-layer tensions and slopes, field
+        T1s, T2s, T11s, T12s, _, Es, T22s = T_out
+        fo = f_out
+        first = (T1s, T2s, T11s * fo[0] + T12s * fo[1], T12s * fo[0] + T22s * fo[1], np.abs(Es))
         if track:
-            node, E = tracker.values(model, R_i, Yn, f_out[:, ok], lay.n[k, go_ok], Yn[18])
+            n = lay.n[k, go]
+            node = np.vstack([R_i, n * first[0], n * first[1], n * first[2], n * first[3]])
             # the pole side of the edge: the last node of region k−1 (already recorded), re-marked as an edge
-            tracker.start(go_ok, node, E, k)
+            tracker.start(go[ok], node[:, ok], first[4][ok], k)
         last = k == K - 1
-        t_end = s[go_ok] * (min(LAST_REGION_REACH, settings.max_radius_factor) if last else lay.f[k])
-        atol = np.vstack([atol_state[:, go_ok], np.full((10, go_ok.size), np.inf), np.full((2, go_ok.size), np.inf)])
-        if fast:
-            # the region's first node (its interface, clamp side): per-layer tensions and slopes
-            T1s, T2s, T11s, T12s, _, Es, T22s = (
-                np.asarray(a) * np.ones_like(R_i) for a in model.tensions(Yn[0], Yn[1], Yn[18])
-            )
-            fo = f_out[:, ok]
-            start = (T1s, T2s, T11s * fo[0] + T12s * fo[1], T12s * fo[0] + T22s * fo[1], np.abs(Es))
-            res = _attempt_region(
-                fns, "radius_sens", R_i, Yn, t_end, rtol[go_ok], atol, settings.max_steps, start, last
-            )
-            _track_attempts(tracker, res, go_ok, lay.n[k, go_ok], k, track)
-        else:
-            res = _int.integrate(
-                _stepper(fns, "radius_sens", go_ok.size),
-                R_i,
-                Yn,
-                t_end,
-                rtol[go_ok],
-                atol,
-                settings.max_steps,
-                event=make_event(k, go_ok, last, t_end),
-            )
-        steps[go_ok] += res.steps
-        st = np.zeros(go_ok.size, dtype=int)
-        st[res.status == _int.STEP_LIMIT] = STEP_LIMIT
-        fl = res.status >= _int.FAILED
-        st[fl] = res.status[fl] - _int.FAILED
-        stop_R[go_ok[fl]] = res.t[fl]
-        if last:
-            st[res.status == _int.REACHED_END] = _FAR_CLAMP
-            st[(st == 0) & (res.status != _int.CROSSED)] = NOT_FINITE
-        else:
-            st[(st == 0) & (res.status != _int.REACHED_END)] = NOT_FINITE
-        status[go_ok] = st
-        Y[:, go_ok] = res.y
-        if last:
-            land = np.flatnonzero(st == 0)
-            if land.size:
-                _land(
-                    fns,
-                    model,
-                    settings,
-                    go_ok[land],
-                    res.t[land],
-                    res.y[:, land],
-                    rtol,
-                    atol[:, land],
-                    status,
-                    steps,
-                    R_star,
-                    dRs,
-                    quad,
-                    psi_n,
-                    tracker if track else None,
-                    lay,
-                    K - 1,
-                    (ends, u_q) if deriv else None,
+        # integrated with the variational equations where the slope dR*/ds is asked for, without elsewhere
+        for group in (ok & sens[go], ok & ~sens[go]):
+            if not group.any():
+                continue
+            cols = go[group]
+            with_s = bool(sens[cols[0]])
+            rows = slice(None) if with_s else _PLAIN_ROWS
+            kind = "radius_sens" if with_s else "radius"
+            Rg = R_i[group]
+            t_end = s[cols] * (min(LAST_REGION_REACH, settings.max_radius_factor) if last else lay.f[k])
+            yk = Y[rows][:, cols]
+            atol = np.vstack([atol_state[:, cols], np.full((yk.shape[0] - 7, cols.size), np.inf)])
+            if fast:
+                start = tuple(a[group] for a in first)
+                res = _attempt_region(fns, kind, Rg, yk, t_end, rtol[cols], atol, settings.max_steps, start, last)
+                _track_attempts(tracker, res, cols, lay.n[k, cols], k, track)
+            else:
+                res = _int.integrate(
+                    _stepper(fns, kind, cols.size),
+                    Rg,
+                    yk,
+                    t_end,
+                    rtol[cols],
+                    atol,
+                    settings.max_steps,
+                    event=make_event(k, cols, last, t_end),
                 )
+            steps[cols] += res.steps
+            st = np.zeros(cols.size, dtype=int)
+            st[res.status == _int.STEP_LIMIT] = STEP_LIMIT
+            fl = res.status >= _int.FAILED
+            st[fl] = res.status[fl] - _int.FAILED
+            stop_R[cols[fl]] = res.t[fl]
+            if last:
+                st[res.status == _int.REACHED_END] = _FAR_CLAMP
+                st[(st == 0) & (res.status != _int.CROSSED)] = NOT_FINITE
+            else:
+                st[(st == 0) & (res.status != _int.REACHED_END)] = NOT_FINITE
+            status[cols] = st
+            if with_s:
+                Y[:, cols] = res.y
+            else:
+                Y[:7, cols] = res.y[:7]
+                Y[17:19, cols] = res.y[7:9]
+            if last:
+                land = np.flatnonzero(st == 0)
+                if land.size:
+                    _land(
+                        fns,
+                        model,
+                        settings,
+                        cols[land],
+                        res.t[land],
+                        Y[:, cols[land]],
+                        rtol,
+                        np.vstack([atol_state[:, cols[land]], np.full((12, land.size), np.inf)]),
+                        status,
+                        steps,
+                        R_star,
+                        dRs,
+                        quad,
+                        psi_n,
+                        tracker if track else None,
+                        lay,
+                        K - 1,
+                        (ends, u_q) if deriv else None,
+                        slope=with_s,
+                    )
     if K == 1:  # not used (one region is a uniform zone), kept for completeness
         raise AssertionError("a one-region pattern is shot by solve_states")
     tracker.edges = edges
     return R_star, dRs, quad, status, steps, tracker, stop_R, ends
 
 
+def _single_step(stepper, t, y, h, rtol, atol):
+    """:func:`coexist.numerics.dop853.single_step` without the numpy right-hand side at the start when the stepper
+    is a CasADi step function (which evaluates its first stage itself): the same step and error norm."""
+    f = None if isinstance(stepper, _int.CasadiStepper) else stepper.rhs(t, y)
+    y_new, _, e5, e3 = stepper.step(t, y, f, h)
+    scale = atol + np.maximum(np.abs(y), np.abs(y_new)) * np.asarray(rtol)
+    err = np.where(np.all(np.isfinite(y_new), axis=0), _int._error_norm(e5, e3, h, scale), np.inf)
+    return y_new, err
+
+
 def _land(
-    fns, model, settings, idx, R_h, y_h, rtol, atol, status, steps, R_star, dRs, quad, psi_n, tracker, lay, k, ends=None
+    fns,
+    model,
+    settings,
+    idx,
+    R_h,
+    y_h,
+    rtol,
+    atol,
+    status,
+    steps,
+    R_star,
+    dRs,
+    quad,
+    psi_n,
+    tracker,
+    lay,
+    k,
+    ends=None,
+    slope=True,
 ):
-    """The last step onto the clamp with ``λ2`` as the independent variable, then the sensitivity carried to
-    ``R*`` (one step in ``R̂``) and ``dR*/ds = −S_λ2/λ2'``; ``ends = (array, u_q)`` (the derivative pass): the
-    sensitivities at the clamp and the right-hand side there, into ``array`` (see :func:`_pass`)."""
+    """The last step onto the clamp with ``λ2`` as the independent variable, then (``slope``) the sensitivity
+    carried to ``R*`` (:func:`_clamp_sensitivity`: ``dR*/ds``, and with ``ends`` those of the derivative pass)."""
     lam_clamp = model.prestretch
     z0 = np.vstack([R_h, y_h[0], y_h[2:7], y_h[17:19]])
     atol_h = np.vstack([np.full(idx.size, settings.atol), atol[0], atol[2:7], np.full((2, idx.size), np.inf)])
     hoop = _stepper(fns, "hoop", idx.size)
-    zf, err = _int.single_step(hoop, y_h[1], z0, lam_clamp - y_h[1], rtol[idx][None, :], atol_h)
+    zf, err = _single_step(hoop, y_h[1], z0, lam_clamp - y_h[1], rtol[idx][None, :], atol_h)
     landed = err <= 1.0
     steps[idx] += 1
     redo = np.flatnonzero(~landed)
@@ -1185,9 +1382,27 @@ def _land(
     gi = idx[good]
     zg = zf[:, good]
     R = zg[0]
-    # the sensitivity at the clamp: one step in R̂ from the last node (its state rows are not used)
+    f = np.asarray(model.rhs(R, zg[1], lam_clamp, zg[2], zg[7], zg[8]))
+    R_star[gi] = R
+    if slope:
+        _clamp_sensitivity(fns, settings, gi, good, R, R_h, y_h, rtol, atol, steps, f, dRs, lay, k, ends)
+    fV, fQ, fPsi, _ = QUADRATURE_FACTORS
+    quad[0, gi] = fV * zg[3]
+    quad[1, gi] = fQ * zg[4]
+    quad[2, gi] = fPsi * zg[5] * psi_n[gi]
+    quad[3, gi] = zg[6]
+    if tracker is not None:
+        y_clamp = np.vstack([zg[1], np.full(gi.size, lam_clamp), zg[2]])
+        node, E = tracker.values(model, R, y_clamp, f, lay.n[k, gi], zg[8])
+        tracker.add(gi, node, E, k, side=1)
+
+
+def _clamp_sensitivity(fns, settings, gi, good, R, R_h, y_h, rtol, atol, steps, f, dRs, lay, k, ends) -> None:
+    """The sensitivities carried from the last node onto the clamp ``R*`` (one step in ``R̂``, its state rows not
+    used): ``dR*/ds = −S_λ2/λ2'`` into ``dRs``; ``ends = (array, u_q)`` (the derivative pass): the sensitivities at
+    the clamp and the right-hand side ``f`` there, into ``array`` (see :func:`_pass`)."""
     stepper = _stepper(fns, "radius_sens", gi.size)
-    y_end, err = _int.single_step(stepper, R_h[good], y_h[:, good], R - R_h[good], rtol[gi][None, :], atol[:, good])
+    y_end, err = _single_step(stepper, R_h[good], y_h[:, good], R - R_h[good], rtol[gi][None, :], atol[:, good])
     steps[gi] += 1
     again = np.flatnonzero(~(err <= 1.0))
     if again.size:
@@ -1203,8 +1418,6 @@ def _land(
         )
         y_end[:, again] = hop.y
         steps[gi[again]] += hop.steps
-    f = np.asarray(model.rhs(R, zg[1], lam_clamp, zg[2], zg[7], zg[8]))
-    R_star[gi] = R
     dRs[gi] = -y_end[8] / f[1]
     if ends is not None:
         arr, u_q = ends
@@ -1214,15 +1427,6 @@ def _land(
         arr[0:5, gi] = y_end[7:12]
         arr[5:10, gi] = y_end[12:17] / n_last
         arr[10:15, gi] = np.asarray(f[:5]) * np.ones(gi.size)
-    fV, fQ, fPsi, _ = QUADRATURE_FACTORS
-    quad[0, gi] = fV * zg[3]
-    quad[1, gi] = fQ * zg[4]
-    quad[2, gi] = fPsi * zg[5] * psi_n[gi]
-    quad[3, gi] = zg[6]
-    if tracker is not None:
-        y_clamp = np.vstack([zg[1], np.full(gi.size, lam_clamp), zg[2]])
-        node, E = tracker.values(model, R, y_clamp, f, lay.n[k, gi], zg[8])
-        tracker.add(gi, node, E, k, side=1)
 
 
 # --- the states -------------------------------------------------------------------------------------------
@@ -1542,6 +1746,8 @@ def _newton(
     # pattern whose fractions are off by that much): held to the integration's own tolerance
     tol = np.maximum(rtol, 4e-16)
     pole = _pole_start(model, settings, lay, l0, p_t)  # the pole region's start: the same in every pass
+    warm = _Warm(m)  # the pole region and the jumps, kept from pass to pass
+    last_slope = np.full(m, np.nan)  # the last exact slope dG/dσ of each state
     sigma = sigma0[live].copy()
     good_sigma = np.full(m, np.nan)
     lo = np.full(m, -np.inf)
@@ -1557,14 +1763,29 @@ def _newton(
         if idx.size == 0:
             break
         sub = _Layout(n=lay.n[:, idx], phi=lay.phi[:, idx], f=lay.f, electrode=lay.electrode)
+        # the slope where the last residual was large (or there is none): elsewhere the last one serves
+        need = ~np.isfinite(last_slope[idx]) | ~(G_prev[idx] <= SLOPE_AGAIN)
         R_star, dRs, quad, st, nsteps, tr, stop_R, _ = _pass(
-            model, settings, sub, l0[idx], p_t[idx], sigma[idx], rtol[idx], True, pole=_take_pole(pole, idx)
+            model,
+            settings,
+            sub,
+            l0[idx],
+            p_t[idx],
+            sigma[idx],
+            rtol[idx],
+            True,
+            pole=_take_pole(pole, idx),
+            warm=(warm, idx),
+            slope=need,
         )
         steps[live[idx]] += nsteps
         s = np.exp(sigma[idx])
         okp = st == 0
         G = np.where(okp, np.log(R_star) - sigma[idx], np.nan)
         slope = np.where(okp, s / R_star * dRs - 1.0, np.nan)
+        last_slope[idx[need & okp]] = slope[need & okp]
+        last_slope[idx[~okp]] = np.nan  # a failed iterate: the slope is taken again at the next one
+        slope = np.where(need, slope, last_slope[idx])
         conv = okp & ((np.abs(G) <= tol[idx]) | ((np.abs(G) >= 0.5 * G_prev[idx]) & (np.abs(G) <= 100 * tol[idx])))
         vague = np.flatnonzero(conv & ~(tr.min_T > 0) & ~tr.exact)
         if vague.size:
@@ -1584,39 +1805,45 @@ def _newton(
             for name in ("min_T", "where_R", "kind", "region", "side", "max_E", "exact"):
                 getattr(tr, name)[vague] = getattr(exact, name)
         # converged states: record
-        for j in np.flatnonzero(conv):
-            i = idx[j]
-            result["R"][i] = R_star[j]
-            result["sigma"][i] = sigma[i]
-            result["p"][i] = p_t[i]
-            result["V"][i], result["Q"][i], result["Psi"][i], result["z"][i] = quad[:, j]
-            result["minT"][i] = tr.min_T[j]
-            result["maxE"][i] = tr.max_E[j]
-            result["failR"][i] = tr.where_R[j] / R_star[j]
-            edge = tr.edges[j].copy()
-            edge[..., :3] /= R_star[j]  # lengths of the unit membrane (θ and the force per length are scale-free)
-            edges_out[live[i]] = edge
-            if not tr.min_T[j] > 0 and not (formal and tr.kind[j] == 2):
-                final[i] = WRINKLED
-                detail[live[i]] = _detail_of_tension(
+        cj = np.flatnonzero(conv)
+        if cj.size:
+            ci = idx[cj]
+            result["R"][ci] = R_star[cj]
+            result["sigma"][ci] = sigma[ci]
+            result["p"][ci] = p_t[ci]
+            for name, row in zip(("V", "Q", "Psi", "z"), quad[:, cj]):
+                result[name][ci] = row
+            result["minT"][ci] = tr.min_T[cj]
+            result["maxE"][ci] = tr.max_E[cj]
+            result["failR"][ci] = tr.where_R[cj] / R_star[cj]
+            edge = tr.edges[cj].copy()
+            # lengths of the unit membrane (θ and the force per length are scale-free)
+            edge[..., :3] /= R_star[cj][:, None, None, None]
+            edges_out[live[ci]] = edge
+            wrinkled = ~(tr.min_T[cj] > 0) & ~(formal & (tr.kind[cj] == 2))
+            for j in cj[wrinkled]:
+                final[idx[j]] = WRINKLED
+                detail[live[idx[j]]] = _detail_of_tension(
                     pattern, tr.min_T[j], tr.where_R[j] / R_star[j], tr.kind[j], tr.region[j], tr.side[j]
                 )
-            open_[i] = False
+            open_[ci] = False
         # the others: a Newton step kept inside the bracket [lo, hi] of σ (G > 0 at lo, G < 0 or an iterate
         # whose interfaces lie too far out at hi), bisection where it would leave it
-        for j in np.flatnonzero(~conv):
+        nj = np.flatnonzero(~conv & okp)
+        if nj.size:
+            ni = idx[nj]
+            G_prev[ni] = np.abs(G[nj])
+            good_sigma[ni] = sigma[ni]
+            up = G[nj] > 0
+            lo[ni[up]] = sigma[ni[up]]
+            hi[ni[~up]] = sigma[ni[~up]]
+            d = np.where((slope[nj] < SLOPE_CEILING) & np.isfinite(slope[nj]), slope[nj], -1.0)
+            nxt = sigma[ni] + np.clip(-G[nj] / d, -MAX_SCALE_STEP, MAX_SCALE_STEP)
+            _step_bracketed(ni, nxt, sigma, lo, hi, last_code, final, detail, live, open_)
+        for j in np.flatnonzero(~conv & ~okp):
             i = idx[j]
             code = int(st[j])
-            if okp[j]:
-                G_prev[i] = abs(G[j])
-                good_sigma[i] = sigma[i]
-                if G[j] > 0:
-                    lo[i] = sigma[i]
-                else:
-                    hi[i] = sigma[i]
-                d = slope[j] if slope[j] < SLOPE_CEILING and np.isfinite(slope[j]) else -1.0
-                nxt = sigma[i] + float(np.clip(-G[j] / d, -MAX_SCALE_STEP, MAX_SCALE_STEP))
-            elif code == _EARLY_CLAMP and np.isfinite(stop_R[j]):
+            if code == _EARLY_CLAMP and np.isfinite(stop_R[j]):
                 # the trajectory met the clamp stretch at stop_R inside the interfaces (s too large): with the
                 # uniform slope −1, G ≈ ln(stop_R) − σ, so the next s is stop_R
                 hi[i] = sigma[i]
@@ -1636,16 +1863,7 @@ def _newton(
                     open_[i] = False
                     continue
                 nxt = _after_failed_trial(i, sigma, lo, hi, good_sigma)
-            nxt = _keep_bracketed(nxt, lo[i], hi[i])
-            if _bracket_closed(lo[i], hi[i]):
-                # the bracket closed on the edge of the iterates' domain, not on a root: no state here
-                final[i] = last_code[i] if last_code[i] else NO_CLAMP
-                detail[live[i]] = (
-                    f"{reason_text(final[i])} (no placement of the interfaces at their fractions of the clamp "
-                    f"radius gives a state: the trials fail beyond interface scale {math.exp(hi[i]):.6g})"
-                )
-                open_[i] = False
-            sigma[i] = nxt
+            _step_bracketed(np.array([i]), np.array([nxt]), sigma, lo, hi, last_code, final, detail, live, open_)
     for i in np.flatnonzero(open_):
         final[i] = last_code[i] if last_code[i] else NO_CLAMP
         detail[live[i]] = (
@@ -1655,6 +1873,26 @@ def _newton(
     status[live] = final
     for k in out:
         out[k][live] = result[k]
+
+
+def _step_bracketed(ii, nxt, sigma, lo, hi, last_code, final, detail, live, open_) -> None:
+    """Set the next ``σ`` of the states ``ii``: ``nxt`` kept inside the bracket (:func:`_keep_bracketed`, here for
+    many states at once); a state whose bracket has closed (:func:`_bracket_closed`) is given up (``final``,
+    ``detail``, ``open_``)."""
+    a, b = lo[ii], hi[ii]
+    both = np.isfinite(a) & np.isfinite(b)
+    outside = np.where(np.isfinite(a), a + MAX_SCALE_STEP, b - MAX_SCALE_STEP)
+    nxt = np.where((a < nxt) & (nxt < b), nxt, np.where(both, 0.5 * (a + b), outside))
+    closed = np.isfinite(b) & (b - a <= 1e-12 * np.maximum(1.0, np.abs(b)))
+    for i in ii[closed]:
+        # the bracket closed on the edge of the iterates' domain, not on a root: no state here
+        final[i] = last_code[i] if last_code[i] else NO_CLAMP
+        detail[live[i]] = (
+            f"{reason_text(final[i])} (no placement of the interfaces at their fractions of the clamp "
+            f"radius gives a state: the trials fail beyond interface scale {math.exp(hi[i]):.6g})"
+        )
+        open_[i] = False
+    sigma[ii] = nxt
 
 
 def _after_failed_trial(i, sigma, lo, hi, good_sigma) -> float:
@@ -1689,11 +1927,14 @@ def _bracket_closed(lo: float, hi: float) -> bool:
 COARSE_STRIDE = 8
 
 
-def _scale_guess(known_l0: list, known_sigma: list, x: np.ndarray) -> np.ndarray:
-    """Starting ``ln s`` at pole stretches ``x``: the not-a-knot cubic through the converged ones (constant
-    outside them; linear with fewer than four)."""
-    from scipy.interpolate import CubicSpline
+#: the starting ``ln s`` of a state is the polynomial through this many converged neighbours (:func:`_scale_guess`)
+GUESS_POINTS = 6
 
+
+def _scale_guess(known_l0: list, known_sigma: list, x: np.ndarray) -> np.ndarray:
+    """Starting ``ln s`` at pole stretches ``x``: the cubic through the four converged ones nearest to each (the
+    Lagrange polynomial, error ``O(h⁴)`` in their spacing ``h``; constant outside them, linear with fewer than four).
+    A few array operations: the limit-point search asks for a guess at every one of its evaluations."""
     kl = np.concatenate(known_l0)
     ks = np.concatenate(known_sigma)
     kl, first = np.unique(kl, return_index=True)
@@ -1701,7 +1942,17 @@ def _scale_guess(known_l0: list, known_sigma: list, x: np.ndarray) -> np.ndarray
     inside = np.clip(x, kl[0], kl[-1])
     if kl.size < 4:
         return np.interp(inside, kl, ks)
-    return CubicSpline(kl, ks)(inside)
+    n = min(GUESS_POINTS, kl.size)
+    at = np.clip(np.searchsorted(kl, inside) - n // 2, 0, kl.size - n)[:, None] + np.arange(n)
+    nodes, values = kl[at], ks[at]
+    guess = np.zeros(inside.size)
+    for j in range(n):
+        w = np.ones(inside.size)
+        for i in range(n):
+            if i != j:
+                w *= (inside - nodes[:, i]) / (nodes[:, j] - nodes[:, i])
+        guess += w * values[:, j]
+    return guess
 
 
 def _take_patterned(st: PatternedStates, mask) -> PatternedStates:
@@ -1764,8 +2015,8 @@ def patterned_pressure_volume_curve(
 
     As :func:`coexist.curves.pressure_volume_curve` (the same grid, valid run and limit-point search), with
     every state from :func:`solve_patterned_states`. The states of a call start their interface scale from
-    the converged scales of the states already solved (linear interpolation in ``λ0``), so the limit-point
-    search costs about one Newton iteration per state.
+    the converged scales of the states already solved (a local cubic in ``λ0``, :func:`_scale_guess`), so the
+    limit-point search costs about one Newton iteration per state.
 
     Parameters
     ----------

@@ -101,3 +101,32 @@ def test_the_ramp_cost_of_a_patterned_scene_is_the_measured_factor_times_the_uni
     )
     # benchmarks/bench_patterned.py measured this ramp at 5.1–6.7 s (the uniform one 0.73–1.0 s)
     assert 5.0 < patterned.seconds < 10.0, patterned.seconds
+
+
+def test_the_fast_curve_holds_its_states_solved_one_by_one_tightly(gent):
+    """The curve's Newton passes on the interface scale start from the converged neighbours, keep the pole region
+    from pass to pass and reuse the last slope where the residual was already small: every state of the headline
+    curve (inner circle 0.5, two-layer annulus, Gent 97, Φ̂ = 0.1) and its pressure maximum are the same states
+    solved alone from the cap estimate at rtol 1e-12, to 1e-9 relative (p̂, V̂; Q̂ and Ψ̂ too)."""
+    from coexist.patterned import patterned_pressure_volume_curve
+
+    curve = patterned_pressure_volume_curve(gent, PATTERN, 0.1)
+    st = curve.states
+    assert st.pole_stretch.size >= 190 and np.all(st.status == OK)
+    tight = SolverSettings(rtol=1e-12)
+    names = ("p_hat", "v_hat", "q_hat", "psi_hat")
+    worst = dict.fromkeys(names, 0.0)
+    for i, l0 in enumerate(st.pole_stretch):
+        alone = solve_patterned_states(gent, PATTERN, [l0], 0.1, tight)
+        assert alone.status[0] == OK, (l0, alone.failure_detail)
+        for name in names:
+            a, b = getattr(st, name)[i], getattr(alone, name)[0]
+            worst[name] = max(worst[name], abs(a - b) / abs(b))
+    assert max(worst.values()) < 1e-9, worst
+    (top,) = [lp for lp in curve.limit_points if lp.kind == "pressure_max"]
+    alone = solve_patterned_states(gent, PATTERN, [top.pole_stretch], 0.1, tight)
+    assert top.p_hat == pytest.approx(alone.p_hat[0], rel=1e-9, abs=0)
+    assert top.v_hat == pytest.approx(alone.v_hat[0], rel=1e-9, abs=0)
+    # the maximum itself: no state on the curve lies above it (measured 2.2665279776)
+    assert top.p_hat >= np.max(st.p_hat) * (1 - 1e-12)
+    assert top.p_hat == pytest.approx(2.2665279776, rel=1e-9, abs=0)
