@@ -30,7 +30,7 @@ from .equilibria import Configuration, Equilibrium, merged, zone_index_on_curve
 from .errors import ModelRangeError, SceneError, SolverError
 from .numerics.roots import bracketed_root, newton
 from .numerics.sets import unique_sorted
-from .numerics.splines import values_and_slopes
+from .numerics.splines import CubicBundle
 from .numerics.stiff import rosenbrock2
 from .settings import SolverSettings
 
@@ -168,37 +168,17 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     # the flow only decides the basin (its end is then solved exactly): a few digits settle it
     tol = 1e-8 * p_scale
     snaps: list[tuple[float, float]] = []
-    pv = (curve.p, curve.v)
+    pv = CubicBundle((curve.p, curve.v))
+
+    def vfold(t, x):
+        return float(np.min(pv(np.clip(x, lo, hi))[1][1])) - 10 * dv_floor
+
+    def out_of_range(t, x):
+        return float(min(np.min(x) - lo, hi - np.max(x)))
+
     for _ in range(max_snaps + 1):
-        n = np.asarray(counts, dtype=float)
-
-        def terms(x, n=n):
-            # p̂, V̂ and their slopes in u from one interval search (the flow evaluates them thousands of times)
-            (p, v), (dp, dv), (_, ddv) = values_and_slopes(pv, np.clip(x, lo, hi))
-            total = float(n @ v)
-            return p, dp, dv, ddv, gas.pressure(total), float(gas.stiffness(total))
-
-        def rhs(t, x):
-            p, _, dv, _, pg, _ = terms(x)
-            return -(p - pg) / np.maximum(dv, dv_floor)
-
-        def jac(t, x, n=n):
-            # ∂/∂u_k of −(p̂_j − p̂_gas)/D_j, D_j = max(dV̂/du, floor), dp̂_gas/du_k = −c n_k dV̂_k/du
-            p, dp, dv, ddv, pg, c = terms(x)
-            D = np.maximum(dv, dv_floor)
-            J = -(np.diag(dp) + c * np.outer(np.ones(p.size), n * dv)) / D[:, None]
-            return J + np.diag(np.where(dv > dv_floor, (p - pg) * ddv / D**2, 0.0))
-
-        def settled(t, x):
-            p, _, _, _, pg, _ = terms(x)
-            return float(np.max(np.abs(p - pg))) - tol
-
-        def vfold(t, x):
-            return float(np.min(values_and_slopes(pv, np.clip(x, lo, hi))[1][1])) - 10 * dv_floor
-
-        def out_of_range(t, x):
-            return float(min(np.min(x) - lo, hi - np.max(x)))
-
+        eqs = _FlowEquations(pv, gas, counts, lo, hi, dv_floor, tol)
+        rhs, jac, settled = eqs.rhs, eqs.jacobian, eqs.settled
         flow = rosenbrock2(rhs, u, t_max, events=(settled, vfold, out_of_range), rtol=1e-4, atol=1e-7, jac=jac)
         u = flow.u
         if flow.event == 2:
@@ -220,6 +200,40 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
             return counts, u, "converged", snaps
         return counts, u, "stalled", snaps
     return counts, u, "stalled", snaps
+
+
+class _FlowEquations:
+    """The gradient flow ``duj/dt = −(p̂(uj) − p̂_gas)/Dj`` of :func:`gradient_flow` on a zone curve, with its exact
+    Jacobian ``∂fj/∂uk = −(p̂j' δjk + c nk V̂k')/Dj + (p̂j − p̂_gas) V̂j'' δjk/Dj²`` (``Dj = max(V̂j', floor)``,
+    ``c = −dp̂_gas/dΣV̂``; the second term only where the floor is not active) and the settling function
+    ``max |p̂j − p̂_gas| − tol``; ``p̂, V̂`` and their slopes in ``u`` from one evaluation of ``bundle``."""
+
+    def __init__(self, bundle, gas, counts, lo: float, hi: float, dv_floor: float, tol: float):
+        self.bundle, self.gas, self.lo, self.hi, self.dv_floor, self.tol = bundle, gas, lo, hi, dv_floor, tol
+        self.n = np.asarray(counts, dtype=float)
+
+    def terms(self, x):
+        """``p̂, p̂', V̂', V̂''`` per group at ``x`` (clipped to the curve), the gas pressure and its stiffness."""
+        (p, v), (dp, dv), (_, ddv) = self.bundle(np.clip(x, self.lo, self.hi))
+        total = float(self.n @ v)
+        return p, dp, dv, ddv, self.gas.pressure(total), float(self.gas.stiffness(total))
+
+    def rhs(self, t, x):
+        """``du/dt``."""
+        p, _, dv, _, pg, _ = self.terms(x)
+        return -(p - pg) / np.maximum(dv, self.dv_floor)
+
+    def jacobian(self, t, x):
+        """``∂(du/dt)/∂u``, exact on the splines."""
+        p, dp, dv, ddv, pg, c = self.terms(x)
+        D = np.maximum(dv, self.dv_floor)
+        J = -(np.diag(dp) + c * np.outer(np.ones(p.size), self.n * dv)) / D[:, None]
+        return J + np.diag(np.where(dv > self.dv_floor, (p - pg) * ddv / D**2, 0.0))
+
+    def settled(self, t, x):
+        """``max |p̂j − p̂_gas| − tol``: falls through zero where the flow has settled."""
+        p, _, _, _, pg, _ = self.terms(x)
+        return float(np.max(np.abs(p - pg))) - self.tol
 
 
 def _equal_volume_shape(curve, u_fold, settings=None):

@@ -505,6 +505,7 @@ class _Integrators:
         self.model = model
         self.compile_after = compile_after
         self._casadi: dict = {}
+        self._keys: dict = {}
 
     # numpy right-hand sides (large batches)
     def radius(self, R, y):
@@ -527,6 +528,13 @@ class _Integrators:
         out[2:7] = d[2:] * inv
         return out
 
+    def key(self, kind: str) -> str | None:
+        """:func:`_attempts_key` of this model and ``kind``, computed once (it hashes the model's description:
+        some 50 µs, on every small shooting call before it was kept)."""
+        if kind not in self._keys:
+            self._keys[kind] = _attempts_key(self.model, kind)
+        return self._keys[kind]
+
     def attempts(self, kind: str):
         """The attempt function (:func:`attempt_function`) for ``kind``: CasADi's virtual machine at first,
         compiled machine code (:mod:`coexist.numerics.compiled`) from the :data:`COMPILE_AFTER`-th use in a process
@@ -541,7 +549,7 @@ class _Integrators:
         from .numerics.compiled import compiled, load_cached
 
         entry = self._casadi.setdefault(("attempts", kind), {"fun": None, "uses": 0, "compiled": False, "maps": {}})
-        name, key = f"coexist_attempts_{kind}", _attempts_key(self.model, kind)
+        name, key = f"coexist_attempts_{kind}", self.key(kind)
         if entry["fun"] is None:
             fast = None if key is None else load_cached(name, key, f"attempts_{kind}")
             if fast is not None:  # compiled by an earlier process: no symbolic graph to build at all
@@ -567,7 +575,7 @@ class _Integrators:
     def stepper(self, kind: str, n: int):
         """A stepper for ``n`` trajectories of the right-hand side ``kind``."""
         rows = {"radius": 9, "radius_sens": 19, "hoop": 9}[kind]
-        return self.stepper_of(kind, n, rows, getattr(self, kind), lambda: self._casadi_rhs(kind))
+        return self.stepper_of(kind, n, rows, getattr(self, kind), lambda: self._casadi_rhs(kind), medium=True)
 
     def stepper_of(self, kind: str, n: int, rows: int, fun, casadi_rhs, medium: bool = False):
         """A stepper for ``n`` trajectories of ``rows`` rows: numpy's ``fun(t, y)`` for a large batch, else the
@@ -579,7 +587,7 @@ class _Integrators:
             return _int.NumpyStepper(fun)
         from .numerics.compiled import compiled, load_cached
 
-        name, key = f"coexist_dop853_{kind}", _attempts_key(self.model, kind)
+        name, key = f"coexist_dop853_{kind}", self.key(kind)
         st = self._casadi.get(kind)
         if st is None:
             # compiled by an earlier process, else CasADi's graph (deserialised, or built and kept)

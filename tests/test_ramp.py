@@ -298,6 +298,34 @@ def test_jump_lands_where_the_flow_goes(tricircle):
     assert s.p_hat[1] == pytest.approx(float(sim.gas.pressure(total)), rel=1e-9)
 
 
+def test_gradient_flow_jacobian_is_exact(tricircle):
+    """The gradient flow's Jacobian (:class:`coexist.ramp._FlowEquations`) against central differences of its
+    right-hand side, on the tricircle's zone curve at 4 kV and its gas, for groups (2, 1) at three points (both
+    zones on the rising branch, one on the S-shaped part, one near the curve's end).
+
+    Measured: 1e-9 of the largest entry (the differences' own error, step 1e-6). Asserted: 1e-7."""
+    from coexist.numerics.splines import CubicBundle
+    from coexist.ramp import _FlowEquations
+    from coexist.zone_curves import ZoneCurve
+
+    scene, sim, _ = tricircle
+    phi = 4000.0 / scene.voltage_scale
+    pre = sim.model.prestretch
+    u_grid = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(sim.lam_max - pre), 120)
+    curve = ZoneCurve.compute(sim.model, phi, pre + u_grid**2, sim.settings)
+    lo, hi = float(curve.grid[0]), float(curve.grid[-1])
+    eqs = _FlowEquations(CubicBundle((curve.p, curve.v)), sim.gas, (2, 1), lo, hi, 1e-12, 1e-8)
+    for frac in ((0.3, 0.35), (0.3, 0.55), (0.25, 0.9)):
+        x = lo + np.array(frac) * (hi - lo)
+        J = eqs.jacobian(0.0, x)
+        fd = np.empty((2, 2))
+        for k in range(2):
+            e = np.zeros(2)
+            e[k] = 1e-6
+            fd[:, k] = (eqs.rhs(0.0, x + e) - eqs.rhs(0.0, x - e)) / 2e-6
+        assert np.max(np.abs(J - fd)) <= 1e-7 * np.max(np.abs(J)), (frac, J, fd)
+
+
 def test_many_zones_cost_what_few_do():
     """The configurations of identical zones do not grow with N: 1000 zones trace the same few
     segments as 3 (the ramp only visits what its path reaches)."""

@@ -17,17 +17,19 @@ which ``tests/test_numerics.py`` compares them with), because importing :mod:`sc
 
 from __future__ import annotations
 
+from bisect import bisect_right
+
 import numpy as np
 
 from .sets import unique_sorted
 
 __all__ = [
+    "CubicBundle",
     "FastCubic",
     "casadi_piecewise",
     "casadi_spline",
     "interpolating_cubics",
     "not_a_knot_basis",
-    "values_and_slopes",
 ]
 
 
@@ -142,24 +144,22 @@ class FastCubic:
         return roots
 
 
-def values_and_slopes(splines, u) -> tuple:
-    """Several cubics on one grid at ``u``, with their first and second derivatives, from one interval search.
+#: up to this many points a :class:`CubicBundle` evaluates in Python floats
+_FEW_POINTS = 8
+
+
+class CubicBundle:
+    """Several cubics on one grid, evaluated together with their first and second derivatives from one interval
+    search: what a small system evaluated thousands of times (the gradient flow of
+    :func:`coexist.ramp.gradient_flow`) needs, at the cost of about one spline call instead of five.
 
     For each spline ``s = ((c0 d + c1) d + c2) d + c3`` (``d = u − x_i``): ``s``, ``s' = (3 c0 d + 2 c1) d + c2``
-    and ``s'' = 6 c0 d + 2 c1``. What a small system evaluated thousands of times (the gradient flow of
-    :func:`coexist.ramp.gradient_flow`) needs, at the cost of one spline call instead of five.
+    and ``s'' = 6 c0 d + 2 c1``.
 
     Parameters
     ----------
     splines : sequence of FastCubic
-        Splines sharing their breakpoints (checked).
-    u : ndarray, shape (m,)
-        Where.
-
-    Returns
-    -------
-    values, first, second : ndarray, shape (k, m)
-        One row per spline.
+        Splines sharing their breakpoints.
 
     Raises
     ------
@@ -170,23 +170,45 @@ def values_and_slopes(splines, u) -> tuple:
     --------
     >>> import numpy as np
     >>> x = np.linspace(0.0, 1.0, 8)
-    >>> a, b = interpolating_cubics(x, np.column_stack([x**3, x**2]))
-    >>> val, d1, d2 = values_and_slopes((a, b), np.array([0.5]))
+    >>> both = CubicBundle(interpolating_cubics(x, np.column_stack([x**3, x**2])))
+    >>> val, d1, d2 = both(np.array([0.5]))
     >>> np.round([val[0, 0], d1[0, 0], d2[0, 0], val[1, 0], d1[1, 0], d2[1, 0]], 12).tolist()
     [0.125, 0.75, 3.0, 0.25, 1.0, 2.0]
     """
-    first = splines[0]
-    if any(s.x is not first.x and not np.array_equal(s.x, first.x) for s in splines[1:]):
-        raise ValueError("values_and_slopes needs splines on one grid")
-    i = np.minimum(np.maximum(first.x.searchsorted(u, "right") - 1, 0), first._last)
-    d = u - first.x[i]
-    c0 = np.array([s._c0[i] for s in splines])
-    c1 = np.array([s._c1[i] for s in splines])
-    c2 = np.array([s._c2[i] for s in splines])
-    c3 = np.array([s._c3[i] for s in splines])
-    values = ((c0 * d + c1) * d + c2) * d + c3
-    slopes = (3 * c0 * d + 2 * c1) * d + c2
-    return values, slopes, 6 * c0 * d + 2 * c1
+
+    def __init__(self, splines):
+        first = splines[0]
+        if any(not np.array_equal(s.x, first.x) for s in splines[1:]):
+            raise ValueError("CubicBundle needs splines on one grid")
+        self.x, self._last = first.x, first._last
+        # (4, pieces, k): the coefficients of every spline, piece by piece
+        self._c = np.stack([np.vstack([s._c0, s._c1, s._c2, s._c3]) for s in splines], axis=-1)
+        # the same as Python floats, for a few points (numpy's per-operation cost dominates there)
+        self._x_list = self.x.tolist()
+        self._pieces = [list(zip(*(c.tolist() for c in self._c[:, i, :]))) for i in range(self._c.shape[1])]
+
+    def __call__(self, u) -> tuple:
+        """``(values, first, second)`` at ``u`` (shape ``(m,)``), each of shape ``(k, m)``: one row per spline."""
+        u = np.asarray(u, dtype=float)
+        if u.size <= _FEW_POINTS:
+            return self._few(u.tolist())
+        i = np.minimum(np.maximum(self.x.searchsorted(u, "right") - 1, 0), self._last)
+        d = (u - self.x[i])[None, :]
+        c0, c1, c2, c3 = (c.T for c in self._c[:, i, :])
+        values = ((c0 * d + c1) * d + c2) * d + c3
+        slopes = (3 * c0 * d + 2 * c1) * d + c2
+        return values, slopes, 6 * c0 * d + 2 * c1
+
+    def _few(self, points: list) -> tuple:
+        """:meth:`__call__` for a few points, in floats (the same arithmetic, a point at a time)."""
+        values, slopes, second = [], [], []
+        for uj in points:
+            i = min(max(bisect_right(self._x_list, uj) - 1, 0), self._last)
+            d = uj - self._x_list[i]
+            values.append([((c0 * d + c1) * d + c2) * d + c3 for c0, c1, c2, c3 in self._pieces[i]])
+            slopes.append([(3 * c0 * d + 2 * c1) * d + c2 for c0, c1, c2, _ in self._pieces[i]])
+            second.append([6 * c0 * d + 2 * c1 for c0, c1, _, _ in self._pieces[i]])
+        return np.array(values).T, np.array(slopes).T, np.array(second).T
 
 
 class _Pieces:
