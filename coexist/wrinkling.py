@@ -46,6 +46,7 @@ import numpy as np
 from . import shooting as sh
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
+from .numerics.buffers import BufferedFunction
 from .numerics.roots import bracketed_root
 from .settings import SolverSettings
 
@@ -328,11 +329,8 @@ class _Equations:
         x = np.vstack([y[0], y[1], y[2], y[lay.W], y[lay.P + 1], f[0], f[1], f[lay.W]])
         call = self._maps.get((mode, n))
         if call is None:
-            call = self._maps[(mode, n)] = sh._buffered(fn.map(n, "serial") if n > 1 else fn, 8, n, 7)
-        x_in, x_out, trigger, _ = call
-        x_in[:] = x.T
-        trigger()
-        g, dg, T1, E, stiff, margin, w = x_out.T.copy()
+            call = self._maps[(mode, n)] = BufferedFunction(fn.map(n, "serial") if n > 1 else fn, [8], 7, n)
+        g, dg, T1, E, stiff, margin, w = call(x)
         code = np.zeros(np.shape(y[0]), dtype=int)
         code[np.abs(y[2]) > math.pi] = sh.FOLDED_BACK
         code[~(stiff > 0)] = sh.LOST_ELLIPTICITY if mode == TAUT else sh.PULL_IN

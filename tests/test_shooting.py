@@ -128,3 +128,38 @@ def test_negative_voltage_rejected(neo_hookean):
     with pytest.raises(SceneError) as info:
         solve_states(neo_hookean, [2.0], -0.1)
     assert info.value.field == "phi_hat"
+
+
+def test_threads_sharing_a_model_get_the_states_of_one_thread():
+    """Small batches run through preallocated buffers (:class:`coexist.numerics.buffers.BufferedFunction`); four
+    threads shooting the same model at once must each get exactly what one thread alone gets (a lock makes every
+    buffered call atomic). Asserted: equal to the last bit."""
+    import threading
+
+    from coexist.effects import Gent
+
+    model = MembraneModel(elasticity=Gent(97.0))
+    settings = SolverSettings()
+    jobs = [(np.linspace(1.2 + 0.1 * k, 2.5 + 0.1 * k, 3), 0.05 * k) for k in range(4)]
+    alone = [solve_states(model, l0, phi, settings, derivatives=True) for l0, phi in jobs]
+    results: dict = {}
+
+    def run(k):
+        for _ in range(20):
+            results[k] = solve_states(model, jobs[k][0], jobs[k][1], settings, derivatives=True)
+
+    import sys
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(1e-6)  # switch threads as often as possible: a race would show
+    try:
+        threads = [threading.Thread(target=run, args=(k,)) for k in range(4)]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join()
+    finally:
+        sys.setswitchinterval(interval)
+    for k in range(4):
+        np.testing.assert_array_equal(results[k].p_hat, alone[k].p_hat)
+        np.testing.assert_array_equal(results[k].derivatives.dv_dl0, alone[k].derivatives.dv_dl0)
