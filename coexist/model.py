@@ -35,7 +35,7 @@ from .effects import (
 )
 from .errors import SceneError
 from .numerics import cache
-from .numerics.codegen import numpy_module_source
+from .numerics.codegen import SCALAR_SUFFIX, numpy_module_source, small_batch
 
 #: constant factors of the quadratures V̂, Q̂, Ψ̂, ẑ: the right-hand side integrates V̂/π, Q̂/2π,
 #: Ψ̂/2π and ẑ (one multiplication fewer per stage each), the shooting multiplies them back
@@ -632,7 +632,8 @@ def _numeric(model: MembraneModel) -> dict:
         exec(compile(source(), "<coexist generated membrane model>", "exec"), namespace)
     else:
         namespace = cache.python_module("membrane_model", key, source)
-    return {name: namespace[name] for name, _, _ in functions}
+    # a few states at a time go through the float variants (numpy's per-operation cost dominates there)
+    return {name: small_batch(namespace[name], namespace[name + SCALAR_SUFFIX], into) for name, _, into in functions}
 
 
 def build_model(

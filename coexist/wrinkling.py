@@ -218,7 +218,6 @@ class _Equations:
 
     def __init__(self, model: MembraneModel, lay: _Layout):
         self.model, self.lay = model, lay
-        self._maps: dict = {}
         # the run's settings and tolerances (set by shoot_relaxed)
         self.settings: SolverSettings = SolverSettings()
         self.rtol = np.zeros(0)
@@ -327,9 +326,13 @@ class _Equations:
         n = y.shape[1]
         fn = self._switching_function(mode)
         x = np.vstack([y[0], y[1], y[2], y[lay.W], y[lay.P + 1], f[0], f[1], f[lay.W]])
-        call = self._maps.get((mode, n))
+        # bound once per model, mode and batch size (a shooting makes a new _Equations, the model keeps these)
+        store = sh._integrators(self.model)._casadi
+        call = store.get(("relaxed switching call", mode, n))
         if call is None:
-            call = self._maps[(mode, n)] = BufferedFunction(fn.map(n, "serial") if n > 1 else fn, [8], 7, n)
+            call = store[("relaxed switching call", mode, n)] = BufferedFunction(
+                fn.map(n, "serial") if n > 1 else fn, [8], 7, n
+            )
         g, dg, T1, E, stiff, margin, w = call(x)
         code = np.zeros(np.shape(y[0]), dtype=int)
         code[np.abs(y[2]) > math.pi] = sh.FOLDED_BACK

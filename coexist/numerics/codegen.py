@@ -49,19 +49,57 @@ _UNARY = {
     ca.OP_TANH: "_np.tanh({0})",
     ca.OP_ASSIGN: "{0}",
 }
+#: the same instructions on Python floats (:func:`numpy_source` with ``scalar=True``): ``math`` raises where numpy
+#: returns NaN or infinity (a negative square root, a division by zero, an overflowing exponential), and
+#: :func:`small_batch` then falls back to the numpy code, so both give the same numbers
+_SCALAR_BINARY = {
+    **_BINARY,
+    ca.OP_POW: "_m.pow({0}, {1})",
+    ca.OP_CONSTPOW: "_m.pow({0}, {1})",
+    ca.OP_FMIN: "_fmin({0}, {1})",
+    ca.OP_FMAX: "_fmax({0}, {1})",
+    ca.OP_ATAN2: "_m.atan2({0}, {1})",
+    ca.OP_COPYSIGN: "_m.copysign({0}, {1})",
+    ca.OP_HYPOT: "_m.hypot({0}, {1})",
+    ca.OP_IF_ELSE_ZERO: "({1} if {0} else 0.0)",
+}
+_SCALAR_UNARY = {
+    **_UNARY,
+    ca.OP_SQRT: "_m.sqrt({0})",
+    ca.OP_EXP: "_m.exp({0})",
+    ca.OP_LOG: "_m.log({0})",
+    ca.OP_LOG1P: "_m.log1p({0})",
+    ca.OP_EXPM1: "_m.expm1({0})",
+    ca.OP_SIN: "_m.sin({0})",
+    ca.OP_COS: "_m.cos({0})",
+    ca.OP_TAN: "_m.tan({0})",
+    ca.OP_FABS: "abs({0})",
+    ca.OP_TANH: "_m.tanh({0})",
+}
+#: what the scalar code needs besides ``math``: NaN-propagating minimum and maximum (as numpy's)
+_SCALAR_HELPERS = """import math as _m
+
+
+def _fmin(a, b):
+    return a if a <= b else (b if b < a else _m.nan)
+
+
+def _fmax(a, b):
+    return a if a >= b else (b if b > a else _m.nan)
+"""
 #: CasADi's operation codes by name, for error messages
 _OP_NAMES = {getattr(ca, n): n for n in dir(ca) if n.startswith("OP_")}
 
 
-def _literal(value: float) -> str:
-    """A float constant as Python source: ``inf`` and ``nan`` through numpy, negatives in parentheses
-    (``(-2.0) ** x``, not ``-(2.0 ** x)``)."""
+def _literal(value: float, lib: str = "_np") -> str:
+    """A float constant as Python source: ``inf`` and ``nan`` through numpy (or ``math``: ``lib="_m"``), negatives
+    in parentheses (``(-2.0) ** x``, not ``-(2.0 ** x)``)."""
     if not np.isfinite(value):
-        return "_np.nan" if np.isnan(value) else ("_np.inf" if value > 0 else "(-_np.inf)")
+        return f"{lib}.nan" if np.isnan(value) else (f"{lib}.inf" if value > 0 else f"(-{lib}.inf)")
     return f"({value!r})" if np.signbit(value) else repr(value)
 
 
-def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) -> str:
+def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False, scalar: bool = False) -> str:
     """Python source of a numpy function equivalent to a scalar-input CasADi SX function.
 
     Every input and output of ``fun`` must be a scalar (1x1); the generated function takes one
@@ -76,12 +114,16 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
     into : bool, optional
         Generate ``name(i0, …, out)``, which writes output ``k`` into ``out[k]`` and returns ``out``
         (default False: return a new tuple; a constant output is broadcast to the inputs' shape).
+    scalar : bool, optional
+        Generate the same statements on Python floats (``math`` for the functions; returns a tuple of floats;
+        ``into`` is ignored): for a few states at a time, where each numpy operation costs a microsecond of
+        overhead and a float operation some 50 ns (:func:`small_batch`). It needs :data:`_SCALAR_HELPERS`.
 
     Returns
     -------
     str
         The source of one function, one numpy statement per CasADi instruction, constants folded; it
-        refers to numpy as ``_np``.
+        refers to numpy as ``_np`` (the scalar form to ``math`` as ``_m``).
 
     Raises
     ------
@@ -104,9 +146,12 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
     slot: dict = {}  # CasADi work slot -> ("const", value) or ("var", name)
     outputs = [("const", 0.0)] * fun.n_out()
 
+    lib = "_m" if scalar else "_np"
+    binary, unary = (_SCALAR_BINARY, _SCALAR_UNARY) if scalar else (_BINARY, _UNARY)
+
     def source(entry):
         kind, value = entry
-        return _literal(value) if kind == "const" else value
+        return _literal(value, lib) if kind == "const" else value
 
     def ref(k):
         return source(slot[k])
@@ -139,13 +184,17 @@ def numpy_source(fun: ca.Function, name: str = "generated", into: bool = False) 
             slot[outs[0]] = operands[1] if operands[0] == ("const", 0.0) else operands[0]
             continue
         var = f"v{k}"
-        template = (_BINARY if len(ins) == 2 else _UNARY).get(op)
+        template = (binary if len(ins) == 2 else unary).get(op)
         if template is None:
             raise NotImplementedError(
                 f"CasADi operation {_OP_NAMES.get(op, op)} in {fun.name()} has no numpy translation"
             )
         body.append(f"    {var} = " + template.format(*[ref(i) for i in ins]))
         slot[outs[0]] = ("var", var)
+    if scalar:
+        lines = [f"def {name}({', '.join(args)}):"] + body
+        lines.append("    return (" + "".join(f"{source(o)}, " for o in outputs) + ")")
+        return "\n".join(lines) + "\n"
     if into:
         # write output k into row k of a caller's array (no temporaries for the result)
         lines = [f"def {name}({', '.join(args)}, out):"] + body
@@ -212,6 +261,10 @@ def numpy_function(fun: ca.Function, into: bool = False):
     return generated
 
 
+#: suffix of the float variant of a generated function in a module (:func:`numpy_module_source`)
+SCALAR_SUFFIX = "__scalar"
+
+
 def numpy_module_source(functions) -> str:
     """Python source of a module holding the numpy translations of several CasADi functions.
 
@@ -224,7 +277,8 @@ def numpy_module_source(functions) -> str:
     Returns
     -------
     str
-        The module's source; it imports numpy as ``_np`` and defines one function per entry.
+        The module's source; it imports numpy as ``_np`` and defines one function per entry, and beside each its
+        float variant ``name`` + :data:`SCALAR_SUFFIX` (``numpy_source(..., scalar=True)``, for :func:`small_batch`).
 
     Examples
     --------
@@ -239,7 +293,90 @@ def numpy_module_source(functions) -> str:
     parts = [
         '"""Generated by coexist.numerics.codegen from CasADi expressions: do not edit."""\n',
         "import numpy as _np\n",
+        _SCALAR_HELPERS,
     ]
     for name, fun, into in functions:
         parts.append("\n" + numpy_source(fun, name, into))
+        parts.append("\n" + numpy_source(fun, name + SCALAR_SUFFIX, scalar=True))
     return "\n".join(parts)
+
+
+#: batches up to this many states take the float code (:func:`small_batch`); numpy's per-operation cost is
+#: about that of 20 float operations, so the float code wins below some 20 states
+SMALL_BATCH = 8
+
+
+def small_batch(vector, scalar, into: bool = False):
+    """A generated function that evaluates a few states at a time by its float variant, state by state.
+
+    ``vector`` is the numpy function (:func:`numpy_source`), ``scalar`` its float variant (``scalar=True``). A
+    call whose array arguments are all one-dimensional of one length ``m ≤`` :data:`SMALL_BATCH` (the others
+    scalars) runs ``scalar`` per state and returns arrays of length ``m``, as ``vector`` would; anything else (and
+    a state where ``math`` raises: a negative square root, a division by zero, an overflow) goes to ``vector``,
+    so the result is numpy's in every case (equal to rounding, ``tests/test_model.py``).
+
+    Parameters
+    ----------
+    vector, scalar : callable
+        The two forms of one generated function.
+    into : bool, optional
+        ``vector`` writes its outputs into a last argument ``out`` (rows ``0 … k−1``) and returns it.
+
+    Returns
+    -------
+    callable
+        The dispatching function, with ``vector``'s signature.
+
+    Examples
+    --------
+    >>> import casadi as ca
+    >>> x = ca.SX.sym("x")
+    >>> f = ca.Function("f", [x], [ca.sqrt(x), 2 * x])
+    >>> both = small_batch(numpy_function(f), _scalar_function(f))
+    >>> [v.tolist() for v in both(np.array([4.0, 9.0]))]
+    [[2.0, 3.0], [8.0, 18.0]]
+    >>> with np.errstate(invalid="ignore"):  # math.sqrt(-1) raises: numpy's NaN
+    ...     [v.tolist() for v in both(np.array([-1.0, 9.0]))]
+    [[nan, 3.0], [-2.0, 18.0]]
+    """
+
+    def call(*args):
+        ins = args[:-1] if into else args
+        m = 0
+        columns = []
+        for a in ins:
+            if type(a) is np.ndarray:
+                if a.ndim != 1 or (m and a.size != m):
+                    return vector(*args)
+                m = a.size
+                columns.append(a.tolist())
+            elif isinstance(a, (float, int)):
+                columns.append(a)
+            else:
+                return vector(*args)
+        if not 0 < m <= SMALL_BATCH:
+            return vector(*args)
+        columns = [c if type(c) is list else [float(c)] * m for c in columns]
+        try:
+            with np.errstate(all="ignore"):
+                rows = [scalar(*state) for state in zip(*columns)]
+        except (ArithmeticError, ValueError):
+            return vector(*args)
+        values = np.array(rows, dtype=float).T
+        if into:
+            out = args[-1]
+            out[: values.shape[0]] = values
+            return out
+        return tuple(values)
+
+    call.__doc__ = vector.__doc__
+    call.__wrapped__ = vector  # type: ignore[attr-defined]  # the generated numpy code (inspect.unwrap)
+    call.scalar = scalar  # type: ignore[attr-defined]
+    return call
+
+
+def _scalar_function(fun: ca.Function):
+    """The float variant of ``fun`` as a callable (tests and examples; the model's come from its module)."""
+    namespace: dict = {}
+    exec(_SCALAR_HELPERS + numpy_source(fun, "f", scalar=True), namespace)
+    return namespace["f"]
