@@ -8,11 +8,12 @@ default grid (200 pole stretches from 1.01 to 4, default settings, rtol 1e-10), 
   ``R → cR, p → p/c`` scaling) by the compiled attempt function;
 - **inner-circle-0.5-two-layers** (the headline): :func:`coexist.patterned.patterned_pressure_volume_curve` for
   an electrode disc of half the radius (one layer) in a two-layer passive annulus; and, for comparison, the same
-  disc with a one-layer annulus and an electrode ring ``0.3 < R/A < 0.7``: a Newton iteration on the interface
-  scale per state (a coarse eighth of the grid started from the pole region's uniform zone, the rest from the
-  polynomial through the converged scales), region by region with the compiled attempt functions; the passes
-  after the first take up the pole region where the first stopped and skip the variational equations where
-  the residual is already small.
+  disc with a one-layer annulus and an electrode ring ``0.3 < R/A < 0.7``: one Newton iteration on the interface
+  scales of the grid (a coarse eighth, evenly spaced in ``(λ0/λpre − 1)^0.4``, started from the pole region's
+  uniform zone; the rest joining once the coarse residuals are small, from the polynomial through their scales
+  with interpolated slopes and interface stretches), region by region with the compiled attempt functions; the
+  passes after the first take up the pole region where the first stopped and skip the variational equations
+  where the residual is already small.
 
 **Ramps** (``RAMP_REPEATS`` runs each, interleaved): the built-in tricircle with ``wrinkling = "refuse"``, with full
 electrodes (baseline) and with inner-circle electrodes of 0.8 of the zone radius (one passive layer), 0 → 5 kV
