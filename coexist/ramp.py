@@ -170,15 +170,16 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     snaps: list[tuple[float, float]] = []
     pv = CubicBundle((curve.p, curve.v))
 
-    def vfold(t, x):
-        return float(np.min(pv(np.clip(x, lo, hi))[1][1])) - 10 * dv_floor
-
     def out_of_range(t, x):
         return float(min(np.min(x) - lo, hi - np.max(x)))
 
     for _ in range(max_snaps + 1):
         eqs = _FlowEquations(pv, gas, counts, lo, hi, dv_floor, tol)
         rhs, jac, settled = eqs.rhs, eqs.jacobian, eqs.settled
+
+        def vfold(t, x, eqs=eqs):
+            return float(np.min(eqs.terms(x)[2])) - 10 * dv_floor
+
         flow = rosenbrock2(rhs, u, t_max, events=(settled, vfold, out_of_range), rtol=1e-4, atol=1e-7, jac=jac)
         u = flow.u
         if flow.event == 2:
@@ -211,12 +212,21 @@ class _FlowEquations:
     def __init__(self, bundle, gas, counts, lo: float, hi: float, dv_floor: float, tol: float):
         self.bundle, self.gas, self.lo, self.hi, self.dv_floor, self.tol = bundle, gas, lo, hi, dv_floor, tol
         self.n = np.asarray(counts, dtype=float)
+        self._at: tuple = (None, None)  # the last point evaluated and its terms
 
     def terms(self, x):
-        """``p̂, p̂', V̂', V̂''`` per group at ``x`` (clipped to the curve), the gas pressure and its stiffness."""
+        """``p̂, p̂', V̂', V̂''`` per group at ``x`` (clipped to the curve), the gas pressure and its stiffness.
+
+        The last point's are kept: a step's events, the next right-hand side and the Jacobian are all taken at
+        the new point."""
+        key = tuple(np.asarray(x, dtype=float).tolist())
+        if key == self._at[0]:
+            return self._at[1]
         (p, v), (dp, dv), (_, ddv) = self.bundle(np.clip(x, self.lo, self.hi))
         total = float(self.n @ v)
-        return p, dp, dv, ddv, self.gas.pressure(total), float(self.gas.stiffness(total))
+        out = p, dp, dv, ddv, self.gas.pressure(total), float(self.gas.stiffness(total))
+        self._at = (key, out)
+        return out
 
     def rhs(self, t, x):
         """``du/dt``."""

@@ -28,7 +28,6 @@ import functools
 import math
 import sys
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
@@ -724,7 +723,7 @@ def builtin_scene_text(name: str) -> str:
             f"unknown built-in scene {name!r}{did_you_mean(name, names)} (built-in scenes: "
             f"{', '.join(names)}; or give the path of a .toml file)"
         )
-    return resources.files("coexist.scenes").joinpath(f"{name}.toml").read_text(encoding="utf-8")
+    return (_SCENES / f"{name}.toml").read_text(encoding="utf-8")
 
 
 def load_scene(name_or_path: str | Path | None = None) -> Scene:
@@ -816,6 +815,10 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     return Scene(**fields)
 
 
+#: the built-in scenes: package data beside this module (read as files: importlib.resources would cost 5 ms of
+#: start-up for the same result in an installed package)
+_SCENES = Path(__file__).resolve().parent / "scenes"
+
+
 def _builtin_names() -> list[str]:
-    folder = resources.files("coexist.scenes")
-    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+    return sorted(p.name[:-5] for p in _SCENES.iterdir() if p.name.endswith(".toml"))

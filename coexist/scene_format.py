@@ -43,7 +43,6 @@ Unit suffixes (:data:`UNITS`): length ``_m _mm _um``; shear modulus ``_Pa _kPa _
 from __future__ import annotations
 
 import copy
-import difflib
 import math
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -162,6 +161,8 @@ def did_you_mean(word: str, options) -> str:
     """
     options = list(options)
     same_case = {o.lower(): o for o in options}
+    import difflib  # only a misspelt key needs it
+
     match = [same_case[word.lower()]] if word.lower() in same_case else difflib.get_close_matches(word, options, 1)
     return f"; did you mean {match[0]!r}?" if match else ""
 

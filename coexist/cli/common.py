@@ -7,7 +7,6 @@ import json
 import math
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import click
@@ -215,6 +214,8 @@ class Outputs:
         if not parent.is_dir():
             raise InputError(f"{option}: {parent} is not a folder")
         try:  # the one reliable test: create (and remove) a file there
+            import tempfile  # only a command that writes a file needs it
+
             fd, probe = tempfile.mkstemp(prefix=".coexist-probe-", dir=parent)
             os.close(fd)
             os.unlink(probe)
@@ -291,6 +292,8 @@ class Outputs:
         -------
         pathlib.Path
         """
+        import tempfile  # only a command that writes a file needs it
+
         fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}-", suffix=target.suffix, dir=target.parent or ".")
         os.close(fd)
         self._staged.append((Path(tmp), target))

@@ -17,11 +17,7 @@ compiler is at hand:
 
 from __future__ import annotations
 
-import hashlib
 import os
-import shutil
-import subprocess
-import tempfile
 from pathlib import Path
 
 from .cache import cache_dir
@@ -46,6 +42,8 @@ def enabled() -> bool:
 
 
 def _compiler() -> str | None:
+    import shutil
+
     cc = os.environ.get("CC") or "cc"
     return shutil.which(cc) or shutil.which("gcc") or shutil.which("clang")
 
@@ -126,6 +124,12 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
         compile or load marks the compiler broken for the rest of the process (:func:`enabled` is then
         False).
     """
+    # imported here: a process that loads its libraries from the cache never compiles (some 10 ms of start-up)
+    import hashlib
+    import shutil
+    import subprocess
+    import tempfile
+
     import casadi as ca
 
     if not enabled():
