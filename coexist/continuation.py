@@ -679,16 +679,17 @@ class Tracer:
             events.append(ev)
         return sorted(events, key=lambda e: e.s)
 
-    def _points_at(self, a: Point, b: Point | None, sig_b, sigmas, loose, formal=False) -> list:
+    def _points_at(self, a: Point, b: Point | None, sig_b, sigmas, loose, formal=False, chord=False) -> list:
         """Converged points at arclength offsets ``sigmas`` from ``a`` (one batched corrector); None where
-        the corrector fails. ``b`` (or, without it, ``a``'s tangent) gives the predictor."""
+        the corrector fails. ``b`` (or, without it, ``a``'s tangent) gives the predictor; ``chord``: see
+        :func:`correct`."""
         sigmas = np.asarray(sigmas, dtype=float)
         if b is not None:
             Z = np.array([hermite(a.z, a.tangent, b.z, b.tangent, s / sig_b if sig_b else 0.5) for s in sigmas])
         else:
             Z = a.z[None, :] + sigmas[:, None] * a.tangent[None, :]
         N = np.repeat(a.tangent[None, :], sigmas.size, axis=0)
-        corr = correct(self.system, Z, N, a.tangent @ a.z + sigmas, self.w, loose=loose, formal=formal)
+        corr = correct(self.system, Z, N, a.tangent @ a.z + sigmas, self.w, loose=loose, formal=formal, chord=chord)
         self._last_failure = corr
         out: list[Point | None] = []
         for i in range(sigmas.size):
@@ -936,7 +937,7 @@ class Tracer:
             # the first round only brackets the end (loose states while the bracket is wide, as the validity
             # bisection's); the extrapolation's states are tight
             loose = _round == 0 and end_guess is None and hi - lo > 1e-4
-            pts = self._points_at(frame, None, h, offsets - best_offset, loose)
+            pts = self._points_at(frame, None, h, offsets - best_offset, loose, chord=True)
             for o, p in zip(offsets, pts):
                 if p is None or not p.tangent @ cur.tangent > 0:
                     hi = min(hi, float(o))
