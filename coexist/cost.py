@@ -6,15 +6,15 @@ state is nearly free) and the *output* (one row per printed voltage, with a volu
 per zone). The cost model (coefficients measured with ``benchmarks/bench_pipeline.py`` and a
 ``tracemalloc`` run on this 2-core machine, rounded up)::
 
-    time   ≈ 0.6 s + 0.5 ms × voltages + 2.5 µs × numbers printed
+    time   ≈ 0.3 s + 0.5 ms × voltages + 2.5 µs × numbers printed
     memory ≈ 4 kB × voltages (states, while they are solved) + 32 B × numbers printed
     numbers printed = rows × (2 N + 3 groups + 8),  rows = voltages / every (+ changes)
 
 A scene with patterned zones (:mod:`coexist.patterned`: every state a Newton iteration on the interface scale,
 each iterate a shooting region by region) costs :data:`PATTERNED_TIME_FACTOR` times the time of the solving
-part (``0.6 s + 0.5 ms × voltages``); measured with ``benchmarks/bench_patterned.py``: the tricircle with
-inner-circle electrodes (0.8 of the radius, ``wrinkling = "refuse"``, 501 voltages) ramps in 5.1–6.7 s against
-0.73–1.0 s for the same scene with full electrodes, a factor 6.5–7.0 (rounded up to 8).
+part (``0.3 s + 0.5 ms × voltages``); measured with ``benchmarks/bench_patterned.py``: the tricircle with
+inner-circle electrodes (0.8 of the radius, ``wrinkling = "refuse"``, 501 voltages) ramps in 2.4–2.9 s against
+0.46–0.51 s for the same scene with full electrodes, a factor 5.3–5.7 (rounded up to 6).
 
 Limits (:data:`MAX_OUTPUT_NUMBERS`, :data:`MAX_MEMORY_BYTES`): a run that would print more than 10 million
 numbers (about 200 MB of JSON) or hold more than 2 GB is refused before it starts, with the field to
@@ -29,8 +29,9 @@ from dataclasses import dataclass
 
 from .errors import SceneError
 
-#: seconds of a ramp that does not depend on its size (model, closing state, continuation, errors)
-SECONDS_BASE = 0.6
+#: seconds of a ramp that does not depend on its size (model, closing state, continuation, errors; the default
+#: ramp of 501 voltages, 434 of them with a state, computes in 0.52–0.58 s)
+SECONDS_BASE = 0.3
 #: seconds per path voltage (a converged state, batched)
 SECONDS_PER_VOLTAGE = 0.5e-3
 #: seconds per number of the output (building and printing it)
@@ -45,8 +46,8 @@ MAX_OUTPUT_NUMBERS = 10_000_000
 MAX_MEMORY_BYTES = 2e9
 #: groups of identical zones a state has at most on a ramp (homogeneous, one or two bulged groups)
 MAX_GROUPS = 3
-#: the solving part of a ramp of patterned zones costs this many times a uniform scene's (measured 6.5–7.0)
-PATTERNED_TIME_FACTOR = 8.0
+#: the solving part of a ramp of patterned zones costs this many times a uniform scene's (measured 5.3–5.7)
+PATTERNED_TIME_FACTOR = 6.0
 
 
 @dataclass(frozen=True)

@@ -72,8 +72,8 @@ from .shooting import (
     WRINKLED,
     WRINKLED_AT_POLE,
     MembraneStates,
-    StateDerivatives,
     checked_state_inputs,
+    clamped_derivatives,
     reason_text,
     solve_states,
 )
@@ -272,6 +272,13 @@ def relaxed_interface_stretch(model: MembraneModel, l1_in, w_in, wrinkled_in, rh
 # --- one pass over the regions ---------------------------------------------------------------------------------
 
 
+def _blank_start(m: int, rows: int, atol) -> dict:
+    """The start nodes of the next region's relaxed shooting (:func:`coexist.wrinkling.shoot_relaxed`'s
+    ``start``) for ``m`` columns of ``rows`` rows, all NaN (taut) until the interface fills them."""
+    blank = {k: np.full(m, np.nan) for k in ("R", "h", "min_T", "max_E")}
+    return {**blank, "y": np.full((rows, m), np.nan), "atol": atol, "mode": np.full(m, TAUT)}
+
+
 def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
     """One relaxed shooting of every state with the interfaces at ``s fk`` (``s = e^σ``).
 
@@ -390,15 +397,7 @@ def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
         minT_start = np.where(wr_out[keep], T1s, np.minimum(T1s, T2s))
         res["minT"][cols] = np.minimum(res["minT"][cols], n_out[keep] * minT_start)
         span = s[cols] * ((LAST_REGION_REACH if k + 1 == K - 1 else lay.f[k + 1]) - lay.f[k])
-        start = {
-            "R": np.full(m, np.nan),
-            "y": np.full((9, m), np.nan),
-            "h": np.full(m, np.nan),
-            "min_T": np.full(m, np.nan),
-            "max_E": np.full(m, np.nan),
-            "atol": atol0.copy(),
-            "mode": np.full(m, TAUT),
-        }
+        start = _blank_start(m, 9, atol0.copy())
         start["R"][cols] = R_i[keep]
         start["y"][:, cols] = y_next
         start["h"][cols] = np.minimum(0.05 * s[cols], 0.25 * span)
@@ -581,15 +580,7 @@ def _relaxed_derivative_pass(model, settings, lay, l0, p_t, sigma, pole):
         if not lay.electrode[k + 1]:
             u_q[cols] = y_next[16]
         span = s[cols] * ((LAST_REGION_REACH if k + 1 == K - 1 else lay.f[k + 1]) - lay.f[k])
-        start = {
-            "R": np.full(mm, np.nan),
-            "y": np.full((19, mm), np.nan),
-            "h": np.full(mm, np.nan),
-            "min_T": np.full(mm, np.nan),
-            "max_E": np.full(mm, np.nan),
-            "atol": atol,
-            "mode": np.full(mm, TAUT),
-        }
+        start = _blank_start(mm, 19, atol)
         start["R"][cols] = R_i
         start["y"][:, cols] = y_next
         start["h"][cols] = np.minimum(0.05 * s[cols], 0.25 * span)
@@ -791,13 +782,7 @@ def solve_patterned_relaxed(
         wrinkled_stiffness=np.where(bad, np.nan, out["stiffness"]),
     )
     if d_out is not None:
-        parts = {}
-        for a in ("l0", "phi"):
-            dR = np.where(bad, np.nan, d_out[f"dR_d{a}"])
-            parts[f"dp_d{a}"] = out["p"] * dR
-            parts[f"dv_d{a}"] = d_out[f"dV_d{a}"] / R**3 - 3 * states.v_hat * dR / R
-            parts[f"dq_d{a}"] = d_out[f"dQ_d{a}"] / R**2 - 2 * states.q_hat * dR / R
-        states.derivatives = StateDerivatives(**parts)
+        states.derivatives = clamped_derivatives(d_out, out["p"], R, states.v_hat, states.q_hat, bad)
     edges[bad] = np.nan
     return _patterned(states, detail, edges)
 

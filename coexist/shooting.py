@@ -1036,15 +1036,7 @@ def solve_states(
     R = out["R"]
     p_trial = out["p"]
     p_hat, v_hat, q_hat = p_trial * R, out["V"] / R**3, out["Q"] / R**2
-    deriv = None
-    if derivatives:
-        parts = {}
-        for a in ("l0", "phi"):
-            dR = out[f"dR_d{a}"]
-            parts[f"dp_d{a}"] = p_trial * dR
-            parts[f"dv_d{a}"] = out[f"dV_d{a}"] / R**3 - 3 * v_hat * dR / R
-            parts[f"dq_d{a}"] = out[f"dQ_d{a}"] / R**2 - 2 * q_hat * dR / R
-        deriv = StateDerivatives(**parts)
+    deriv = clamped_derivatives(out, p_trial, R, v_hat, q_hat) if derivatives else None
     return MembraneStates(
         pole_stretch=l0,
         phi_hat=phi,
@@ -1064,6 +1056,34 @@ def solve_states(
         wrinkled_radii=wrinkled_radii,
         wrinkled_stiffness=None if wrinkled_stiffness is None else np.where(bad, np.nan, wrinkled_stiffness),
     )
+
+
+def clamped_derivatives(trial: dict, p_trial, R, v_hat, q_hat, bad=None) -> StateDerivatives:
+    """The derivatives of the unit membrane's ``p̂, V̂, Q̂`` to ``λ0`` and ``Φ̂`` from those of the trial shooting.
+
+    With ``p̂ = p̂t R*``, ``V̂ = V̂t/R*³``, ``Q̂ = Q̂t/R*²`` and ``a`` either parameter:
+    ``dp̂/da = p̂t dR*/da``, ``dV̂/da = (dV̂t/da)/R*³ − 3 V̂ (dR*/da)/R*``, ``dQ̂/da = (dQ̂t/da)/R*² − 2 Q̂ (dR*/da)/R*``.
+
+    Parameters
+    ----------
+    trial : dict
+        ``dR_d{a}``, ``dV_d{a}``, ``dQ_d{a}`` (``a`` = ``l0``, ``phi``): the trial membrane's, per state.
+    p_trial, R, v_hat, q_hat : ndarray
+        The trial pressure, the clamp radius ``R*`` and the unit membrane's ``V̂, Q̂``.
+    bad : ndarray of bool, optional
+        States without derivatives (NaN).
+
+    Returns
+    -------
+    StateDerivatives
+    """
+    parts = {}
+    for a in ("l0", "phi"):
+        dR = trial[f"dR_d{a}"] if bad is None else np.where(bad, np.nan, trial[f"dR_d{a}"])
+        parts[f"dp_d{a}"] = p_trial * dR
+        parts[f"dv_d{a}"] = trial[f"dV_d{a}"] / R**3 - 3 * v_hat * dR / R
+        parts[f"dq_d{a}"] = trial[f"dQ_d{a}"] / R**2 - 2 * q_hat * dR / R
+    return StateDerivatives(**parts)
 
 
 def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool, pole_tension=None):

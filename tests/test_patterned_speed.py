@@ -99,8 +99,9 @@ def test_the_ramp_cost_of_a_patterned_scene_is_the_measured_factor_times_the_uni
     assert patterned.seconds - printing == pytest.approx(
         PATTERNED_TIME_FACTOR * (uniform.seconds - printing), rel=1e-12
     )
-    # benchmarks/bench_patterned.py measured this ramp at 5.1–6.7 s (the uniform one 0.73–1.0 s)
-    assert 5.0 < patterned.seconds < 10.0, patterned.seconds
+    # benchmarks/bench_patterned.py measured this ramp at 2.4–2.9 s (the uniform one 0.46–0.51 s): the estimate is
+    # not below what was measured, nor more than twice it
+    assert 2.9 <= patterned.seconds < 5.8, patterned.seconds
 
 
 def test_the_fast_curve_holds_its_states_solved_one_by_one_tightly(gent):
