@@ -27,12 +27,22 @@ iteration share what does not depend on ``s`` (:class:`_Warm`): the pole region 
 its interface and taken up from there by the later passes (a step or two), each jump starts from the last pass's
 ``λ1⁺``, and a pass integrates the variational equations (the slope) only where the last residual exceeded
 :data:`SLOPE_AGAIN` (elsewhere the last slope serves: off by ``O(|Δσ|)``, the step's error is ``O(|Δσ| |G|)``).
-The stopping rule is unchanged: a state is returned from a pass whose own residual is ``|G| ≤ rtol``.
+A region's first step is given, not estimated (Hairer's estimate costs two numpy evaluations of the right-hand
+side per call): the series radius from the pole (as the uniform shooting), :data:`OUTER_FIRST_STEP` ``R̂i`` after an
+interface; the step control corrects it within an attempt or two. A landing step onto the clamp that is rejected
+is taken in two halves by the compiled step function (:func:`_in_halves`). The stopping rule is unchanged: a
+state is returned from a pass whose own residual is ``|G| ≤ rtol``.
 
 A pattern with one region is a uniform zone: it is :func:`coexist.shooting.solve_states` with the scaled
 pressure and voltage (``p̂ = n p̂1``, ``Ψ̂ = n Ψ̂1``).
 
-Validity is checked on the converged state only (its iterates may pass through compressed states): a tension
+Validity is checked on the converged state only (its iterates may pass through compressed states). The smallest
+stack tension is taken over the nodes, both sides of every interface and the steps between nodes: the cubic
+Hermite estimate from the exact slopes ``dT/dR̂``, and where that comes below
+:data:`~coexist.shooting.REFINE_MINIMUM_BELOW` the minimum located exactly (the root of ``dT/dR̂`` inside the step,
+each iterate one step of the integrator, :func:`_exact_minimum`), as :func:`coexist.shooting.solve_states` does:
+so a formally continued state's smallest tension is a smooth function of ``(λ0, Φ̂)`` to the integration's
+accuracy and the onset of wrinkling is located like a uniform zone's. A tension
 that is not positive anywhere — notably the hoop tension on the electrode side of an electrode edge, where
 the passive membrane holds back the active one at low inflation — gives status ``WRINKLED`` and a sentence
 saying which tension, where and how negative (:attr:`PatternedStates.failure_detail`); a patterned zone
@@ -72,10 +82,10 @@ from .shooting import (
     StateDerivatives,
     _integrators,
     checked_state_inputs,
+    clamped_derivatives,
     reason_tag,
     reason_text,
     solve_states,
-    start_rows,
     trial_pressure,
 )
 
@@ -636,7 +646,14 @@ class _Layout:
 
 class _Tracker:
     """The smallest stack tension ``n T̂`` (nodes, and the cubic Hermite estimate between two nodes from the
-    exact slopes ``dT/dR``, as in :mod:`coexist.shooting`), where it is, and the largest true field."""
+    exact slopes ``dT/dR``, as in :mod:`coexist.shooting`), where it is, and the largest true field.
+
+    As in :func:`coexist.shooting.solve_states`, a step whose Hermite estimate of a tension's minimum falls below
+    :data:`~coexist.shooting.REFINE_MINIMUM_BELOW` (per layer) has its minimum located exactly
+    (:func:`_exact_minimum`: the root of ``dT/dR̂`` inside the step, each iterate one step of the integrator from
+    the step's start), so the smallest tension of a state carries the integration's own accuracy where the onset
+    of wrinkling is decided (the estimate's ``O(h⁴)`` error would make it jump between neighbouring states as
+    their steps change); the step onto the clamp keeps its estimate (as the uniform shooting's)."""
 
     def __init__(self, m):
         self.min_T = np.full(m, np.inf)
@@ -649,6 +666,8 @@ class _Tracker:
         self.edges = np.empty(0)  # both sides of the interfaces (set by the pass)
         # False where the smallest tension came from the attempt function (value exact, place not recorded)
         self.exact = np.ones(m, dtype=bool)
+        # the state at the last node (the step-by-step path: where a step's minimum is located exactly)
+        self.node_y: np.ndarray | None = None
 
     def values(self, model, R, y, f, n, phi):
         T1, T2, T11, T12, _, E, T22 = (np.asarray(a) * np.ones_like(R) for a in model.tensions(y[0], y[1], phi))
@@ -662,9 +681,17 @@ class _Tracker:
         self._record(cols, node, region, -1)
         self.max_E[cols] = np.maximum(self.max_E[cols], E)
 
-    def add(self, cols, node, E, region, side=0):
-        """An accepted node: the step's minimum (Hermite) and the node itself."""
-        from .shooting import hermite_minimum
+    def set_states(self, cols, y) -> None:
+        """The state at the last node of the columns ``cols`` (a region's start; rows as integrated)."""
+        if self.node_y is None or self.node_y.shape[0] != y.shape[0]:
+            self.node_y = np.full((y.shape[0], self.min_T.size), np.nan)
+        self.node_y[:, cols] = y
+
+    def add(self, cols, node, E, region, side=0, y=None, refine=None):
+        """An accepted node: the step's minimum (Hermite; located exactly where it falls below
+        :data:`~coexist.shooting.REFINE_MINIMUM_BELOW` per layer, given the node's state ``y`` and ``refine =
+        (fns, model, kind, n)``, :func:`_exact_minimum`) and the node itself."""
+        from .shooting import REFINE_MINIMUM_BELOW, hermite_minimum
 
         a = self.node[:, cols]
         for k in (1, 2):
@@ -680,11 +707,30 @@ class _Tracker:
                         node[k][interior],
                         node[2 + k][interior],
                     )
+                where = 0.5 * (a[0] + node[0])
+                if refine is not None and self.node_y is not None:
+                    fns, model, kind, n = refine
+                    near = np.flatnonzero(interior & (est < REFINE_MINIMUM_BELOW * n) & np.isfinite(est))
+                    if near.size:
+                        c = cols[near]
+                        T, R = _exact_minimum(
+                            fns,
+                            model,
+                            kind,
+                            k,
+                            a[0][near],
+                            self.node_y[:, c],
+                            node[0][near] - a[0][near],
+                            a[2 + k][near] / n[near],
+                            node[2 + k][near] / n[near],
+                        )
+                        ok = np.isfinite(T)
+                        est[near[ok]], where[near[ok]] = n[near][ok] * T[ok], R[ok]
                 lower = est < self.min_T[cols]
                 if lower.any():
                     c = cols[lower]
                     self.min_T[c] = est[lower]
-                    self.where_R[c] = 0.5 * (a[0][lower] + node[0][lower])
+                    self.where_R[c] = where[lower]
                     self.kind[c] = k
                     self.region[c] = region
                     self.side[c] = 0
@@ -692,6 +738,8 @@ class _Tracker:
         self._record(cols, node, region, side)
         self.node[:, cols] = node
         self.max_E[cols] = np.maximum(self.max_E[cols], E)
+        if y is not None and self.node_y is not None:
+            self.node_y[:, cols] = y
 
     def _record(self, cols, node, region, side):
         for k in (1, 2):
@@ -706,13 +754,62 @@ class _Tracker:
                 self.exact[c] = True
 
 
+def _exact_minimum(fns, model, kind, k, Ra, ya, h, da, db):
+    """The minimum of the per-layer tension ``T̂k`` (``k = 1`` meridional, 2 hoop) inside the steps ``(Ra, Ra + h)``
+    from the states ``ya`` (rows of ``kind``, the per-layer voltage last), where ``dT̂k/dR̂`` goes from ``da < 0``
+    to ``db > 0``: the root of
+
+        dT̂1/dR̂ = T̂11 λ1' + T̂12 λ2',    dT̂2/dR̂ = T̂12 λ1' + T̂22 λ2'
+
+    (:func:`~coexist.numerics.roots.bracketed_root`, to ``1e-9 h``), each iterate one DOP853 step of the integrator
+    from ``Ra`` (as :func:`coexist.shooting.solve_states` locates its minima); the smallest tension met on the way
+    is the minimum.
+
+    Returns
+    -------
+    T, R : ndarray
+        The minimum per layer and the radius at which it was met, per step.
+    """
+    from .numerics.roots import bracketed_root
+
+    stepper = _stepper(fns, kind, Ra.size)
+    fa = None if isinstance(stepper, _int.CasadiStepper) else stepper.rhs(Ra, ya)
+    best = np.full(Ra.size, np.inf)
+    at = np.full(Ra.size, np.nan)
+
+    def slope_at(x, idx):
+        y, f, _, _ = stepper.step(Ra[idx], ya[:, idx], None if fa is None else fa[:, idx], x)
+        T1, T2, T11, T12, _, _, T22 = (np.asarray(v) * np.ones(idx.size) for v in model.tensions(y[0], y[1], y[-1]))
+        T, g = (T1, T11 * f[0] + T12 * f[1]) if k == 1 else (T2, T12 * f[0] + T22 * f[1])
+        lower = T < best[idx]
+        best[idx[lower]] = T[lower]
+        at[idx[lower]] = Ra[idx][lower] + x[lower]
+        return g
+
+    with np.errstate(all="ignore"):
+        bracketed_root(slope_at, np.zeros(Ra.size), h, da, db, xtol=1e-9 * np.maximum(h, 1e-300), max_iter=10)
+    return best, at
+
+
 _ROWS = {"radius": 9, "radius_sens": 19, "hoop": 9}
 
 
 def _attempts_serve(fns, m: int) -> bool:
     """Whether ``m`` trajectories are integrated by the shooting's attempt functions (a few compiled DOP853
     attempts per call, :func:`coexist.shooting.run_attempts`) rather than step by step from Python: the batch
-    sizes :meth:`~coexist.shooting._Integrators.small_batch_limit` gives them (compiled: up to a few hundred)."""
+    sizes :meth:`~coexist.shooting._Integrators.small_batch_limit` gives them (compiled: up to a few hundred).
+
+    A batch the compiled functions would take counts as a use of a function not compiled yet (compiled from the
+    :data:`~coexist.shooting.COMPILE_AFTER`-th use on, :meth:`~coexist.shooting._Integrators.attempts`): without
+    it a process whose batches exceed the uncompiled limit would never use, so never compile, the function (its
+    curves then took twice the time on a machine whose cache lacked the ``radius_sens`` library)."""
+    from .shooting import COMPILED_BATCH_LIMIT
+
+    if m <= COMPILED_BATCH_LIMIT:
+        for kind in ("radius", "radius_sens"):
+            entry = fns._casadi.get(("attempts", kind))
+            if entry is not None and not entry.get("compiled"):
+                _attempts(fns, kind)
     return m <= min(fns.small_batch_limit("radius", m), fns.small_batch_limit("radius_sens", m))
 
 
@@ -729,23 +826,27 @@ class _AttemptResult:
     X: np.ndarray
 
 
-def _attempt_region(fns, kind, t0, y0, t_end, rtol, atol, max_steps, start, last: bool) -> _AttemptResult:
+def _attempt_region(fns, kind, t0, y0, t_end, rtol, atol, max_steps, start, last: bool, h0=None) -> _AttemptResult:
     """Integrate one region of every column by the attempt function of ``kind`` (``"radius"``/``"radius_sens"``):
-    the same DOP853 steps as :func:`coexist.numerics.dop853.integrate` (Hairer's starting step, from the plain
-    equations' rows, the same step control) with the checks of the region's event in ``_pass``: the meridional
+    the same DOP853 steps as :func:`coexist.numerics.dop853.integrate` from the same first step (the same step
+    control) with the checks of the region's event in ``_pass``: the meridional
     tension (the attempt function's ``formal`` mode: the hoop tension is judged on the converged state only),
     locking, ellipticity, a meridian folding back, and the clamp stretch (the landing in the last region; in another
     region a crossing means the interfaces lie too far out, ``_EARLY_CLAMP``). ``start = (T̂1, T̂2, dT̂1/dR̂,
     dT̂2/dR̂, |Ê|)`` per layer at the first node (for the cubic Hermite estimate of a minimum within the first
-    step)."""
+    step). ``h0``: the first step size per column; default Hairer's estimate (:func:`~coexist.numerics.dop853.
+    initial_step`, from the plain equations' rows: two numpy evaluations of the right-hand side, a tenth of a
+    millisecond per call); :func:`_pass` gives the series radius from the pole (as the uniform shooting) and
+    :data:`OUTER_FIRST_STEP` ``R̂i`` after an interface."""
     from .shooting import _H, _HEAD
 
     R, m = y0.shape
     rtol = np.broadcast_to(np.asarray(rtol, dtype=float), (m,))
     atol = np.broadcast_to(np.asarray(atol, dtype=float), y0.shape)
-    # Hairer's starting step from the plain equations' rows (the sensitivities follow the same trajectory)
-    y9, a9 = (y0, atol) if R == 9 else (y0[_PLAIN_ROWS], atol[_PLAIN_ROWS])
-    h0 = _int.initial_step(fns.radius, t0, y9, fns.radius(t0, y9), np.ones(m), rtol[None, :], a9)
+    if h0 is None:
+        # Hairer's starting step from the plain equations' rows (the sensitivities follow the same trajectory)
+        y9, a9 = (y0, atol) if R == 9 else (y0[_PLAIN_ROWS], atol[_PLAIN_ROWS])
+        h0 = _int.initial_step(fns.radius, t0, y9, fns.radius(t0, y9), np.ones(m), rtol[None, :], a9)
     o = len(_HEAD)
     X = np.zeros((o + 4 * R, m))
     H = _H
@@ -783,25 +884,77 @@ def _attempt_run(fns, kind, X, last: bool, steps_before=None) -> _AttemptResult:
     )
 
 
-def _track_attempts(tracker: _Tracker, res: _AttemptResult, cols, n, region: int, track: bool) -> None:
+def _track_attempts(tracker: _Tracker, res: _AttemptResult, cols, n, region: int, track: bool, refine=None) -> None:
     """Fold a region's attempt-function tracking into ``tracker`` (stack tensions ``n T̂``): the smallest tension
-    (nodes and Hermite estimates, exact values; their place is not recorded: ``tracker.exact`` False), the
-    largest field and the last node (from which the landing's step is judged)."""
+    (nodes, exact values, their place not recorded: ``tracker.exact`` False; and the step whose Hermite estimate
+    of a minimum came below :data:`~coexist.shooting.REFINE_MINIMUM_BELOW`, the attempt function's candidate,
+    located exactly by :func:`_exact_minimum` given ``refine = (fns, model)``, its place recorded), the largest
+    field and the last node (from which the landing's step is judged)."""
     if not track:
         return
-    from .shooting import _H
+    from .shooting import _H, _HEAD
 
     X = res.X
-    low = np.minimum(X[_H["minT"]], X[_H["cand_est"]]) * n
+    low = X[_H["minT"]] * n
+    has = np.flatnonzero(np.isfinite(X[_H["cand_est"]]))
+    if has.size == 0:  # the common case: no step came near zero, the smallest tension is a node's
+        lower = low < tracker.min_T[cols]
+        if lower.any():
+            c = cols[lower]
+            tracker.min_T[c] = low[lower]
+            tracker.where_R[c] = np.nan
+            tracker.kind[c] = 0
+            tracker.region[c] = region
+            tracker.side[c] = 0
+            tracker.exact[c] = False
+        _track_last(tracker, X, cols, n)
+        return
+    cand = X[_H["cand_est"]] * n
+    kind_c = X[_H["cand_k"]].astype(int)
+    where = np.full(cols.size, np.nan)
+    refined = np.zeros(cols.size, dtype=bool)
+    if refine is not None:
+        fns, model = refine
+        R = (X.shape[0] - len(_HEAD)) // 4
+        o = len(_HEAD)
+        kind = "radius" if R == 9 else "radius_sens"
+        for k in (1, 2):
+            j = has[kind_c[has] == k]
+            if j.size:
+                T, at = _exact_minimum(
+                    fns,
+                    model,
+                    kind,
+                    k,
+                    X[_H["cand_Ra"], j],
+                    X[o + 3 * R : o + 4 * R, j],
+                    X[_H["cand_h"], j],
+                    X[_H["cand_da"], j],
+                    X[_H["cand_db"], j],
+                )
+                ok = np.isfinite(T)
+                cand[j[ok]] = np.broadcast_to(n, cols.shape)[j[ok]] * T[ok]
+                where[j[ok]] = at[ok]
+                refined[j[ok]] = True
+    from_cand = cand < low
+    low = np.minimum(low, cand)
     lower = low < tracker.min_T[cols]
     if lower.any():
         c = cols[lower]
+        exact = from_cand[lower] & refined[lower]
         tracker.min_T[c] = low[lower]
-        tracker.where_R[c] = np.nan
-        tracker.kind[c] = 0
+        tracker.where_R[c] = np.where(exact, where[lower], np.nan)
+        tracker.kind[c] = np.where(exact, kind_c[lower], 0)
         tracker.region[c] = region
         tracker.side[c] = 0
-        tracker.exact[c] = False
+        tracker.exact[c] = exact
+    _track_last(tracker, X, cols, n)
+
+
+def _track_last(tracker: _Tracker, X, cols, n) -> None:
+    """The largest field and the last node of an attempt-function run (packed states ``X``) into ``tracker``."""
+    from .shooting import _H
+
     tracker.max_E[cols] = np.maximum(tracker.max_E[cols], X[_H["maxE"]])
     tracker.node[:, cols] = np.vstack(
         [X[_H["Ra"]], n * X[_H["T1a"]], n * X[_H["T2a"]], n * X[_H["d1a"]], n * X[_H["d2a"]]]
@@ -946,29 +1099,44 @@ def pole_series_radius(model, settings, phi1, n1, l0, p_t, p1=None) -> np.ndarra
     return settings.series_radius * c * np.ones(np.shape(l0))
 
 
-def _pole_start(model, settings, lay, l0, p_t):
+def _pole_start(model, settings, lay, l0, p_t, tp=None):
     """The pole region's start, the same in every pass at fixed ``p̂t``: the rows at the series radius
     ``(λ1, λ2, θ, V̂/π, Q̂/2π, Ψ̂/2π, ẑ, p̂t/n1, Φ̂/n1)``, the absolute tolerances, the series (with its
-    sensitivities, for the derivative pass), the pole tension ``T̂0`` and field ``|Ê0|`` (per layer)."""
+    sensitivities, for the derivative pass), the pole tension ``T̂0`` and field ``|Ê0|`` (per layer).
+
+    The absolute tolerances are :func:`~coexist.shooting.start_rows`' (``atol`` times the size of each row at
+    ``R̂ = 1`` by the series at the region's own trial pressure, 1 for the stretches and the parameters), the
+    largest over the regions: a passive pole region has no charge, and a charge row that starts from 0 at an
+    electrode edge must not be held to 1e-30. ``tp``: every region's trial pressure (:func:`_trial_pressures`)
+    if the caller has it. The series at ``R̂ = 1`` of every region and the pole region's start at its pressure
+    ``p̂t/n1`` are one evaluation (the generated series costs per call, not per column)."""
     m = l0.size
     K = lay.f.size
     phi1 = lay.phi[0]
-    # absolute tolerances from the largest of the regions' own sizes (a passive pole region has no charge,
-    # and a charge row that starts from 0 at an electrode edge must not be held to 1e-30): the start of every
-    # region's voltage in one evaluation (the series and the cap angle cost per call, not per column)
-    p_all, y_all, atol_all, _ = start_rows(model, settings, np.tile(l0, K), lay.phi.reshape(-1), False)
-    y0 = y_all[:, :m].copy()
-    atol0 = atol_all.reshape(atol_all.shape[0], K, m).max(axis=1)
-    y0[7] = p_t / lay.n[0]
-    # the series start is in the region's own pressure p̂t/n1: start_rows' trial pressure is replaced, so
-    # the series is evaluated again at the region-1 pressure
-    R0 = pole_series_radius(model, settings, phi1, lay.n[0], l0, p_t, p_all[:m])
-    series = model.series_start(l0, y0[7], phi1, R0)
-    for i in range(7):
-        y0[i] = series[i]
+    if tp is None:
+        tp = _trial_pressures(model, lay, l0)
+    R0 = pole_series_radius(model, settings, phi1, lay.n[0], l0, p_t, tp[0])
+    both = model.series_start(
+        np.concatenate([l0, np.tile(l0, K)]),
+        np.concatenate([p_t / lay.n[0], tp.reshape(-1)]),
+        np.concatenate([phi1, lay.phi.reshape(-1)]),
+        np.concatenate([R0, np.ones(K * m)]),
+    )
+    both = [np.broadcast_to(x, ((K + 1) * m,)) for x in both]
+    series = [x[:m] for x in both]
+    unit = np.vstack([np.abs(x[m:]) for x in both[2:7]]).reshape(5, K, m).max(axis=1)
+    ones = np.ones((2, m))
+    atol0 = settings.atol * np.maximum(np.vstack([ones, unit, ones]), 1e-30)
+    y0 = np.vstack([*series[:7], p_t / lay.n[0], phi1])
     T0 = np.asarray(model.pole(l0, phi1)[0]) * np.ones(m)
     E0 = np.abs(np.asarray(model.tensions(l0, l0, phi1)[5])) * np.ones(m)
     return y0, atol0, series, T0, E0, R0
+
+
+def _trial_pressures(model, lay, l0) -> np.ndarray:
+    """Every region's own spherical-cap trial pressure at its per-layer voltage, ``(K, m)``
+    (:func:`~coexist.shooting.trial_pressure`, one call: its cap angle costs per call, not per column)."""
+    return np.reshape(trial_pressure(model, np.tile(l0, lay.f.size), lay.phi.reshape(-1)), (lay.f.size, l0.size))
 
 
 def _take_pole(pole, cols):
@@ -989,6 +1157,12 @@ _PLAIN_ROWS = np.r_[0:7, 17:19]
 #: a Newton iteration integrates its pole region first to this fraction below the first interface and keeps it
 #: (:class:`_Warm`): a later pass takes it up from there (a few steps instead of the whole region)
 POLE_MARGIN = 0.02
+#: the first step of a region after an interface at ``R̂i``, as a fraction of ``R̂i`` (Hairer's estimate there,
+#: measured on the headline curve at rtol 1e-10: 0.065–0.10; the step control corrects it in an attempt or two)
+OUTER_FIRST_STEP = 0.07
+#: the interface jump's Newton iteration from the last pass's ``λ1⁺`` takes the next iterate once a step is below
+#: this relative size (the next error ~ step², at rounding; :func:`_jump`)
+QUICK_JUMP_STEP = 1e-8
 #: Newton iterations of the interface jump from the last pass's ``λ1⁺`` at most (then :func:`interface_stretch`)
 QUICK_JUMP_ITERATIONS = 5
 
@@ -1040,6 +1214,7 @@ def _pole_region(fns, warm, R0, y0, t1, rtol, atol, max_steps, start) -> _Attemp
             max_steps,
             tuple(a[fresh] for a in start),
             False,
+            R0[fresh],  # the first step the series radius itself, as the uniform shooting's
         )
         if store.X is None:
             store.X = np.full((part.X.shape[0], store.R.size), np.nan)
@@ -1056,9 +1231,10 @@ def _pole_region(fns, warm, R0, y0, t1, rtol, atol, max_steps, start) -> _Attemp
 
 def _jump(model, l1_in, l2, phi_in, n_in, phi_out, n_out, T1_in, guess):
     """:func:`interface_stretch` (``T1_in`` = ``T̂1(λ1⁻, λ2; Φ̂⁻)``), by Newton's method from ``guess`` (the last pass's
-    ``λ1⁺``) where there is one: a column whose step falls below ``1e-12 λ1⁺`` on the stable branch with a residual
-    below ``1e-10`` of the force within :data:`QUICK_JUMP_ITERATIONS` takes the next iterate (the root to rounding:
-    the convergence is quadratic); the others are solved by :func:`interface_stretch`."""
+    ``λ1⁺``) where there is one: a column whose step falls below :data:`QUICK_JUMP_STEP` ``λ1⁺`` on the stable branch
+    with a residual below ``1e-6`` of the force within :data:`QUICK_JUMP_ITERATIONS` takes the next iterate (the
+    root to rounding: the convergence is quadratic, the next error ``~ step²``); the others are solved by
+    :func:`interface_stretch`."""
     if guess is None:
         return interface_stretch(model, l1_in, l2, phi_in, n_in, phi_out, n_out)
     x = np.where(np.isfinite(guess), guess, l1_in)
@@ -1076,8 +1252,9 @@ def _jump(model, l1_in, l2, phi_in, n_in, phi_out, n_out, T1_in, guess):
             step = g / d
         nxt = x[todo] - step
         fine = np.isfinite(nxt) & (d > 0)
-        small = np.abs(g) <= 1e-10 * np.maximum(1.0, np.abs(target[todo]))
-        conv = fine & small & (np.abs(step) <= 1e-12 * np.abs(x[todo]))
+        # Newton's next error is ~(T̂111/2T̂11) step²: a step below 1e-8 λ1 leaves ~1e-16 λ1, the root to rounding
+        small = np.abs(g) <= 1e-6 * np.maximum(1.0, np.abs(target[todo]))
+        conv = fine & small & (np.abs(step) <= QUICK_JUMP_STEP * np.abs(x[todo]))
         out[todo[conv]] = nxt[conv]
         done[todo[conv]] = True
         x[todo] = np.where(fine, nxt, x[todo])
@@ -1135,7 +1312,10 @@ def _pass(
     # ∂(q̂R̂)/∂φ = λ1²λ2²R̂ there; U_Q is held at its value from the region's start (u_q)
     u_q = np.zeros(m)
 
-    def make_event(region, cols_all, check_clamp, t_end):
+    def make_event(region, cols_all, check_clamp, t_end, kind, y_start):
+        if track:
+            tracker.set_states(cols_all, y_start)
+
         def event(R, y, cols, f):
             c = cols_all[cols]
             side = np.where(R >= t_end[cols], 1, 0)
@@ -1152,7 +1332,9 @@ def _pass(
             if track and keep.any():
                 n = lay.n[region, c]
                 node = np.vstack([R, n * T1, n * T2, n * (T11 * f[0] + T12 * f[1]), n * (T12 * f[0] + T22 * f[1])])
-                tracker.add(c[keep], node[:, keep], np.abs(E)[keep], region, side[keep])
+                tracker.add(
+                    c[keep], node[:, keep], np.abs(E)[keep], region, side[keep], y[:, keep], (fns, model, kind, n[keep])
+                )
             res = np.where(code != 0, _int.FAILED + code, _int.CONTINUE)
             res[crossed] = _int.CROSSED
             return res
@@ -1170,10 +1352,12 @@ def _pass(
         start = (T0, T0, np.zeros(m), np.zeros(m), tracker.max_E.copy())
         t1 = s * lay.f[0]
         if warm is None or deriv:
-            res = _attempt_region(fns, kind0, R0.copy(), y0, t1, rtol, atol_r1, settings.max_steps, start, False)
+            res = _attempt_region(
+                fns, kind0, R0.copy(), y0, t1, rtol, atol_r1, settings.max_steps, start, False, R0.copy()
+            )
         else:
             res = _pole_region(fns, warm, R0, y0, t1, rtol, atol_r1, settings.max_steps, start)
-        _track_attempts(tracker, res, live, lay.n[0], 0, track)
+        _track_attempts(tracker, res, live, lay.n[0], 0, track, (fns, model))
     else:
         res = _int.integrate(
             _stepper(fns, kind0, m),
@@ -1183,7 +1367,8 @@ def _pass(
             rtol,
             atol_r1,
             settings.max_steps,
-            event=make_event(0, live, False, s * lay.f[0]),
+            event=make_event(0, live, False, s * lay.f[0], kind0, y0),
+            h0=R0.copy(),
         )
     steps += res.steps
     status[res.status == _int.STEP_LIMIT] = STEP_LIMIT
@@ -1256,6 +1441,7 @@ def _pass(
             tracker.start(go[ok], node[:, ok], first[4][ok], k)
         last = k == K - 1
         # integrated with the variational equations where the slope dR*/ds is asked for, without elsewhere
+        landing: list = []
         for group in (ok & sens[go], ok & ~sens[go]):
             if not group.any():
                 continue
@@ -1269,8 +1455,10 @@ def _pass(
             atol = np.vstack([atol_state[:, cols], np.full((yk.shape[0] - 7, cols.size), np.inf)])
             if fast:
                 start = tuple(a[group] for a in first)
-                res = _attempt_region(fns, kind, Rg, yk, t_end, rtol[cols], atol, settings.max_steps, start, last)
-                _track_attempts(tracker, res, cols, lay.n[k, cols], k, track)
+                res = _attempt_region(
+                    fns, kind, Rg, yk, t_end, rtol[cols], atol, settings.max_steps, start, last, OUTER_FIRST_STEP * Rg
+                )
+                _track_attempts(tracker, res, cols, lay.n[k, cols], k, track, (fns, model))
             else:
                 res = _int.integrate(
                     _stepper(fns, kind, cols.size),
@@ -1280,7 +1468,8 @@ def _pass(
                     rtol[cols],
                     atol,
                     settings.max_steps,
-                    event=make_event(k, cols, last, t_end),
+                    event=make_event(k, cols, last, t_end, kind, yk),
+                    h0=OUTER_FIRST_STEP * Rg,
                 )
             steps[cols] += res.steps
             st = np.zeros(cols.size, dtype=int)
@@ -1301,28 +1490,31 @@ def _pass(
                 Y[17:19, cols] = res.y[7:9]
             if last:
                 land = np.flatnonzero(st == 0)
-                if land.size:
-                    _land(
-                        fns,
-                        model,
-                        settings,
-                        cols[land],
-                        res.t[land],
-                        Y[:, cols[land]],
-                        rtol,
-                        np.vstack([atol_state[:, cols[land]], np.full((12, land.size), np.inf)]),
-                        status,
-                        steps,
-                        R_star,
-                        dRs,
-                        quad,
-                        psi_n,
-                        tracker if track else None,
-                        lay,
-                        K - 1,
-                        (ends, u_q) if deriv else None,
-                        slope=with_s,
-                    )
+                landing.append((cols[land], res.t[land], np.full(land.size, with_s)))
+        if landing and sum(c.size for c, _, _ in landing):
+            # both groups land in one call (its cost is per call more than per column)
+            idx, R_h, slope_cols = (np.concatenate(a) for a in zip(*landing))
+            _land(
+                fns,
+                model,
+                settings,
+                idx,
+                R_h,
+                Y[:, idx],
+                rtol,
+                np.vstack([atol_state[:, idx], np.full((12, idx.size), np.inf)]),
+                status,
+                steps,
+                R_star,
+                dRs,
+                quad,
+                psi_n,
+                tracker if track else None,
+                lay,
+                K - 1,
+                (ends, u_q) if deriv else None,
+                slope=slope_cols,
+            )
     if K == 1:  # not used (one region is a uniform zone), kept for completeness
         raise AssertionError("a one-region pattern is shot by solve_states")
     tracker.edges = edges
@@ -1337,6 +1529,38 @@ def _single_step(stepper, t, y, h, rtol, atol):
     scale = atol + np.maximum(np.abs(y), np.abs(y_new)) * np.asarray(rtol)
     err = np.where(np.all(np.isfinite(y_new), axis=0), _int._error_norm(e5, e3, h, scale), np.inf)
     return y_new, err
+
+
+def _in_halves(fns, kind, t0, y0, t_end, rtol, atol, max_steps):
+    """From ``t0`` to ``t_end`` (a step that was rejected in one) in two halves by the compiled step function, as
+    :func:`coexist.numerics.dop853.integrate` from ``h0 = (t_end − t0)/2`` does it where its second step is the
+    rest (no Python loop, no numpy right-hand side); a column where a half is rejected is integrated adaptively.
+
+    Returns
+    -------
+    y, steps, reached : ndarray
+        The states at ``t_end``, the steps taken and whether ``t_end`` was reached, per column.
+    """
+    stepper = _stepper(fns, kind, t0.size)
+    h = 0.5 * (t_end - t0)
+    y_mid, e1 = _single_step(stepper, t0, y0, h, rtol[None, :], atol)
+    y, e2 = _single_step(stepper, t0 + h, y_mid, t_end - (t0 + h), rtol[None, :], atol)
+    steps = np.full(t0.size, 2)
+    reached = np.ones(t0.size, dtype=bool)
+    rest = np.flatnonzero(~((e1 <= 1.0) & (e2 <= 1.0)))
+    if rest.size:
+        hop = _int.integrate(
+            _stepper(fns, kind, rest.size),
+            t0[rest],
+            y0[:, rest],
+            t_end[rest],
+            rtol[rest],
+            atol[:, rest],
+            max_steps,
+            h0=np.abs(h[rest]),
+        )
+        y[:, rest], steps[rest], reached[rest] = hop.y, hop.steps, hop.status == _int.REACHED_END
+    return y, steps, reached
 
 
 def _land(
@@ -1360,8 +1584,9 @@ def _land(
     ends=None,
     slope=True,
 ):
-    """The last step onto the clamp with ``λ2`` as the independent variable, then (``slope``) the sensitivity
-    carried to ``R*`` (:func:`_clamp_sensitivity`: ``dR*/ds``, and with ``ends`` those of the derivative pass)."""
+    """The last step onto the clamp with ``λ2`` as the independent variable, then (``slope``, a bool or one per
+    column: those integrated with the variational equations, rows 7–16 of ``y_h``) the sensitivity carried to
+    ``R*`` (:func:`_clamp_sensitivity`: ``dR*/ds``, and with ``ends`` those of the derivative pass)."""
     lam_clamp = model.prestretch
     z0 = np.vstack([R_h, y_h[0], y_h[2:7], y_h[17:19]])
     atol_h = np.vstack([np.full(idx.size, settings.atol), atol[0], atol[2:7], np.full((2, idx.size), np.inf)])
@@ -1371,19 +1596,17 @@ def _land(
     steps[idx] += 1
     redo = np.flatnonzero(~landed)
     if redo.size:
-        hop = _int.integrate(
-            _stepper(fns, "hoop", redo.size),
+        zf[:, redo], n_redo, landed[redo] = _in_halves(
+            fns,
+            "hoop",
             y_h[1][redo],
             z0[:, redo],
             np.full(redo.size, lam_clamp),
             rtol[idx][redo],
             atol_h[:, redo],
             settings.max_steps,
-            h0=0.5 * np.abs(y_h[1][redo] - lam_clamp),
         )
-        steps[idx[redo]] += hop.steps
-        zf[:, redo] = hop.y
-        landed[redo] = hop.status == _int.REACHED_END
+        steps[idx[redo]] += n_redo
     bad = ~landed | np.any(~np.isfinite(zf), axis=0) | (zf[0] <= R_h)
     status[idx[bad]] = NOT_FINITE
     good = ~bad
@@ -1394,8 +1617,15 @@ def _land(
     R = zg[0]
     f = np.asarray(model.rhs(R, zg[1], lam_clamp, zg[2], zg[7], zg[8]))
     R_star[gi] = R
-    if slope:
+    with_s = np.broadcast_to(np.asarray(slope, dtype=bool), idx.shape)
+    sel = with_s[good]
+    if sel.all():
         _clamp_sensitivity(fns, settings, gi, good, R, R_h, y_h, rtol, atol, steps, f, dRs, lay, k, ends)
+    elif sel.any():
+        sub = good & with_s
+        _clamp_sensitivity(
+            fns, settings, gi[sel], sub, R[sel], R_h, y_h, rtol, atol, steps, f[:, sel], dRs, lay, k, ends
+        )
     fV, fQ, fPsi, _ = QUADRATURE_FACTORS
     quad[0, gi] = fV * zg[3]
     quad[1, gi] = fQ * zg[4]
@@ -1416,18 +1646,17 @@ def _clamp_sensitivity(fns, settings, gi, good, R, R_h, y_h, rtol, atol, steps, 
     steps[gi] += 1
     again = np.flatnonzero(~(err <= 1.0))
     if again.size:
-        hop = _int.integrate(
-            _stepper(fns, "radius_sens", again.size),
+        y_end[:, again], n_again, _ = _in_halves(
+            fns,
+            "radius_sens",
             R_h[good][again],
             y_h[:, good][:, again],
             R[again],
             rtol[gi][again],
             atol[:, good][:, again],
             settings.max_steps,
-            h0=0.5 * (R[again] - R_h[good][again]),
         )
-        y_end[:, again] = hop.y
-        steps[gi[again]] += hop.steps
+        steps[gi[again]] += n_again
     dRs[gi] = -y_end[8] / f[1]
     if ends is not None:
         arr, u_q = ends
@@ -1679,13 +1908,7 @@ def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivat
         steps=steps,
     )
     if d_out is not None:
-        parts = {}
-        for a in ("l0", "phi"):
-            dR = np.where(bad, np.nan, d_out[f"dR_d{a}"])
-            parts[f"dp_d{a}"] = out["p"] * dR
-            parts[f"dv_d{a}"] = d_out[f"dV_d{a}"] / R**3 - 3 * states.v_hat * dR / R
-            parts[f"dq_d{a}"] = d_out[f"dQ_d{a}"] / R**2 - 2 * states.q_hat * dR / R
-        states.derivatives = StateDerivatives(**parts)
+        states.derivatives = clamped_derivatives(d_out, out["p"], R, states.v_hat, states.q_hat, bad)
     edges[bad] = np.nan
     kept = {
         "slope": np.where(bad, np.nan, out["slope"]),
@@ -1699,13 +1922,13 @@ def _sub_layout(lay: _Layout, cols) -> _Layout:
     return _Layout(n=lay.n[:, cols], phi=lay.phi[:, cols], f=lay.f, electrode=lay.electrode)
 
 
-def _trial(model, settings, lay, l0):
+def _trial(model, settings, lay, l0, tp=None):
     """The trial pressure ``p̂t`` (the area-weighted spherical-cap estimate of the stack) and the relative
-    tolerance per state (``settings.rtol``, raised to what roundoff allows near the flat membrane)."""
-    K = lay.f.size
+    tolerance per state (``settings.rtol``, raised to what roundoff allows near the flat membrane); ``tp``: the
+    regions' own trial pressures (:func:`_trial_pressures`) if the caller has them."""
     area = np.diff(np.concatenate([[0.0], lay.f**2]))
-    # every region's cap estimate in one call (its cap angle costs per call, not per column)
-    tp = np.reshape(trial_pressure(model, np.tile(l0, K), lay.phi.reshape(-1)), (K, l0.size))
+    if tp is None:
+        tp = _trial_pressures(model, lay, l0)
     p_t = np.sum(area[:, None] * lay.n * tp, axis=0)
     rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / model.prestretch - 1))
     return p_t, rtol
@@ -1809,11 +2032,12 @@ def _newton(
     m = live.size
     l0 = l0_all[live]
     lay = _sub_layout(lay_all, live)
-    p_t, rtol = _trial(model, settings, lay, l0)
+    tp = _trial_pressures(model, lay, l0)
+    p_t, rtol = _trial(model, settings, lay, l0, tp)
     # |G| is the relative misplacement of the interfaces of the returned state (it is the exact state of a
     # pattern whose fractions are off by that much): held to the integration's own tolerance
     tol = np.maximum(rtol, 4e-16)
-    pole = _pole_start(model, settings, lay, l0, p_t)  # the pole region's start: the same in every pass
+    pole = _pole_start(model, settings, lay, l0, p_t, tp)  # the pole region's start: the same in every pass
     pole = (*pole[:2], None, *pole[3:])  # (its series' sensitivities serve the derivative pass only)
     warm = _Warm(m)  # the pole region and the jumps, kept from pass to pass
     last_slope = np.full(m, np.nan)  # the last exact slope dG/dσ of each state
@@ -1884,7 +2108,9 @@ def _newton(
         vague = np.flatnonzero(conv & ~(tr.min_T > 0) & ~tr.exact)
         if vague.size:
             # a tension not positive somewhere, from the attempt function (its place not recorded): the same
-            # shooting step by step, which says which tension, where and on which side of an edge
+            # shooting step by step, which says which tension, where and on which side of an edge (the value
+            # stays this pass's: the step-by-step steps start from another step size, and a formally continued
+            # state's smallest tension must come from one shooting on both sides of its zero)
             exact = _pass(
                 model,
                 settings,
@@ -1896,7 +2122,7 @@ def _newton(
                 True,
                 fast=False,
             )[5]
-            for name in ("min_T", "where_R", "kind", "region", "side", "max_E", "exact"):
+            for name in ("where_R", "kind", "region", "side", "exact"):
                 getattr(tr, name)[vague] = getattr(exact, name)
         # converged states: record
         cj = np.flatnonzero(conv)
@@ -2235,13 +2461,18 @@ def patterned_pressure_volume_curve(
         polynomials in ``u = (λ0/λpre − 1)^0.4`` (:func:`_abscissa`, :func:`_interpolate`); the slope only where
         the scale's error estimate is at most :data:`HINT_SCALE_ERROR`."""
         u, ux = _abscissa(model, l0_known), _abscissa(model, x)
-        guess, err = _interpolate(*_known([u], [sigma_known]), ux)
+        jump: dict = {}
+        jumps = np.vstack(list(jump_known.values())) if jump_known else None
+        if jumps is not None and np.array_equal(np.isfinite(sigma_known), np.all(np.isfinite(jumps), axis=0)):
+            # the same nodes: the scale and the stretches in one polynomial evaluation (the scale's row first)
+            rows, err = _interpolate(*_known([u], [np.vstack([sigma_known, jumps])]), ux)
+            guess, jump = rows[0], dict(zip(jump_known, rows[1:]))
+        else:
+            guess, err = _interpolate(*_known([u], [sigma_known]), ux)
+            if jumps is not None:
+                jump = dict(zip(jump_known, _interpolate(*_known([u], [jumps]), ux)[0]))
         slope = _interpolate(*_known([u], [slope_known]), ux)[0]
         slope = np.where(err <= HINT_SCALE_ERROR, slope, np.nan)
-        jump: dict = {}
-        if jump_known:
-            rows = _interpolate(*_known([u], [np.vstack(list(jump_known.values()))]), ux)[0]
-            jump = dict(zip(jump_known, rows))
         return guess, {"slope": slope, "jump": jump}
 
     def solve(x, from_known, later=None):

@@ -180,3 +180,32 @@ def test_the_headline_curve_takes_five_passes_and_a_pass_for_each_limit_point_ev
     assert len(sizes) <= 7, sizes
     assert sum(sizes) <= 26 * 3 + 200 * 2 + 10, sizes
     assert sizes[:3] == [26, 26, 26] and sizes[-2:] == [9, 1], sizes
+
+
+def test_a_rejected_step_in_two_halves_is_the_adaptive_integration(gent):
+    """:func:`coexist.patterned._in_halves` (a landing step rejected in one, taken in two halves by the compiled step
+    function): where both halves are accepted it is ``dop853.integrate`` from ``h0 = span/2`` (its second step the
+    rest) to rounding, 1e-13 (measured 4e-16), in 2 steps; where a half is rejected (a span of 0.3 from
+    ``R̂ = 0.3``) the adaptive integration takes over, the same to 1e-13 and in its steps."""
+    from coexist.numerics import dop853
+    from coexist.patterned import _in_halves, _layout, _pole_start, _single_step, _stepper, _trial, _trial_pressures
+    from coexist.shooting import _integrators
+
+    settings = SolverSettings()
+    l0 = np.array([1.5, 2.0, 3.0])
+    lay = _layout(PATTERN, np.full(3, 0.1))
+    tp = _trial_pressures(gent, lay, l0)
+    p_t, rtol = _trial(gent, settings, lay, l0, tp)
+    y0, atol, _, _, _, R0 = _pole_start(gent, settings, lay, l0, p_t, tp)
+    fns = _integrators(gent)
+    mid = dop853.integrate(fns.radius, R0.copy(), y0, np.full(3, 0.3), rtol, atol, 1000)
+    t0 = np.full(3, 0.3)
+    for span, halves in ((0.08, True), (0.3, False)):
+        _, err = _single_step(_stepper(fns, "radius", 3), t0, mid.y, np.full(3, span), rtol[None, :], atol)
+        assert np.any(err > 1.0), err  # rejected in one step
+        y, steps, reached = _in_halves(fns, "radius", t0, mid.y, t0 + span, rtol, atol, 100)
+        ref = dop853.integrate(fns.radius, t0, mid.y, t0 + span, rtol, atol, 100, h0=np.full(3, span / 2))
+        assert np.all(reached) and np.all(ref.status == dop853.REACHED_END)
+        np.testing.assert_allclose(y, ref.y, rtol=1e-13, atol=1e-300)
+        np.testing.assert_array_equal(steps, ref.steps)
+        assert np.all(steps == 2) == halves, steps
