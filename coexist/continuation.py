@@ -152,7 +152,8 @@ def correct(
     when a state is invalid, the step grows, or the iterations run out. The converged state is the
     last one evaluated (no extrapolation): its residual is what :class:`Equilibrium` reports.
     ``chord``: once the steps are below ``settings.chord_below``, evaluate the residual alone and reuse the
-    last Jacobian (the converged state's own derivatives are then those of the previous iterate).
+    last Jacobian (the converged state's own derivatives are then those of the last iterate evaluated with
+    derivatives, which may be several iterates back).
 
     Converged (not loose) means a step in ``z`` below ``settings.newton_tol`` *and* pressure residuals
     below ``settings.residual_tol · (1 + |p̂_gas|)``; ``loose`` uses ``settings.loose_tolerance`` for both.
@@ -213,7 +214,7 @@ def correct(
         st_ = res.states
         if use_chord:
             res.J = jac[act]
-            # the derivatives of the previous iterate (within chord_below of this one) stand for its own
+            # the derivatives of the last iterate shot with them (every step since below chord_below) stand in
             st_.dp_du, st_.dv_du, st_.dp_dphi, st_.dv_dphi = (slopes[act, k].copy() for k in range(4))
         else:
             jac[act] = res.J
@@ -989,8 +990,27 @@ class Tracer:
         zs = np.array([x[2] for x in samples[-3:]])
         coef = np.polyfit(sig, zs, 2)
         z_end = coef[0] * star**2 + coef[1] * star + coef[2]
-        near = [x[3] for x in samples if x[0] > 0]
-        return samples[-1][3], z_end, float(change), lo, hi, near
+        near = self._with_fresh_slopes([x[3] for x in samples if x[0] > 0], cur)
+        return (near[-1] if near else samples[-1][3]), z_end, float(change), lo, hi, near
+
+    def _with_fresh_slopes(self, points: list, cur: Point) -> list:
+        """``points`` (converged by chord steps: their slopes are those of an earlier iterate) evaluated once more
+        at their own ``z`` with derivatives, in one batch: their tangents, ``dp̂/dV̂``, eigenvalues and stability are
+        then those of the states themselves (a point whose evaluation fails is kept as it was)."""
+        if not points:
+            return points
+        Z = np.array([p.z for p in points])
+        N = np.repeat(cur.tangent[None, :], len(points), axis=0)
+        corr = correct(self.system, Z, N, Z @ cur.tangent, self.w)
+        out = []
+        for i, p in enumerate(points):
+            if corr.ok[i]:
+                q = self._point(corr, i, cur.tangent, p.index)
+                q.s = p.s
+                out.append(q)
+            else:
+                out.append(p)
+        return out
 
     def _range_end(self, prev, cur: Point, h, failure):
         """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or

@@ -815,8 +815,9 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     return Scene(**fields)
 
 
-#: the built-in scenes: package data beside this module (read as files: importlib.resources would cost 5 ms of
-#: start-up for the same result in an installed package)
+#: the built-in scenes: package data beside this module, read as files (importlib.resources would cost 5 ms of
+#: start-up for the same result in an installed package; a zipped install, which only it could read, is not
+#: supported: the compiled and cached code needs a writable file system anyway)
 _SCENES = Path(__file__).resolve().parent / "scenes"
 
 

@@ -416,7 +416,10 @@ _SCALAR_CAP_ANGLES = 16
 
 
 def _cap_angle_one(target: float) -> float:
-    """:func:`_cap_angle` of one pole stretch ``1/target``, in floats: the same safeguarded Newton iteration."""
+    """:func:`_cap_angle` of one pole stretch ``1/target``, in floats: the same safeguarded Newton iteration, which
+    stops when this state has converged (the vectorised one iterates until all have: a trial pressure, and so a
+    state, may differ at the rounding level between a batch of up to :data:`_SCALAR_CAP_ANGLES` and a larger one;
+    the cap angle only scales the trial, so the states agree to the shooting's tolerance)."""
     a = min(math.sqrt(6.0 * (1.0 - target)), 3.0)
     lo, hi = 1e-300, math.pi * (1 - 1e-12)
     for _ in range(40):

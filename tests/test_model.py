@@ -28,9 +28,9 @@ def test_small_batches_take_the_float_code_with_numpys_numbers(elasticity):
     """Batches of up to :data:`~coexist.numerics.codegen.SMALL_BATCH` states run the generated float code state by
     state (:func:`~coexist.numerics.codegen.small_batch`); every generated function of a tension-field model gives
     there what its numpy code gives for the same states in a large batch, including scalar arguments and the
-    ``into`` form; a state where ``math`` raises (a locked Gent state: the logarithm of a negative number) falls
-    back to numpy's NaN. Measured: equal to 2 ulp (``math`` and numpy's exp/log may round differently).
-    Asserted: 1e-14 relative."""
+    ``into`` forms; a state where ``math`` raises (a locked Gent state: the logarithm of a negative number; a zero
+    stretch: a division by zero) falls back to numpy's NaN and infinities. Measured: equal to 2 ulp (``math`` and
+    numpy's exp/log may round differently). Asserted: 1e-14 relative."""
     from coexist.numerics.codegen import SMALL_BATCH
 
     model = MembraneModel(elasticity, wrinkling="tension-field")
@@ -56,6 +56,16 @@ def test_small_batches_take_the_float_code_with_numpys_numbers(elasticity):
     # a scalar argument beside arrays, and the into form
     got = np.array(model.tensions(l1[:3], l2[:3], 0.2))
     np.testing.assert_allclose(got, np.array(model.tensions(l1, l2, np.full(n, 0.2)))[:, :3], rtol=1e-14)
+    big_rhs = model.rhs_into(R, l1, l2, th, p, phi, np.full((9, n), 7.0))
+    small_rhs = model.rhs_into(R[:5], l1[:5], l2[:5], th[:5], p[:5], phi[:5], np.full((9, 5), 7.0))
+    np.testing.assert_allclose(small_rhs, big_rhs[:, :5], rtol=1e-14, atol=1e-300)  # rows 7, 8 untouched (7.0)
+    big_w = np.array(model.wrinkled_rhs_sensitivities(R, l1, l2, th, p, phi, w, s[:3], s[3:]))
+    small_w = np.array(
+        model.wrinkled_rhs_sensitivities(
+            R[:2], l1[:2], l2[:2], th[:2], p[:2], phi[:2], w[:2], [a[:2] for a in s[:3]], [a[:2] for a in s[3:]]
+        )
+    )
+    np.testing.assert_allclose(small_w, big_w[..., :2], rtol=1e-14, atol=1e-300)
     out_big = model.rhs_sensitivities_into(R, l1, l2, th, p, phi, s[:3], s[3:], np.zeros((19, n)))
     out_small = model.rhs_sensitivities_into(
         R[:4], l1[:4], l2[:4], th[:4], p[:4], phi[:4], [a[:4] for a in s[:3]], [a[:4] for a in s[3:]], np.zeros((19, 4))
@@ -68,6 +78,15 @@ def test_small_batches_take_the_float_code_with_numpys_numbers(elasticity):
     if isinstance(elasticity, Gent):
         assert np.isnan(bad[0]) and np.isnan(ref[0])
     np.testing.assert_allclose(bad[1:], ref[1:], rtol=1e-14)
+    # a zero stretch: the float code divides by zero (ZeroDivisionError), numpy gives infinities and NaN
+    with pytest.raises(ZeroDivisionError):
+        model._built["aux"].scalar(0.0, 1.0, 0.1)
+    with np.errstate(all="ignore"):
+        zero = np.asarray(model.tensions(np.array([0.0, 1.5]), np.array([1.0, 1.5]), 0.1), dtype=float)
+        zero_ref = np.asarray(model.tensions(np.r_[0.0, 1.5, l1], np.r_[1.0, 1.5, l2], 0.1), dtype=float)[:, :2]
+    assert not np.all(np.isfinite(zero[:, 0]))
+    np.testing.assert_array_equal(zero[:, 0], zero_ref[:, 0])  # the same infinities and NaN
+    np.testing.assert_allclose(zero[:, 1], zero_ref[:, 1], rtol=1e-14)
 
 
 def test_tensions_are_derivatives_of_the_energy():

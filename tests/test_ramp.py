@@ -301,7 +301,8 @@ def test_jump_lands_where_the_flow_goes(tricircle):
 def test_gradient_flow_jacobian_is_exact(tricircle):
     """The gradient flow's Jacobian (:class:`coexist.ramp._FlowEquations`) against central differences of its
     right-hand side, on the tricircle's zone curve at 4 kV and its gas, for groups (2, 1) at three points (both
-    zones on the rising branch, one on the S-shaped part, one near the curve's end).
+    zones on the rising branch, one on the S-shaped part, one near the curve's end), with the slope floor far below
+    both zones' ``dV̂/du`` and between them (one zone floored: the term in ``V̂''`` dropped).
 
     Measured: 1e-9 of the largest entry (the differences' own error, step 1e-6). Asserted: 1e-7."""
     from coexist.numerics.splines import CubicBundle
@@ -314,16 +315,20 @@ def test_gradient_flow_jacobian_is_exact(tricircle):
     u_grid = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(sim.lam_max - pre), 120)
     curve = ZoneCurve.compute(sim.model, phi, pre + u_grid**2, sim.settings)
     lo, hi = float(curve.grid[0]), float(curve.grid[-1])
-    eqs = _FlowEquations(CubicBundle((curve.p, curve.v)), sim.gas, (2, 1), lo, hi, 1e-12, 1e-8)
+    bundle = CubicBundle((curve.p, curve.v))
     for frac in ((0.3, 0.35), (0.3, 0.55), (0.25, 0.9)):
         x = lo + np.array(frac) * (hi - lo)
-        J = eqs.jacobian(0.0, x)
-        fd = np.empty((2, 2))
-        for k in range(2):
-            e = np.zeros(2)
-            e[k] = 1e-6
-            fd[:, k] = (eqs.rhs(0.0, x + e) - eqs.rhs(0.0, x - e)) / 2e-6
-        assert np.max(np.abs(J - fd)) <= 1e-7 * np.max(np.abs(J)), (frac, J, fd)
+        # with the floor far below both slopes, and with it between them (one zone's slope floored)
+        dv = np.abs(bundle(x)[1][1])
+        for floor in (1e-12, float(np.sqrt(dv[0] * dv[1]))):
+            eqs = _FlowEquations(bundle, sim.gas, (2, 1), lo, hi, floor, 1e-8)
+            J = eqs.jacobian(0.0, x)
+            fd = np.empty((2, 2))
+            for k in range(2):
+                e = np.zeros(2)
+                e[k] = 1e-6
+                fd[:, k] = (eqs.rhs(0.0, x + e) - eqs.rhs(0.0, x - e)) / 2e-6
+            assert np.max(np.abs(J - fd)) <= 1e-7 * np.max(np.abs(J)), (frac, floor, J, fd)
 
 
 def test_many_zones_cost_what_few_do():

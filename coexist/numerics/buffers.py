@@ -52,6 +52,8 @@ class BufferedFunction:
 
     def __call__(self, *inputs) -> np.ndarray:
         """The output, shape ``(rows_out, n)``, for inputs of shape ``(rows_in[i], n)`` (or ``(n,)``, or scalars)."""
+        if len(inputs) != len(self._inputs):
+            raise TypeError(f"{len(self._inputs)} inputs expected, {len(inputs)} given")
         with self._lock:
             for a, x in zip(self._inputs, inputs):
                 a[...] = x.T if getattr(x, "ndim", 0) == 2 else x

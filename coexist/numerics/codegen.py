@@ -313,7 +313,8 @@ def small_batch(vector, scalar, into: bool = False):
     call whose array arguments are all one-dimensional of one length ``m ≤`` :data:`SMALL_BATCH` (the others
     scalars) runs ``scalar`` per state and returns arrays of length ``m``, as ``vector`` would; anything else (and
     a state where ``math`` raises: a negative square root, a division by zero, an overflow) goes to ``vector``,
-    so the result is numpy's in every case (equal to rounding, ``tests/test_model.py``).
+    so the result is numpy's in every case, to rounding and in float64 (``tests/test_model.py``; float32 inputs
+    come back as float64 here).
 
     Parameters
     ----------

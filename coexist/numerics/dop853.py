@@ -181,7 +181,10 @@ def casadi_step_function(rhs, rows: int, name: str = "dop853_step"):
 
 class CasadiStepper:
     """DOP853 steps by one call of a CasADi step function (:func:`casadi_step_function`) mapped over
-    the columns; the right-hand side at the start comes from ``rhs`` (a numpy callable)."""
+    the columns, called through preallocated buffers (:class:`~coexist.numerics.buffers.BufferedFunction`). The
+    step evaluates its own first stage; ``rhs`` (a numpy callable) serves only :meth:`rhs` (e.g. Hairer's
+    starting-step estimate in :func:`integrate`; :func:`single_step` and :func:`integrate` with a given ``h0``
+    do not call it)."""
 
     def __init__(self, step_function, rhs, rows: int):
         self._step = step_function

@@ -190,7 +190,9 @@ class CubicBundle:
     def __call__(self, u) -> tuple:
         """``(values, first, second)`` at ``u`` (shape ``(m,)``), each of shape ``(k, m)``: one row per spline."""
         u = np.asarray(u, dtype=float)
-        if u.size <= _FEW_POINTS:
+        if u.ndim != 1:
+            raise ValueError(f"CubicBundle takes a 1-D array of points, not shape {u.shape}")
+        if 0 < u.size <= _FEW_POINTS:
             return self._few(u.tolist())
         i = np.minimum(np.maximum(self.x.searchsorted(u, "right") - 1, 0), self._last)
         d = (u - self.x[i])[None, :]
