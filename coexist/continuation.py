@@ -990,7 +990,11 @@ class Tracer:
         zs = np.array([x[2] for x in samples[-3:]])
         coef = np.polyfit(sig, zs, 2)
         z_end = coef[0] * star**2 + coef[1] * star + coef[2]
-        near = self._with_fresh_slopes([x[3] for x in samples if x[0] > 0], cur)
+        # the state kept as the end's (the transition's state before it) gets its own slopes; the others are only
+        # the branch's last points, whose slopes (those of an earlier iterate, within 1e-4) serve as predictors
+        near = [x[3] for x in samples if x[0] > 0]
+        if near:
+            near[-1] = self._with_fresh_slopes([near[-1]], cur)[0]
         return (near[-1] if near else samples[-1][3]), z_end, float(change), lo, hi, near
 
     def _with_fresh_slopes(self, points: list, cur: Point) -> list:

@@ -89,9 +89,9 @@ def test_states_just_below_the_pull_in_converge():
 
 def test_the_state_before_the_pull_in_carries_its_own_slopes(tricircle):
     """The pull-in's extrapolation corrects its tight states by chord steps (the Jacobian of an earlier iterate),
-    then evaluates the states it keeps once more with derivatives: the state reported before the pull-in has the
-    ``dp̂/dV̂`` of a fresh shot with derivatives at its own pole stretches. Measured: 3e-15 relative (3.6e-5 before
-    that last evaluation). Asserted: 1e-8."""
+    then evaluates the state it keeps as the end's once more with derivatives: the state reported before the
+    pull-in has the ``dp̂/dV̂`` of a fresh shot with derivatives at its own pole stretches. Measured: 3e-15 relative
+    (3.6e-5 before that last evaluation). Asserted: 1e-8."""
     _, sim, report = tricircle
     end = next(t for t in report.result.transitions if t.kind == "no_stable_state")
     eq = end.state_before
