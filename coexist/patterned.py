@@ -2234,12 +2234,18 @@ def _step_bracketed(ii, nxt, sigma, lo, hi, last_code, final, detail, live, open
     for i in ii[closed]:
         # the bracket closed on the edge of the iterates' domain, not on a root: no state here
         final[i] = last_code[i] if last_code[i] else NO_CLAMP
-        detail[live[i]] = (
-            f"{reason_text(final[i])} (no placement of the interfaces at their fractions of the clamp "
-            f"radius gives a state: the trials fail beyond interface scale {math.exp(hi[i]):.6g})"
-        )
+        detail[live[i]] = _closed_bracket_detail(final[i], hi[i])
         open_[i] = False
     sigma[ii] = nxt
+
+
+def _closed_bracket_detail(code: int, hi: float, state: str = "state") -> str:
+    """Why a state has none: the bracket of its interface scale closed on the edge of the trials' domain (the trials
+    fail beyond ``ln s = hi``), not on a root; ``state`` names what was sought ("relaxed state")."""
+    return (
+        f"{reason_text(code)} (no placement of the interfaces at their fractions of the clamp "
+        f"radius gives a {state}: the trials fail beyond interface scale {math.exp(hi):.6g})"
+    )
 
 
 def _after_failed_trial(i, sigma, lo, hi, good_sigma) -> float:

@@ -46,6 +46,7 @@ from .patterned import (
     ZonePattern,
     _after_failed_trial,
     _bracket_closed,
+    _closed_bracket_detail,
     _keep_bracketed,
     _Layout,
     _layout,
@@ -881,10 +882,7 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
             nxt = _keep_bracketed(nxt, lo[i], hi[i])
             if _bracket_closed(lo[i], hi[i]):
                 final[i] = last_code[i] if last_code[i] else NO_CLAMP
-                detail[live[i]] = (
-                    f"{reason_text(final[i])} (no placement of the interfaces at their fractions of the clamp "
-                    f"radius gives a relaxed state: the trials fail beyond interface scale {math.exp(hi[i]):.6g})"
-                )
+                detail[live[i]] = _closed_bracket_detail(final[i], hi[i], "relaxed state")
                 open_[i] = False
             sigma[i] = nxt
     for i in np.flatnonzero(open_):
