@@ -582,9 +582,37 @@ def interface_stretch(model: MembraneModel, l1_in, l2, phi_in, n_in, phi_out, n_
 
     x = l1_in.copy()
     g, d = t1(x)
+    lo, hi, ok = _stable_bracket(model, x, g, l2, phi_out, target)
+    exact = g == 0
+    x = np.where(exact, x, np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi)))
+    for _ in range(JUMP_ITERATIONS):
+        g, d = t1(x)
+        lo = np.where(g < 0, x, lo)
+        hi = np.where(g > 0, x, hi)
+        with np.errstate(all="ignore"):
+            step = g / d
+        nxt = x - step
+        # a Newton step below rounding: x is the root (a bisection there would only walk away from it)
+        settled = (g == 0) | (np.abs(step) <= 4e-16 * np.abs(x))
+        bad = ~np.isfinite(nxt) | (nxt <= lo) | (nxt >= hi) | (d <= 0)
+        nxt = np.where(bad & ~settled, 0.5 * (lo + hi), nxt)
+        nxt = np.where(settled, x, nxt)
+        done = np.abs(nxt - x) <= 4e-16 * np.abs(x)
+        x = nxt
+        if done.all():
+            break
+    g, d = t1(x)
+    ok &= np.isfinite(x) & (d > 0) & (np.abs(g) <= 1e-13 * np.maximum(1.0, np.abs(target)))
+    return np.where(ok, x, np.nan), ok
+
+
+def _stable_bracket(model: MembraneModel, x, g, l2, phi_out, target):
+    """The bracket of :func:`interface_stretch`'s root from ``x`` (where ``T̂1 − target = g``): ``[lo, hi]`` widened
+    (halving ``lo``, doubling ``hi`` while ``∂T̂1/∂λ1 > 0`` at ``hi``) until ``T̂1(lo) < target < T̂1(hi)``; ``ok`` False
+    where the widening meets ``∂T̂1/∂λ1 ≤ 0`` first (no root on the stable branch: the outer side would be beyond its
+    electromechanical instability). Returns ``(lo, hi, ok)``."""
     lo = np.where(g < 0, x, 0.5 * x)
     hi = np.where(g > 0, x, 2.0 * x)
-    ok = np.ones(x.shape, dtype=bool)
     n = x.size
     both_l2, both_phi = np.concatenate([l2.ravel(), l2.ravel()]), np.concatenate([phi_out.ravel(), phi_out.ravel()])
     both_target = np.concatenate([target.ravel(), target.ravel()])
@@ -607,28 +635,8 @@ def interface_stretch(model: MembraneModel, l1_in, l2, phi_in, n_in, phi_out, n_
         lo = np.where(low_bad, 0.5 * lo, lo)
         hi = np.where(high_bad, 2.0 * hi, hi)
         g_lo, g_hi, d_hi = ends(lo, hi)
-    ok &= (g_lo < 0) & (g_hi > 0) & (d_hi > 0) & np.isfinite(g_lo) & np.isfinite(g_hi)
-    exact = g == 0
-    x = np.where(exact, x, np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi)))
-    for _ in range(JUMP_ITERATIONS):
-        g, d = t1(x)
-        lo = np.where(g < 0, x, lo)
-        hi = np.where(g > 0, x, hi)
-        with np.errstate(all="ignore"):
-            step = g / d
-        nxt = x - step
-        # a Newton step below rounding: x is the root (a bisection there would only walk away from it)
-        settled = (g == 0) | (np.abs(step) <= 4e-16 * np.abs(x))
-        bad = ~np.isfinite(nxt) | (nxt <= lo) | (nxt >= hi) | (d <= 0)
-        nxt = np.where(bad & ~settled, 0.5 * (lo + hi), nxt)
-        nxt = np.where(settled, x, nxt)
-        done = np.abs(nxt - x) <= 4e-16 * np.abs(x)
-        x = nxt
-        if done.all():
-            break
-    g, d = t1(x)
-    ok &= np.isfinite(x) & (d > 0) & (np.abs(g) <= 1e-13 * np.maximum(1.0, np.abs(target)))
-    return np.where(ok, x, np.nan), ok
+    ok = (g_lo < 0) & (g_hi > 0) & (d_hi > 0) & np.isfinite(g_lo) & np.isfinite(g_hi)
+    return lo, hi, ok
 
 
 # --- one pass over the regions ------------------------------------------------------------------------------
@@ -1239,15 +1247,36 @@ def _jump(model, l1_in, l2, phi_in, n_in, phi_out, n_out, T1_in, guess):
         return interface_stretch(model, l1_in, l2, phi_in, n_in, phi_out, n_out)
     x = np.where(np.isfinite(guess), guess, l1_in)
     target = n_in * T1_in / n_out
+    l1_b, l2_b, phi_b = (np.asarray(a, dtype=float) for a in np.broadcast_arrays(l1_in, l2, phi_out))
     done = np.zeros(x.size, dtype=bool)
     out = np.full(x.size, np.nan)
     todo = np.flatnonzero(np.isfinite(guess) & np.isfinite(target))
-    for _ in range(QUICK_JUMP_ITERATIONS):
+    # interface_stretch's first bracket from λ1⁻: [λ1⁻, 2λ1⁻] (or [λ1⁻/2, λ1⁻]), good at once where T̂1 − target changes
+    # sign across it with ∂T̂1/∂λ1 > 0 at the upper end; its ends are evaluated with the first iterate
+    g_in = np.full(x.size, np.nan)
+    first_lo, first_hi, first_ok = np.full(x.size, np.nan), np.full(x.size, np.nan), np.zeros(x.size, dtype=bool)
+    for it in range(QUICK_JUMP_ITERATIONS):
         if todo.size == 0:
             break
-        T = model.tensions(x[todo], l2[todo], phi_out[todo])
-        g = np.asarray(T[0]) * np.ones(todo.size) - target[todo]
-        d = np.asarray(T[2]) * np.ones(todo.size)
+        m = todo.size
+        if it == 0:
+            pts = np.concatenate([x[todo], l1_b[todo], 0.5 * l1_b[todo], 2.0 * l1_b[todo]])
+            T = model.tensions(pts, np.tile(l2_b[todo], 4), np.tile(phi_b[todo], 4))
+            T1 = np.asarray(T[0]) * np.ones(4 * m) - np.tile(target[todo], 4)
+            T11 = np.asarray(T[2]) * np.ones(4 * m)
+            g, d = T1[:m], T11[:m]
+            gi, gh, gd = T1[m : 2 * m], T1[2 * m : 3 * m], T1[3 * m :]
+            g_in[todo] = gi
+            below = gi < 0
+            first_lo[todo] = np.where(below, l1_b[todo], 0.5 * l1_b[todo])
+            first_hi[todo] = np.where(gi > 0, l1_b[todo], 2.0 * l1_b[todo])
+            g_lo, g_hi = np.where(below, gi, gh), np.where(gi > 0, gi, gd)
+            d_hi = np.where(gi > 0, T11[m : 2 * m], T11[3 * m :])
+            first_ok[todo] = (g_lo < 0) & (g_hi > 0) & (d_hi > 0)
+        else:
+            T = model.tensions(x[todo], l2_b[todo], phi_b[todo])
+            g = np.asarray(T[0]) * np.ones(m) - target[todo]
+            d = np.asarray(T[2]) * np.ones(m)
         with np.errstate(all="ignore"):
             step = g / d
         nxt = x[todo] - step
@@ -1259,6 +1288,21 @@ def _jump(model, l1_in, l2, phi_in, n_in, phi_out, n_out, T1_in, guess):
         done[todo[conv]] = True
         x[todo] = np.where(fine, nxt, x[todo])
         todo = todo[fine & ~conv]
+    # a quick root counts only where interface_stretch would find it: inside the bracket it widens from λ1⁻ on the
+    # stable branch (from a neighbour's λ1⁺ Newton can reach a far, stiffening branch that interface_stretch refuses
+    # because the widening meets ∂T̂1/∂λ1 ≤ 0 first: the start would change which states exist). The bracket's first
+    # ends were evaluated with the first Newton iterate; only a column whose bracket must widen costs more.
+    quick = np.flatnonzero(done)
+    if quick.size:
+        lo, hi, ok = first_lo[quick], first_hi[quick], first_ok[quick]
+        wide = np.flatnonzero(~first_ok[quick])
+        if wide.size:
+            cols = quick[wide]
+            lo[wide], hi[wide], ok[wide] = _stable_bracket(
+                model, l1_b[cols], g_in[cols], l2_b[cols], phi_b[cols], target[cols]
+            )
+        inside = ok & (out[quick] > lo) & (out[quick] < hi)
+        done[quick[~inside]] = False
     rest = np.flatnonzero(~done)
     if rest.size:
         sub = (a[rest] for a in np.broadcast_arrays(l1_in, l2, phi_in, n_in, phi_out, n_out))
@@ -1952,8 +1996,9 @@ def _pole_region_scale(model, settings, lay, l0) -> np.ndarray:
 def _derivative_pass(model, settings, lay, l0, sigma):
     """The exact derivatives of converged states (interfaces at ``s = e^σ``, ``ln R*(s) = σ``).
 
-    One more shooting at the converged ``σ`` (the same steps, so the same state), each state twice: with the
-    sensitivity to ``s`` and with that to ``λ0`` (both with that to ``Φ̂``), :func:`_pass`. At the clamp, for
+    One more shooting at the converged ``σ`` (the same state to the integration tolerance: ``R*`` agrees to about
+    1e-10), each state twice: with the sensitivity to ``s`` and with that to ``λ0`` (both with that to ``Φ̂``),
+    :func:`_pass`. At the clamp, for
     ``a = s, λ0, Φ̂``: ``∂R*/∂a = −Z_λ2/λ2'``, ``∂w/∂a = Z_w + w' ∂R*/∂a``. The scale follows the parameters by
     the implicit function theorem on ``G(σ; λ0, Φ̂) = ln R* − σ = 0``:
 

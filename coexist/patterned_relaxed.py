@@ -758,10 +758,16 @@ def solve_patterned_relaxed(
             steps[ok] += dp["steps"]
             for k in d_out:
                 d_out[k][ok] = dp[k]
-            lost = ok[(dp["status"] != 0) | ~np.all(np.isfinite([dp[k] for k in d_out]), axis=0)]
+            # the derivative pass shoots the converged state again: its clamp radius must be the state's (to the
+            # integration tolerance), or the derivatives belong to another state
+            other = np.abs(dp["R"] - out["R"][ok]) > 100 * settings.rtol * np.abs(out["R"][ok])
+            lost = ok[(dp["status"] != 0) | ~np.all(np.isfinite([dp[k] for k in d_out]), axis=0) | other]
             for i in lost:  # not expected: the same relaxed shooting as the converged state's
                 status[i] = NOT_FINITE
-                detail[i] = f"{reason_text(NOT_FINITE)} (the relaxed shooting with the variational equations)"
+                detail[i] = (
+                    f"{reason_text(NOT_FINITE)} (the relaxed shooting with the variational equations does not "
+                    "reproduce the converged state)"
+                )
     bad = status != OK
     R = out["R"]
     wrinkled = np.array([bool(r) for r in radii])

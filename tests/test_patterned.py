@@ -357,8 +357,9 @@ def test_the_smallest_tension_of_a_patterned_state_is_a_smooth_function():
     located exactly (the root of ``dT/dR̂`` by re-taking the step, as for uniform zones), so at 5 pole stretches
     within ±1e-4 of the inner-circle scene's wrinkling state its values lie on a quadratic to 1e-9 (measured
     3e-13; the cubic Hermite estimate between nodes, before, 9e-6), they do not depend on the tolerance
-    (rtol 1e-10 against 1e-12: 1e-9, measured 6e-11) nor on the integrator's path (the same states in a batch of
-    300, integrated step by step in numpy: 1e-9, measured 2e-12)."""
+    (rtol 1e-10 against 1e-12: 1e-9, measured 6e-11) nor on the batch (the same states among 300, whose first
+    passes run on the numpy integrator and whose last, of about 150 states, on the compiled attempt functions:
+    1e-9, measured 2e-12)."""
     from coexist.model import build_model
 
     gent = build_model("gent", jlim=97.0, voltage=True)

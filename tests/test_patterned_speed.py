@@ -209,3 +209,33 @@ def test_a_rejected_step_in_two_halves_is_the_adaptive_integration(gent):
         np.testing.assert_allclose(y, ref.y, rtol=1e-13, atol=1e-300)
         np.testing.assert_array_equal(steps, ref.steps)
         assert np.all(steps == 2) == halves, steps
+
+
+def test_warm_interface_jumps_do_not_change_which_states_exist():
+    """A pass starts each interface's stretch ``λ1⁺`` from the last pass's or a neighbour's; near the outer side's
+    electromechanical instability such a start can reach a far, stiffening branch of ``T̂1(λ1)`` that
+    :func:`~coexist.patterned.interface_stretch` (widening its bracket from ``λ1⁻``) refuses, and the curve then
+    returned states that do not exist when solved alone (review of 2026-12-01: 121 states where 98 do). An electrode
+    ring ``0.3 < R/A < 0.7`` in a three-layer passive membrane, Gent 97, ``Φ̂ = 0.15``: the curve's valid run ends
+    where the states solved one by one stop (their first failure), and its last states are theirs to 1e-9."""
+    from coexist.effects import Gent
+    from coexist.model import MembraneModel
+    from coexist.patterned import patterned_pressure_volume_curve
+    from coexist.shooting import solve_states
+
+    model = MembraneModel(elasticity=Gent(97.0))
+    settings = SolverSettings()
+    pattern = ZonePattern.ring(0.3, 0.7, passive_layers=3)
+    l0 = np.linspace(1.01, 4, 200)
+    curve = patterned_pressure_volume_curve(model, pattern, 0.15, l0, settings)
+    ok = np.flatnonzero(curve.states.ok)
+    end = int(ok[-1])
+    zone = PatternedModel.of(model, pattern)
+    near = np.arange(end - 3, end + 4)
+    alone = [solve_states(zone, [l0[i]], 0.15, settings) for i in near]
+    alone_ok = np.array([a.ok[0] for a in alone])
+    np.testing.assert_array_equal(alone_ok, near <= end)  # the run ends where the states themselves stop
+    for i, a in zip(near, alone):
+        if i <= end:
+            k = int(np.flatnonzero(ok == i)[0])
+            assert curve.states.p_hat[curve.states.ok][k] == pytest.approx(a.p_hat[0], rel=1e-9)
