@@ -626,8 +626,18 @@ def _stable_bracket(model: MembraneModel, x, g, l2, phi_out, target):
             (np.asarray(T[2]) * np.ones(2 * n))[n:].reshape(x.shape),
         )
 
+    lo, hi, g_lo, g_hi, d_hi = _widen_bracket(ends, lo, hi)
+    ok = (g_lo < 0) & (g_hi > 0) & (d_hi > 0) & np.isfinite(g_lo) & np.isfinite(g_hi)
+    return lo, hi, ok
+
+
+def _widen_bracket(ends, lo, hi):
+    """Widen brackets ``[lo, hi]`` of an increasing function's root: halve ``lo`` while the function is not below
+    the target there, double ``hi`` while it is not above it and still rising (``ends(lo, hi)`` returns the
+    function minus the target at both ends and its slope at ``hi``); at most 80 rounds. Returns ``(lo, hi, g_lo,
+    g_hi, d_hi)``: the caller judges what a bracket that stopped on a falling slope means."""
     g_lo, g_hi, d_hi = ends(lo, hi)
-    for _ in range(80):  # widen the bracket
+    for _ in range(80):
         low_bad = g_lo >= 0
         high_bad = (g_hi <= 0) & (d_hi > 0)
         if not (low_bad.any() or high_bad.any()):
@@ -635,8 +645,7 @@ def _stable_bracket(model: MembraneModel, x, g, l2, phi_out, target):
         lo = np.where(low_bad, 0.5 * lo, lo)
         hi = np.where(high_bad, 2.0 * hi, hi)
         g_lo, g_hi, d_hi = ends(lo, hi)
-    ok = (g_lo < 0) & (g_hi > 0) & (d_hi > 0) & np.isfinite(g_lo) & np.isfinite(g_hi)
-    return lo, hi, ok
+    return lo, hi, g_lo, g_hi, d_hi
 
 
 # --- one pass over the regions ------------------------------------------------------------------------------

@@ -57,6 +57,7 @@ from .patterned import (
     _take_pole,
     _trial,
     _uniform,
+    _widen_bracket,
     interface_stretch,
 )
 from .settings import SolverSettings
@@ -149,19 +150,14 @@ def _increasing_root(fun, target, x0):
     method with bisection where a step leaves the bracket. NaN where no such root is bracketed (a NaN value
     counts as beyond the root). Returns ``(x, ok)``."""
     x0 = np.asarray(x0, dtype=float)
-    lo, hi = 0.5 * x0, 2.0 * x0
     ok = np.ones(x0.shape, dtype=bool)
+
+    def ends(a, b):
+        g_b, d_b = fun(b)[:2]
+        return fun(a)[0] - target, g_b - target, d_b
+
     with np.errstate(all="ignore"):
-        for _ in range(80):
-            g_lo = fun(lo)[0] - target
-            g_hi, d_hi = fun(hi)[:2]
-            g_hi = g_hi - target
-            low_bad = g_lo >= 0
-            high_bad = (g_hi <= 0) & (d_hi > 0)
-            if not (low_bad.any() or high_bad.any()):
-                break
-            lo = np.where(low_bad, 0.5 * lo, lo)
-            hi = np.where(high_bad, 2.0 * hi, hi)
+        lo, hi, g_lo, g_hi, _ = _widen_bracket(ends, 0.5 * x0, 2.0 * x0)
         # a NaN at the upper end (no natural width there) is beyond the root: the bracket stays
         ok &= (g_lo < 0) & ~(g_hi <= 0) & np.isfinite(g_lo)
         x = np.clip(x0, lo, hi)
