@@ -814,7 +814,7 @@ _ROWS = {"radius": 9, "radius_sens": 19, "hoop": 9}
 def _attempts_serve(fns, m: int) -> bool:
     """Whether ``m`` trajectories are integrated by the shooting's attempt functions (a few compiled DOP853
     attempts per call, :func:`coexist.shooting.run_attempts`) rather than step by step from Python: the batch
-    sizes :meth:`~coexist.shooting._Integrators.small_batch_limit` gives them (compiled: up to a few hundred).
+    sizes :meth:`~coexist.shooting._Integrators.small_batch_limit` gives them (compiled: any, in chunks).
 
     A batch the compiled functions would take counts as a use of a function not compiled yet (compiled from the
     :data:`~coexist.shooting.COMPILE_AFTER`-th use on, :meth:`~coexist.shooting._Integrators.attempts`): without

@@ -536,7 +536,7 @@ def _segment(eqs, md, cols, R, y, h, status, steps, min_T, max_E, fail_R, node, 
         return res
 
     entry = sh._integrators(model).attempts_of(eqs.attempts_kind(md), lambda: _attempt_function(eqs, md))
-    if n <= (sh.COMPILED_BATCH_LIMIT if entry.get("fast") else sh.CASADI_BATCH_LIMIT):
+    if entry.get("fast") or n <= sh.CASADI_BATCH_LIMIT:  # compiled: any size (sh.run_attempts chunks it)
         _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status, steps, min_T, max_E, fail_R, node)
         return
     res = _int.integrate(

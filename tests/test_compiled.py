@@ -48,6 +48,13 @@ def test_states_do_not_depend_on_the_path_taken(monkeypatch, tmp_path):
     if C.STATUS["last"] not in ("compiled", "cached"):
         pytest.skip(f"no compiled code on this machine: {C.STATUS['last']}")
     fast = solve_states(model, l0, phi, derivatives=True)
+    # once compiled, a large batch runs through the attempt function too, 256 columns at a time
+    chunked = solve_states(model, np.tile(l0, 30), np.tile(phi, 30), derivatives=True)
+    np.testing.assert_array_equal(chunked.status, big.status)
+    ok = chunked.ok
+    np.testing.assert_allclose(chunked.p_hat[ok], big.p_hat[ok], rtol=1e-9)
+    np.testing.assert_allclose(chunked.derivatives.dv_dl0[ok], big.derivatives.dv_dl0[ok], rtol=1e-8)
+    np.testing.assert_array_equal(chunked.p_hat[:12], chunked.p_hat[-12:])  # chunks: the same numbers
     for st in (vm, fast):
         np.testing.assert_array_equal(st.status, big.status[:12])
         ok = st.ok

@@ -11,7 +11,7 @@ from conftest import TIGHT
 
 from coexist.model import build_model
 from coexist.settings import SolverSettings
-from coexist.shooting import CASADI_BATCH_LIMIT, solve_states
+from coexist.shooting import CASADI_BATCH_LIMIT, _Integrators, solve_states
 
 H = 1e-4  # five-point central differences: truncation ~H⁴ f⁽⁵⁾/30, roundoff ~1e-12/H = 1e-8
 
@@ -98,12 +98,15 @@ def test_derivatives_on_the_states_steps_carry_the_states_accuracy(rtol, bound):
         assert err.max() < bound, (name, err.max())
 
 
-def test_numpy_and_casadi_steppers_agree():
-    """Large batches are integrated by numpy, small ones by the CasADi attempt function: the same DOP853
-    tableau and step control (from another first step), so the same states to the tolerance."""
+def test_numpy_and_casadi_steppers_agree(monkeypatch):
+    """Large batches are integrated by numpy where the attempt function is not compiled (forced here), small
+    ones by the CasADi attempt function: the same DOP853 tableau and step control (from another first step),
+    so the same states to the tolerance."""
     model = build_model("gent", 97.0)
     l0 = np.linspace(1.2, 5.5, CASADI_BATCH_LIMIT + 12)
-    big = solve_states(model, l0, 0.15, derivatives=True)
+    with monkeypatch.context() as m:
+        m.setattr(_Integrators, "small_batch_limit", lambda self, kind, n: CASADI_BATCH_LIMIT)
+        big = solve_states(model, l0, 0.15, derivatives=True)
     for i in range(0, l0.size, 9):
         one = solve_states(model, l0[i : i + 1], 0.15, derivatives=True)
         assert one.status[0] == big.status[i]
