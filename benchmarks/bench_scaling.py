@@ -38,7 +38,7 @@ log–log figure, time and memory against each axis, slopes in the legends; an e
 overwritten without ``--overwrite`` (one-line error, exit 2); ``--axes``: only these axes;
 ``--tuned-env``: the workers run with :data:`TUNED_ENV`, one OpenBLAS thread and a glibc malloc that keeps
 freed memory, which removes the two machine effects that make very large batches slower per point here;
-see ``benchmarks/README.md``). About 3–4.5 minutes (2 with ``--quick``) on this shared 2-core machine.
+see ``benchmarks/README.md``). About 1.5 minutes (1 with ``--quick``) on this 2-core machine when idle.
 """
 
 from __future__ import annotations
