@@ -33,7 +33,8 @@ def gent():
 
 
 def test_a_state_is_the_same_in_a_small_and_a_large_batch(gent):
-    """300 states (numpy steps) and three of them alone (compiled attempt functions): the same states."""
+    """300 states (two chunks of the compiled attempt functions, or numpy steps where nothing is compiled) and
+    three of them alone: the same states."""
     l0 = np.linspace(1.5, 3.5, 300)
     big = solve_patterned_states(gent, PATTERN, l0, 0.1)
     pick = np.array([0, 137, 299])
