@@ -6,13 +6,13 @@ state is nearly free) and the *output* (one row per printed voltage, with a volu
 per zone). The cost model (coefficients measured with ``benchmarks/bench_pipeline.py`` and a
 ``tracemalloc`` run on this 2-core machine, rounded up)::
 
-    time   ≈ 0.3 s + 0.5 ms × voltages + 2.5 µs × numbers printed
+    time   ≈ 0.5 s + 0.25 ms × voltages + 2.5 µs × numbers printed
     memory ≈ 4 kB × voltages (states, while they are solved) + 32 B × numbers printed
     numbers printed = rows × (2 N + 3 groups + 8),  rows = voltages / every (+ changes)
 
 A scene with patterned zones (:mod:`coexist.patterned`: every state a Newton iteration on the interface scale,
 each iterate a shooting region by region) costs :data:`PATTERNED_TIME_FACTOR` times the time of the solving
-part (``0.3 s + 0.5 ms × voltages``); measured with ``benchmarks/bench_patterned.py``: the tricircle with
+part (``0.5 s + 0.25 ms × voltages``); measured with ``benchmarks/bench_patterned.py``: the tricircle with
 inner-circle electrodes (0.8 of the radius, ``wrinkling = "refuse"``, 501 voltages) ramps in 2.4–2.9 s against
 0.46–0.51 s for the same scene with full electrodes, a factor 5.3–5.7 (rounded up to 6).
 
@@ -31,9 +31,10 @@ from .errors import SceneError
 
 #: seconds of a ramp that does not depend on its size (model, closing state, continuation, errors; the default
 #: ramp of 501 voltages, 434 of them with a state, computes in 0.52–0.58 s)
-SECONDS_BASE = 0.3
-#: seconds per path voltage (a converged state, batched)
-SECONDS_PER_VOLTAGE = 0.5e-3
+SECONDS_BASE = 0.5
+#: seconds per path voltage (a converged state, batched; measured on the idle machine, 2026-12-01: 5001 voltages
+#: with 4338 states in 1.28–1.43 s, 50 001 voltages in 11.9–12.4 s, i.e. 0.22–0.24 ms each)
+SECONDS_PER_VOLTAGE = 0.25e-3
 #: seconds per number of the output (building and printing it)
 SECONDS_PER_NUMBER = 2.5e-6
 #: bytes held per path voltage while the states are solved
