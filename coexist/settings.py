@@ -15,6 +15,11 @@ from .errors import SceneError
 
 #: Named accuracy levels offered by every command (``--accuracy``); values are relative tolerances.
 ACCURACY_LEVELS = {"draft": 1e-6, "default": 1e-10, "high": 1e-12}
+#: the tightest relative tolerance taken (below it the states' rounding, ~1e-15, is the error)
+RTOL_MIN = 1e-14
+#: the loosest relative tolerance taken: at 1e-3 and looser the default ramp fails (its jump finds no landing,
+#: its Newton iterations no reliable residual); the accuracy study goes up to 1e-4
+RTOL_MAX = 1e-4
 
 
 @dataclass(frozen=True)
@@ -154,8 +159,16 @@ class SolverSettings:
                 validation.integer(value, f.name, lo=1)
             else:
                 object.__setattr__(self, f.name, validation.real(value, f.name, lo=0.0, lo_open=True))
-        if not (1e-14 <= self.rtol <= 1e-2):
-            raise SceneError(f"relative tolerance must lie in [1e-14, 1e-2], got {self.rtol!r}", "rtol")
+        if not (RTOL_MIN <= self.rtol <= RTOL_MAX):
+            raise SceneError(
+                f"relative tolerance must lie in [1e-14, 1e-4], got {self.rtol!r}"
+                + (
+                    " (looser tolerances leave the ramp's Newton iterations without a reliable residual)"
+                    if self.rtol > RTOL_MAX
+                    else ""
+                ),
+                "rtol",
+            )
         if self.max_steps < 10:
             raise SceneError(f"max_steps must be at least 10, got {self.max_steps!r}", "max_steps")
         for f in fields(self):
@@ -226,7 +239,7 @@ class SolverSettings:
         Parameters
         ----------
         rtol : float
-            The new relative tolerance, in ``[1e-14, 1e-2]``.
+            The new relative tolerance, in ``[RTOL_MIN, RTOL_MAX] = [1e-14, 1e-4]``.
 
         Returns
         -------
@@ -236,7 +249,7 @@ class SolverSettings:
         Raises
         ------
         SceneError
-            If ``rtol`` lies outside ``[1e-14, 1e-2]``.
+            If ``rtol`` lies outside ``[RTOL_MIN, RTOL_MAX] = [1e-14, 1e-4]``.
         """
         return replace(self, rtol=float(rtol))
 
@@ -258,8 +271,8 @@ class SolverSettings:
         Raises
         ------
         SceneError
-            If the text is neither a level nor a tolerance in ``[1e-14, 1e-2]`` (field ``accuracy``), or a
-            number lies outside ``[1e-14, 1e-2]`` (field ``rtol``).
+            If the text is neither a level nor a tolerance in ``[1e-14, 1e-4]`` (field ``accuracy``), or a
+            number lies outside ``[RTOL_MIN, RTOL_MAX] = [1e-14, 1e-4]`` (field ``rtol``).
 
         Examples
         --------
