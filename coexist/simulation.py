@@ -489,7 +489,7 @@ class Simulation:
         Parameters
         ----------
         bulged : iterable of int, optional
-            Numbers ``k`` of bulged zones; default ``1..N−1``.
+            Numbers ``k`` of bulged zones, each in ``1..N−1``; default ``1..N−1``.
         voltages : int, optional
             Number of voltages, evenly spaced over :attr:`phi_window` (one if the window is a single voltage).
         """
@@ -531,7 +531,7 @@ class Simulation:
         phi : float
             The normalised voltage ``Φ̂``.
         bulged : iterable of int, optional
-            Numbers ``k`` of bulged zones; default ``1..N−1``.
+            Numbers ``k`` of bulged zones, each in ``1..N−1``; default ``1..N−1``.
 
         Returns
         -------
@@ -553,7 +553,7 @@ class Simulation:
         Parameters
         ----------
         bulged : iterable of int, optional
-            Numbers ``k`` of bulged zones; default ``1..N−1``.
+            Numbers ``k`` of bulged zones, each in ``1..N−1``; default ``1..N−1``.
 
         Returns
         -------
@@ -562,13 +562,21 @@ class Simulation:
 
         Raises
         ------
+        SceneError
+            If a number of bulged zones is not a whole number in ``1..N−1`` (field ``bulged``).
         ModelRangeError
             If the state the valves closed in is not stable.
         SolverError
             If an equal-free-energy voltage does not converge.
         """
         N = self.scene.zone_count
-        ks = list(range(1, N)) if bulged is None else sorted(set(int(k) for k in bulged))
+        if bulged is None:
+            ks = list(range(1, N))
+        else:
+            if N < 2:
+                raise SceneError("one zone has no coexistence: there is no number of bulged zones to list", "bulged")
+            # 0 and N are the homogeneous states (their own configurations), not coexistence
+            ks = sorted({validation.integer(k, "bulged", lo=1, hi=N - 1) for k in bulged})
         # every segment a slow ramp can reach (up to the top of the window and back) ...
         if self.phi_window[1] > self.phi_window[0]:
             Ramp(self.emap, self.lam_max).run([self.phi_window[1], self.phi_window[0]], self.start)
