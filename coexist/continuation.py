@@ -400,6 +400,15 @@ def hermite(a_z, a_t, b_z, b_t, tau):
     return (2 * t3 - 3 * t2 + 1) * a_z + (t3 - 2 * t2 + tau) * L * a_t + (-2 * t3 + 3 * t2) * b_z + (t3 - t2) * L * b_t
 
 
+#: the longest continuation step (scaled arclength) taken across the onset of wrinkling of a zone group
+WRINKLING_STEP = 0.02
+
+
+def _wrinkled(point: Point) -> tuple:
+    """Which zone groups of ``point`` are hoop-wrinkled (tension-field states: smallest tension zero)."""
+    return tuple(bool(t <= 0) for t in np.atleast_1d(point.eq.min_tension))
+
+
 class Tracer:
     """Traces the branches of one configuration of a scene's zones.
 
@@ -599,6 +608,13 @@ class Tracer:
                 continue
             turn = float(np.arccos(np.clip(new.tangent @ cur.tangent, -1, 1)))
             if turn > cfg.max_turn and h > cfg.min_step:
+                h *= 0.5
+                continue
+            if h > WRINKLING_STEP and _wrinkled(new) != _wrinkled(cur):
+                # a zone group wrinkles (or goes taut again) within the step: cross its onset with a short step, so
+                # that the corrector stays on this branch (past a long step it may land on another one: a huge
+                # chamber's bulged zone pulls in just past its onset, and a long step had reached a wrinkled state
+                # of another branch); the short step then meets the pull-in (a failed state) and ends the segment
                 h *= 0.5
                 continue
             new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
