@@ -449,7 +449,8 @@ class Ramp:
         RampResult
             One :class:`RampStep` per path voltage (every state converged exactly), the transitions in
             the order met, the equal-free-energy voltages of the segments visited (:func:`equal_free_energy`),
-            the segments and notes.
+            the segments and notes. A segment is visited when the state is on it, whether or not a path
+            voltage falls inside it (a coarse step can cross a whole segment between two path voltages).
 
         Raises
         ------
@@ -468,6 +469,7 @@ class Ramp:
         broken = None
         transitions = []
         visits = []  # (step index, segment or None, note)
+        met = [start]  # every segment the state is on, in the order entered (also those left between path voltages)
         notes = []
         prev_phi = 0.0
         for i, target in enumerate([0.0] + phi_path):
@@ -583,6 +585,7 @@ class Ramp:
                     )
                 )
                 seg = land.segment
+                met.append(seg)
                 cur = phi_end
                 note = "transition"
             if step_index >= 0:
@@ -591,10 +594,10 @@ class Ramp:
             if progress is not None and step_index >= 0:
                 progress(step_index)
         steps = self._states(visits, broken)
-        equal = equal_free_energy(
-            list({id(s): s for s in ([start] + [v[1] for v in visits if v[1] is not None])}.values())
-        )
-        segs = list({id(s): s for s in [start] + [v[1] for v in visits if v[1] is not None]}.values())
+        # the segments the state was on, whether or not a path voltage fell inside them (a coarse step can
+        # cross a whole segment between two path voltages): the result must not depend on the step
+        segs = list({id(s): s for s in met}.values())
+        equal = equal_free_energy(segs)
         return RampResult(steps, transitions, equal, self.emap.zones, segs, notes)
 
     def _states(self, visits, broken) -> list:
@@ -653,38 +656,157 @@ def _same_state(a: Equilibrium, b: Equilibrium) -> bool:
 
 
 # --- equal free energy ---------------------------------------------------------------------------------
-def _g_of(seg: StableSegment):
-    """Free energy along a segment as (Φ̂, Ĝ, dĜ/dΦ̂ = −Σ nj Q̂j) at its points, sorted by Φ̂."""
-    pts = sorted(seg.points, key=lambda p: p.phi)
-    phi = np.array([p.phi for p in pts])
-    G = np.array([p.eq.free_energy for p in pts])
-    dG = np.array([-p.eq.total_charge for p in pts])
-    return phi, G, dG
+# no two neighbouring sample voltages of an overlap are farther apart than this fraction of it
+_OVERLAP_GAP = 0.25
+# bisections, at most, of an interval where the Hermite cubic of ΔĜ dips toward zero without a sign change
+_DIP_DEPTH = 8
 
 
-def _hermite_at(x, xs, ys, ds):
-    k = int(np.clip(np.searchsorted(xs, x) - 1, 0, xs.size - 2))
-    h = xs[k + 1] - xs[k]
-    t = (x - xs[k]) / h
-    return (
-        (2 * t**3 - 3 * t**2 + 1) * ys[k]
-        + (t**3 - 2 * t**2 + t) * h * ds[k]
-        + (-2 * t**3 + 3 * t**2) * ys[k + 1]
-        + (t**3 - t**2) * h * ds[k + 1]
-    )
+def _known_states(seg: StableSegment) -> dict:
+    """The exact states a segment already has, by voltage: its traced points, and its end events whose
+    state lies at the event's voltage itself."""
+    known = {float(p.phi): p.eq for p in seg.points}
+    for e in (seg.low, seg.high):
+        if isinstance(e, Event) and e.eq is not None and float(e.eq.phi_hat) == float(e.phi_hat):
+            known[float(e.phi_hat)] = e.eq
+    return known
+
+
+def _exact_g(seg: StableSegment, xs, known: dict):
+    """``(Ĝ, dĜ/dΦ̂ = −Σ nj Q̂j)`` of ``seg``'s exact states at the voltages ``xs``.
+
+    A state the segment already has at a voltage (``known``, :func:`_known_states`) is used as it is; the
+    others are converged at their voltage (:meth:`~coexist.continuation.StableSegment.states`). Where a
+    state does not converge (e.g. exactly at a fold that ends the segment) both values are NaN: the caller
+    drops that voltage.
+    """
+    xs = np.asarray(xs, dtype=float)
+    G = np.full(xs.size, np.nan)
+    dG = np.full(xs.size, np.nan)
+    missing = []
+    for i, x in enumerate(xs):
+        eq = known.get(float(x))
+        if eq is None:
+            missing.append(i)
+        else:
+            G[i], dG[i] = eq.free_energy, -eq.total_charge
+    if missing:
+        try:
+            eqs: list = seg.states(xs[missing])
+        except SolverError:  # one at a time, to keep those that converge
+            eqs = []
+            for i in missing:
+                try:
+                    eqs.append(seg.states([xs[i]])[0])
+                except SolverError:
+                    eqs.append(None)
+        for i, eq in zip(missing, eqs):
+            if eq is not None:
+                G[i], dG[i] = eq.free_energy, -eq.total_charge
+    return G, dG
+
+
+def _hermite_dip(da, db, sa, sb, h):
+    """Where the cubic Hermite ``H`` of ``ΔĜ`` on an interval of width ``h`` (values ``da``, ``db``, slopes
+    ``sa``, ``sb`` at its ends) comes closest to zero inside it without a sign change of the end values.
+
+    With ``t ∈ (0, 1)``, ``H(t) = (2t³−3t²+1) da + (t³−2t²+t) h sa + (−2t³+3t²) db + (t³−t²) h sb``; its
+    interior extrema are the roots of ``H'(t)``. Returns ``(t, H(t))`` of the extremum that minimises
+    ``sign(da) H``, or None where ``sign(da) H`` has no interior minimum.
+    """
+    c2 = 6 * da + 3 * h * sa - 6 * db + 3 * h * sb
+    c1 = -6 * da - 4 * h * sa + 6 * db - 2 * h * sb
+    c0 = h * sa
+    if c2 != 0.0:
+        roots = np.roots([c2, c1, c0])
+    elif c1 != 0.0:
+        roots = np.array([-c0 / c1])
+    else:
+        return None
+    ts = [float(r.real) for r in np.atleast_1d(roots) if abs(r.imag) <= 1e-12 * max(1.0, abs(r.real))]
+    ts = [t for t in ts if 0.0 < t < 1.0]
+    if not ts:
+        return None
+
+    def H(t):
+        return (
+            (2 * t**3 - 3 * t**2 + 1) * da
+            + (t**3 - 2 * t**2 + t) * h * sa
+            + (-2 * t**3 + 3 * t**2) * db
+            + (t**3 - t**2) * h * sb
+        )
+
+    sgn = np.sign(da)
+    t = min(ts, key=lambda t: sgn * H(t))
+    if sgn * H(t) >= min(sgn * da, sgn * db):
+        return None  # a maximum of |H|: no dip toward zero
+    return t, H(t)
+
+
+def _overlap_brackets(A: StableSegment, B: StableSegment, lo: float, hi: float) -> list:
+    """Brackets ``(a, b, ΔĜ(a), ΔĜ(b))`` of the sign changes of ``ΔĜ = ĜA − ĜB`` on the overlap ``[lo, hi]``,
+    all from exact states.
+
+    The sample voltages are both segments' traced points in the overlap, its two ends and, where two of
+    them are farther apart than ``_OVERLAP_GAP (hi − lo)``, evenly spaced voltages between them; at each,
+    both exact states give ``ΔĜ`` and its exact slope ``dΔĜ/dΦ̂ = −(Q̂A − Q̂B)``. Where an interval's end
+    values have the same sign but its cubic Hermite dips toward zero inside (:func:`_hermite_dip`) to less
+    than half the smaller end value, the exact ``ΔĜ`` is evaluated at the dip and both halves examined
+    again (``_DIP_DEPTH`` times at most): two crossings close together, which leave no sign change at the
+    samples, are found too. The path's voltages play no part.
+    """
+    known_a, known_b = _known_states(A), _known_states(B)
+    xs = np.array([x for x in list(known_a) + list(known_b) + [lo, hi] if lo <= x <= hi])
+    xs = unique_sorted(xs)
+    gap = _OVERLAP_GAP * (hi - lo)
+    fill = []
+    for a, b in zip(xs[:-1], xs[1:]):
+        n = int(np.ceil((b - a) / gap - 1e-9))
+        if n > 1:
+            fill.extend(a + (b - a) * np.arange(1, n) / n)
+    xs = unique_sorted(np.concatenate([xs, fill]))
+    Ga, dGa = _exact_g(A, xs, known_a)
+    Gb, dGb = _exact_g(B, xs, known_b)
+    d, s = Ga - Gb, dGa - dGb
+    ok = np.isfinite(d) & np.isfinite(s)
+    xs, d, s = xs[ok], d[ok], s[ok]
+    out = []
+    stack = [(xs[k], xs[k + 1], d[k], d[k + 1], s[k], s[k + 1], 0) for k in range(xs.size - 1)][::-1]
+    while stack:
+        a, b, da, db, sa, sb, depth = stack.pop()
+        if da * db < 0:
+            out.append((a, b, da, db))
+            continue
+        if da == 0 or db == 0 or depth >= _DIP_DEPTH:
+            continue
+        dip = _hermite_dip(da, db, sa, sb, b - a)
+        if dip is None or (abs(dip[1]) >= 0.5 * min(abs(da), abs(db)) and np.sign(dip[1]) == np.sign(da)):
+            continue
+        xm = a + float(np.clip(dip[0], 0.05, 0.95)) * (b - a)
+        gma, sma = _exact_g(A, [xm], known_a)
+        gmb, smb = _exact_g(B, [xm], known_b)
+        dm, sm = float(gma[0] - gmb[0]), float(sma[0] - smb[0])
+        if not (np.isfinite(dm) and np.isfinite(sm)):
+            continue
+        stack.append((xm, b, dm, db, sm, sb, depth + 1))
+        stack.append((a, xm, da, dm, sa, sm, depth + 1))
+    return out
 
 
 def equal_free_energy(segments: list) -> list:
     """Voltages where two stable segments have equal total free energy, located on exact states.
 
-    For every pair of segments that overlap in voltage, sign changes of ``ΔĜ`` (cubic Hermite in ``Φ̂``
-    from the points, using ``dĜ/dΦ̂ = −Σ nj Q̂j``) bracket the crossings; each is then solved by Newton's
-    method on ``ΔĜ(Φ̂)`` with both states converged exactly at every iterate (slope ``−ΔQ̂``).
+    For every pair of segments that overlap in voltage, ``[lo, hi]`` (the larger low end, the smaller high
+    end), the sign changes of ``ΔĜ(Φ̂) = ĜA − ĜB`` are bracketed from exact states over the whole overlap,
+    with the exact slope ``dΔĜ/dΦ̂ = −(Q̂A − Q̂B)`` (``dĜ/dΦ̂ = −Σ nj Q̂j``) guiding the search for close
+    pairs of crossings (:func:`_overlap_brackets`); each crossing is then solved by Newton's method on
+    ``ΔĜ(Φ̂)`` with both states converged exactly at every iterate (:func:`equal_free_energy_voltage`).
+    Only the segments' own traces enter, so the result does not depend on which voltages a ramp visited.
 
     Parameters
     ----------
     segments : list of StableSegment
-        The segments to compare, pair by pair (each with at least two points to take part).
+        The segments to compare, pair by pair.
 
     Returns
     -------
@@ -706,15 +828,8 @@ def equal_free_energy(segments: list) -> list:
             hi = min(A.phi_range[1], B.phi_range[1])
             if not hi > lo:
                 continue
-            pa, Ga, dGa = _g_of(A)
-            pb, Gb, dGb = _g_of(B)
-            if pa.size < 2 or pb.size < 2:
-                continue
-            grid = unique_sorted(np.concatenate([pa, pb, [lo, hi]]))
-            grid = grid[(grid >= lo) & (grid <= hi)]
-            d = np.array([_hermite_at(x, pa, Ga, dGa) - _hermite_at(x, pb, Gb, dGb) for x in grid])
-            for k in np.flatnonzero(d[:-1] * d[1:] < 0):
-                t = _crossing(A, B, grid[k], grid[k + 1], d[k], d[k + 1])
+            for a, b, da, db in _overlap_brackets(A, B, lo, hi):
+                t = _crossing(A, B, a, b, da, db)
                 if t is not None:
                     out.append(t)
     return sorted(out, key=lambda t: t.phi_hat)
@@ -768,7 +883,12 @@ def equal_free_energy_voltage(
 
 def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transition | None:
     """The equal-free-energy crossing of ``A`` and ``B`` bracketed by ``[lo, hi]`` (``ΔĜ`` values ``dlo``,
-    ``dhi``), from the secant estimate (:func:`equal_free_energy_voltage`)."""
+    ``dhi``), from the secant estimate (:func:`equal_free_energy_voltage`).
+
+    Its error is the last Newton step plus the rounding floor of the difference of two free energies,
+    ``δΦ̂ = 4 ε max(|Ĝa|, |Ĝb|) / |Q̂a − Q̂b|`` (``ε`` the machine epsilon): ``ΔĜ`` is a difference of two
+    nearly equal numbers, scattered by about ``ε |Ĝ|`` (measured), which a chamber of 10⁹ ml
+    (``|Ĝ| ≈ 2·10¹¹``) makes ``≈ 10⁻⁶`` in ``Φ̂``, far above the Newton step."""
     phi0 = lo - dlo * (hi - lo) / (dhi - dlo)
     try:
         phi, step, ea, eb = equal_free_energy_voltage(
@@ -782,6 +902,8 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
         )
     except SolverError as exc:
         raise SolverError(f"{A.label} and {B.label}: {exc}") from None
+    dq = abs(ea.total_charge - eb.total_charge)
+    floor = 4 * np.finfo(float).eps * max(abs(ea.free_energy), abs(eb.free_energy)) / dq if dq > 0 else 0.0
     # label: from the configuration lower in G below the crossing to the one lower above it
     below = A if (dlo < 0) else B
     above = B if below is A else A
@@ -792,7 +914,7 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
         above.label,
         "either",
         "equal_free_energy",
-        abs(step),
+        abs(step) + floor,
         "equal total free energy",
         state_before=ea if below is A else eb,
         state_after=eb if below is A else ea,

@@ -116,7 +116,7 @@ DESCRIPTIONS = {
     "top_bulged": "number of bulged zones at the top of the ramp (-1: no state there)",
     "top_configuration": "configuration at the top of the ramp ('none': no state there)",
     "status": "what the point's ramp gives: " + "; ".join(f"{k}: {v}" for k, v in STATUSES.items()),
-    "reason": "why a point has no jump or no answer (empty when it bulges)",
+    "reason": "why a point has no jump or no answer, and why any of its transition voltages is missing (NaN)",
     "loss_up_kV": "voltage at which the ramp up leaves the configuration with this many bulged zones",
     "loss_down_kV": "voltage at which the ramp down leaves the configuration with this many bulged zones",
 }
@@ -793,7 +793,59 @@ def summarise(index: int, sim, report) -> dict:
         rec["reason"] = _one_line(f"{left.from_label} at {rec['range_end_kV']:.6f} kV: {left.reason}")
     else:
         rec["reason"] = f"the zones stay equal up to {rec['top_voltage_kV']:.6g} kV"
+    missing = _missing_reasons(rec, sim, report)
+    if missing:
+        rec["reason"] = _one_line("; ".join(([rec["reason"]] if rec["reason"] else []) + missing))
     return rec
+
+
+def _missing_reasons(rec: dict, sim, report) -> list:
+    """Why each transition voltage of an answered record that its status does not already explain is
+    missing (NaN in the dataset): one clause per field, e.g. ``"no breakdown_kV: the field stays below
+    the breakdown field"``. With status ``bulges`` the spinodal up is always there; with the other
+    statuses its absence (and that of the spinodal down and the hysteresis) is the status itself.
+    """
+    result = report.result
+    out = []
+    if rec["status"] == "bulges" and rec["spinodal_down_kV"] is None:
+        downs = [s for s in result.steps if s.direction == "down"]
+        if not downs:
+            why = "the path does not come back down"
+        else:
+            last = downs[-1]
+            where = last.segment.label if last.segment is not None and last.state is not None else "no stable state"
+            why = (
+                "on the way down the zones do not return to the homogeneous state "
+                f"({where} at {float(report.voltage_kV(last.phi_hat)):.6g} kV, the path's last voltage down)"
+            )
+        out.append(f"no spinodal_down_kV (nor hysteresis_kV): {why}")
+    if rec["equal_free_energy_kV"] is None:
+        homog = [g for g in result.segments if g.label == "homogeneous"]
+        others = [g for g in result.segments if g.label != "homogeneous"]
+
+        def overlap(a, b):
+            return min(a.phi_range[1], b.phi_range[1]) > max(a.phi_range[0], b.phi_range[0])
+
+        if not homog or not others:
+            why = "the ramp does not visit both the homogeneous and a bulged configuration"
+        elif not any(overlap(a, b) for a in homog for b in others):
+            why = "no bulged configuration the ramp visits is stable where the homogeneous one is"
+        else:
+            why = (
+                "the free energies of the homogeneous and the visited bulged configurations do not cross "
+                "where both are stable"
+            )
+        out.append(f"no equal_free_energy_kV: {why}")
+    if rec["breakdown_kV"] is None:
+        why = (
+            "no breakdown field given"
+            if sim.scene.breakdown_field is None
+            else "the field stays below the breakdown field on the path"
+        )
+        out.append(f"no breakdown_kV: {why}")
+    if rec["range_end_kV"] is None:
+        out.append("no range_end_kV: the ramp stays in the model's range")
+    return out
 
 
 def _run_chunk(spec: SweepSpec, indices: list, evaluate: Callable | None = None) -> list:
