@@ -25,9 +25,10 @@ import casadi as ca
 import numpy as np
 
 from .errors import ModelRangeError, SceneError, SolverError
-from .numerics.roots import bisect
+from .numerics.roots import bisect, bracketed_root, chebyshev_extremum
 from .numerics.splines import casadi_piecewise
 from .settings import SolverSettings
+from .shooting import StateDerivatives, solve_states
 from .validation import instance, membrane_model, real, real_array, settings_or_default
 from .zone_curves import ZoneCurve
 
@@ -35,7 +36,8 @@ from .zone_curves import ZoneCurve
 MAX_NEWTON_ITERATIONS = 60
 #: absolute roundoff of the spline equations (values of order one, a few dozen operations)
 ROUNDOFF = 1e-13
-#: width in Φ̂ to which the critical point (where the pressure maximum and minimum merge) is bisected
+#: width in Φ̂ to which a change between loop and no loop is bisected on the curves, and to which the critical
+#: point (where the pressure maximum and minimum merge) is then solved on the exact equations
 CRITICAL_XTOL = 1e-8
 
 
@@ -323,7 +325,8 @@ class PhaseDiagram:
     ``spinodal_max``/``spinodal_min`` hold ``(Φ̂, p̂)`` of the pressure maximum and the following
     minimum of the curve (the limits of stability under pressure control); ``binodal`` the
     Maxwell coexistence pressure; ``critical_point`` the ``(Φ̂, p̂, λ0)`` where the maximum and
-    minimum merge (None if it lies outside the range); ``notes`` where and why lines end.
+    minimum truly merge (None if they merge nowhere in the range, e.g. where the minimum only crosses
+    the end of the pole-stretch range searched); ``notes`` where and why lines end.
     """
 
     phi_hat: np.ndarray
@@ -372,21 +375,120 @@ def _loop(curve: ZoneCurve):
     return None
 
 
+#: a loop at the bisected voltage counts as merging when its maximum and minimum lie within this many
+#: grid spacings (in ``u``) of each other and both lie this far inside the curve's range; a true merge
+#: bisected to :data:`CRITICAL_XTOL` leaves them ``O(√CRITICAL_XTOL)`` apart, a fraction of one spacing
+MERGE_SPACINGS = 4
+
+
+def _loop_change(curve: ZoneCurve, loop, edge: float, appears: bool) -> str | None:
+    """None if the loop of ``curve`` (at the voltage ``edge`` where it appears or disappears) is a merging
+    pair of extrema; otherwise the note that says what happens there instead."""
+    ua, ub = loop
+    lo, hi = curve.span
+    h = float(np.max(np.diff(curve.grid)))
+    la, lb = (float(curve.to_stretch(x)) for x in (ua, ub))
+    at_start, at_end = ua - lo <= MERGE_SPACINGS * h, hi - ub <= MERGE_SPACINGS * h
+    if ub - ua <= MERGE_SPACINGS * h and not (at_start or at_end):
+        return None
+    where = f"where the valid states end ({curve.stopped_because})" if curve.stopped_because else "searched"
+    verb = "enters" if appears else "leaves"
+    if at_end:
+        what = (
+            f"as Φ̂ rises the pressure minimum {verb} the pole-stretch range {where} at its end, "
+            f"λ0 = {float(curve.to_stretch(hi)):.6g}"
+        )
+    elif at_start:
+        what = (
+            f"as Φ̂ rises the pressure maximum {verb} the pole-stretch range {where} at its start, "
+            f"λ0 = {float(curve.to_stretch(lo)):.6g}"
+        )
+    else:
+        what = f"the loop {'appears' if appears else 'ends'} with its maximum and minimum apart"
+    return (
+        f"no critical point at Φ̂ ≈ {edge:.8f}: {what}; the pressure maximum (λ0 = {la:.6g}) and minimum "
+        f"(λ0 = {lb:.6g}) do not merge there"
+    )
+
+
+def _critical_point(model, phi_bracket, stretch_bracket, settings: SolverSettings):
+    """The critical point on the exact equations: the root in ``Φ̂`` of
+
+        m(Φ̂) = min over λ0 in ``stretch_bracket`` of ∂p̂/∂λ0(λ0, Φ̂)
+
+    (exact derivatives of the shooting, minimised by :func:`chebyshev_extremum`; ``m < 0`` where the
+    curve has a loop, ``m > 0`` where it rises throughout). At the root ``λc``, the argmin, has
+    ``∂p̂/∂λ0 = 0`` and ``∂²p̂/∂λ0² = 0``: the pressure maximum and minimum merge. Returns
+    ``(Φ̂c, p̂c, λc, ∂p̂/∂λ0 at it, error estimate of Φ̂c)``, the estimate
+    ``2 max(|∂p̂/∂λ0|, rtol) / |dm/dΦ̂|`` with the slope from the bracket's ends (a factor 2 for its
+    curvature); raises ValueError when a
+    state fails or the ends do not bracket a sign change."""
+    lo, hi = (np.array([x]) for x in stretch_bracket)
+    argmin: dict = {}
+
+    def dp_dl0(x, phi):
+        s = solve_states(model, x, phi, settings, derivatives=True)
+        return np.where(s.ok, StateDerivatives.of(s).dp_dl0, np.nan)
+
+    def m(phi):
+        x, v = chebyshev_extremum(
+            lambda x: dp_dl0(x, phi),
+            lo,
+            hi,
+            [False],
+            ftol=0.5 * settings.rtol,
+            xtol=settings.limit_point_xtol,
+            nodes=settings.limit_point_nodes,
+        )
+        argmin[phi] = float(x[0])
+        return float(v[0])
+
+    a, b = (float(x) for x in phi_bracket)
+    ma, mb = m(a), m(b)
+    root = bracketed_root(
+        lambda x, idx: np.array([m(float(x[0]))]),
+        a,
+        b,
+        ma,
+        mb,
+        xtol=CRITICAL_XTOL,
+        ftol=settings.residual_tol,
+    )
+    if not root.converged[0]:
+        raise ValueError(f"the critical voltage did not converge (bracket {root.lo[0]:.10g}..{root.hi[0]:.10g})")
+    phic = float(root.x[0])
+    lc = argmin[phic]
+    if not (lo[0] < lc < hi[0]):
+        raise ValueError(f"the merging point λ0 = {lc:.6g} lies at the end of the bracket searched")
+    s = solve_states(model, [lc], phic, settings, derivatives=True)
+    if not s.ok[0]:
+        raise ValueError(f"no valid state at λ0 = {lc:.6g}, Φ̂ = {phic:.8g}")
+    slope = float(StateDerivatives.of(s).dp_dl0[0])
+    error = 2 * max(abs(slope), settings.rtol) * abs(b - a) / abs(mb - ma)
+    return phic, float(s.p_hat[0]), lc, slope, error
+
+
 def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSettings | None = None) -> PhaseDiagram:
     """Spinodals, binodal and critical point of one zone over the voltages ``phi_values``.
 
     Each voltage gets its own directly shot curve (``settings.phase_diagram_points`` states in
     ``u = √(λ0 − λpre)``);
-    the binodal is :func:`maxwell_coexistence` on it; the critical point, where the pressure
-    maximum and minimum merge, is found by bisection on ``Φ̂`` between a voltage with a loop and
-    one without (to 1e-8 in ``Φ̂``).
+    the binodal is :func:`maxwell_coexistence` on it. Where the curve gains or loses its loop (a
+    pressure maximum followed by a minimum) between neighbouring voltages, the change is bisected on
+    the curves (to 1e-8 in ``Φ̂``) and classified: a critical point only if the maximum and minimum
+    merge there (within ``MERGE_SPACINGS`` grid spacings of each other, inside the curve's range), not
+    if one of them merely crosses an end of the pole-stretch range (a note says so). A merge is then
+    solved on the exact equations: ``Φ̂c`` is the root of
+    ``m(Φ̂) = min_λ0 ∂p̂/∂λ0(λ0, Φ̂)`` (exact shooting derivatives), so that at ``(λc, Φ̂c)``
+
+        ∂p̂/∂λ0 = 0   and   ∂²p̂/∂λ0² = 0.
 
     Parameters
     ----------
     model : MembraneModel
         A membrane with electrostatics (or only ``Φ̂ = 0`` in ``phi_values``).
     phi_values : array_like
-        Normalised voltages ``Φ̂ ≥ 0`` in order (the critical point is bisected between neighbours).
+        Normalised voltages ``Φ̂ ≥ 0`` in order (the critical point is bracketed between neighbours).
     pole_stretch_max : float
         Largest pole stretch of each curve (the grid starts at ``1.002 λpre``).
     settings : SolverSettings, optional
@@ -395,8 +497,9 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     Returns
     -------
     PhaseDiagram
-        NaN where a voltage has no loop or no coexistence (why in ``notes``); ``critical_point`` from
-        the first change between loop and no loop along ``phi_values``.
+        NaN where a voltage has no loop or no coexistence (why in ``notes``); ``critical_point`` the
+        first merge along ``phi_values`` (``(Φ̂c, p̂c, λc)``, a state shot exactly at ``(λc, Φ̂c)``), or
+        None, with a note for every change between loop and no loop that is not one.
 
     Raises
     ------
@@ -419,7 +522,7 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), settings.phase_diagram_points)
     smax, smin, bino = (np.full(phi_values.size, np.nan) for _ in range(3))
     states, notes = [], []
-    has_loop = np.zeros(phi_values.size, dtype=bool)
+    loops: list = [None] * phi_values.size
 
     def curve_at(phi):
         return ZoneCurve.compute(model, phi, pre + u**2, settings)
@@ -433,7 +536,7 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
         loop = _loop(c)
         if loop is None:
             continue
-        has_loop[i] = True
+        loops[i] = tuple(float(c.to_stretch(x)) for x in loop)
         smax[i], smin[i] = float(c.p(loop[0])), float(c.p(loop[1]))
         try:
             co = maxwell_coexistence(c, settings)
@@ -441,6 +544,7 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
             states.append(co)
         except ModelRangeError as exc:
             notes.append(f"Φ̂ = {phi:.6g}: {exc}")
+    has_loop = np.array([lp is not None for lp in loops], dtype=bool)
     if not has_loop.any():
         notes.append(
             f"no voltage in Φ̂ = {phi_values.min():.4g}..{phi_values.max():.4g} has a pressure maximum followed by a "
@@ -465,11 +569,28 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
             loop = _loop(c)
         except ModelRangeError:
             loop = None
-        if loop is not None:
-            um = 0.5 * (loop[0] + loop[1])
-            critical = (edge, float(c.p(um)), float(c.to_stretch(um)))
+        if loop is None:
+            continue
+        other = _loop_change(c, loop, edge, appears=with_loop_hi)
+        if other is not None:
+            notes.append(other)
+            continue
+        la, lb = loops[j + 1] if with_loop_hi else loops[j]
+        w = 0.25 * (lb - la)
+        bracket = (max(la - w, pre * (1 + 1e-3)), min(lb + w, pole_stretch_max))
+        try:
+            phic, pc, lc, slope, error = _critical_point(model, (phi_values[j], phi_values[j + 1]), bracket, settings)
+        except ValueError as exc:
             notes.append(
-                f"critical point at Φ̂ = {edge:.8f}: the pressure maximum and minimum merge; coexistence ends there"
+                f"the pressure maximum and minimum merge near Φ̂ ≈ {edge:.8f} on the curves, but the exact "
+                f"critical point was not found: {exc}"
             )
+            continue
+        critical = (phic, pc, lc)
+        notes.append(
+            f"critical point at Φ̂ = {phic:.8f} (± {error:.1e}), λ0 = {lc:.6f}: the pressure maximum and minimum merge "
+            "(solved on the "
+            f"exact equations: dp̂/dλ0 = {slope:.1e} there, its minimum over λ0); coexistence ends there"
+        )
         break
     return PhaseDiagram(phi_values, smax, smin, bino, states, critical, notes)

@@ -182,3 +182,230 @@ def ramp_cost(scene, every: int = 1) -> RampCost:
     seconds = ramp_solving_seconds(scene) + SECONDS_PER_NUMBER * numbers
     memory = BYTES_PER_VOLTAGE * voltages + BYTES_PER_NUMBER * numbers
     return RampCost(voltages, zones, rows, numbers, seconds, memory)
+
+
+# --- coexist curves and coexist shape ---------------------------------------------------------------------------
+#
+# Measured on this 2-core machine (2026-12-01, shared with other jobs, /usr/bin/time; rounded up):
+#
+# curves: 40 p̂–V̂ curves × 5000 points (200 000 states) in 6.0 s for the table, 9.1 s with --json (30–45 µs a
+# state) and a peak of 320 MB (1.4 kB a state; the audit that asked for this limit measured up to 3.5 kB a state
+# with 2000 curves, the value taken); 10 Φ̂–Q̂ curves × 5000 points in 7.1 s (about 140 µs a state, 3× a p̂–V̂
+# state). A patterned zone (inner-circle, two-layer annulus): one p̂–V̂ curve of 5000 points in 13–15.6 s (2.6–3.1
+# ms a state) and 14 kB a state (1000 → 5000 points: 116 → 171 MB). The JSON carries 8 numbers a state (9 taken:
+# a tension-field curve adds its wrinkled fraction).
+#
+# shape: each zone shape is a meridian integrated again, stopping at every profile point: 0.24–0.40 ms a point
+# (tricircle at 4.0 kV, two shapes of 20 001 points, 9.7–10.7 s; at one voltage 201 → 20 001 points 0.9 → 8.9 s;
+# inner-circle, two voltages of 20 001 points, 12.9 s, 0.31 ms a point); a base of about 1 s (scene, gas, ramp up).
+# Memory with --json: 4 shapes of 100 001 points (800 000 numbers) in 120 s and 193 MB against 60 MB (166 B a
+# number, 200 taken); 2 numbers a point (r, z) and about 8 a shape.
+
+#: seconds of ``coexist curves`` whatever its size (imports, model)
+CURVES_SECONDS_BASE = 0.3
+#: seconds per state of a p̂–V̂ curve of a uniform zone (measured 30–45 µs)
+CURVES_SECONDS_PER_PV_STATE = 45e-6
+#: seconds per state of a Φ̂–Q̂ curve of a uniform zone (measured about 140 µs)
+CURVES_SECONDS_PER_VQ_STATE = 150e-6
+#: seconds per state of a curve of a patterned zone (measured 2.6–3.1 ms)
+CURVES_SECONDS_PER_PATTERNED_STATE = 3.5e-3
+#: bytes per state of a curve held (states, and their output) by a uniform zone (measured 1.4–3.5 kB)
+CURVES_BYTES_PER_STATE = 3.5e3
+#: bytes per state of a curve of a patterned zone (measured 14 kB)
+CURVES_BYTES_PER_PATTERNED_STATE = 15e3
+#: numbers of the output per state of a curve (JSON or CSV: 8, a tension-field curve 9)
+CURVES_NUMBERS_PER_STATE = 9
+#: seconds of ``coexist shape`` whatever its size (scene, gas, the ramp up to the voltages)
+SHAPE_SECONDS_BASE = 1.0
+#: seconds per profile point of a zone shape (measured 0.24–0.40 ms)
+SHAPE_SECONDS_PER_POINT = 0.4e-3
+#: numbers of the output per profile point (r and z)
+SHAPE_NUMBERS_PER_POINT = 2
+#: numbers of the output per zone shape besides its profile (apex, curvature, electrode edge, ...)
+SHAPE_NUMBERS_PER_SHAPE = 8
+#: bytes per number of a shape's output held in memory (measured 166 B with --json)
+SHAPE_BYTES_PER_NUMBER = 200
+
+
+@dataclass(frozen=True)
+class WorkCost:
+    """The estimated cost of a ``coexist curves`` or ``coexist shape`` run (:func:`curves_cost`,
+    :func:`shape_cost`).
+
+    Attributes
+    ----------
+    what : str
+        What is computed, for people (``"8 curves × 200 points"``).
+    numbers : int
+        Numbers in the output.
+    seconds : float
+        Estimated wall time on a machine like the one measured.
+    memory_bytes : float
+        Estimated peak memory.
+    option : str
+        The option that sets the size per item (``--points``).
+    fits : int
+        The largest value of ``option`` that fits the limits with the rest unchanged (0: none does).
+    fewer : str
+        The options that set the number of items (``--phi-hat, --p-hat``), the other way to fit.
+    """
+
+    what: str
+    numbers: int
+    seconds: float
+    memory_bytes: float
+    option: str
+    fits: int
+    fewer: str
+
+    def describe(self) -> str:
+        """One line for people: what, numbers, time and memory.
+
+        Returns
+        -------
+        str
+        """
+        return f"{self.what}, {self.numbers:,} numbers out; about {_duration(self.seconds)} and " + (
+            f"{self.memory_bytes / 1e9:.2g} GB" if self.memory_bytes >= 1e9 else f"{self.memory_bytes / 1e6:.0f} MB"
+        )
+
+    def check(self, smallest: int = 3) -> None:
+        """Refuse work past the limits (:data:`MAX_OUTPUT_NUMBERS`, :data:`MAX_MEMORY_BYTES`), naming what to change.
+
+        Parameters
+        ----------
+        smallest : int
+            The smallest value ``option`` takes; when not even that fits, the message asks for fewer items.
+
+        Raises
+        ------
+        SceneError
+            If the output would exceed :data:`MAX_OUTPUT_NUMBERS` or the memory :data:`MAX_MEMORY_BYTES`; the
+            field is :attr:`option` (with the value that fits), or the first of :attr:`fewer` when none does.
+        """
+        if self.numbers <= MAX_OUTPUT_NUMBERS and self.memory_bytes <= MAX_MEMORY_BYTES:
+            return
+        what = (
+            f"{self.what} would give {self.numbers:,} numbers and need about {self.memory_bytes / 1e9:.3g} GB; "
+            f"the limits are {MAX_OUTPUT_NUMBERS:,} numbers and {MAX_MEMORY_BYTES / 1e9:g} GB"
+        )
+        if self.fits >= smallest:
+            raise SceneError(f"{what}: take {self.option} {self.fits} or fewer, or fewer of {self.fewer}", self.option)
+        raise SceneError(f"{what}: give fewer values", self.fewer.split(",")[0].strip())
+
+
+def _fitting(per_unit_numbers: float, per_unit_bytes: float, fixed_numbers: float = 0.0) -> int:
+    """The largest count of units (points) whose numbers and memory stay within 90 % of the limits."""
+    by_numbers = (0.9 * MAX_OUTPUT_NUMBERS - fixed_numbers) / per_unit_numbers
+    by_memory = (0.9 * MAX_MEMORY_BYTES - fixed_numbers * SHAPE_BYTES_PER_NUMBER) / per_unit_bytes
+    return max(0, math.floor(min(by_numbers, by_memory)))
+
+
+def curves_cost(pressure_volume: int, voltage_charge: int, points: int, patterned: bool = False) -> WorkCost:
+    """The estimated cost of ``coexist curves`` (coefficients above, measured): ``states = curves × points``.
+
+    Parameters
+    ----------
+    pressure_volume : int
+        p̂–V̂ curves (values of ``--phi-hat``).
+    voltage_charge : int
+        Φ̂–Q̂ curves (values of ``--p-hat``).
+    points : int
+        States per curve (``--points``).
+    patterned : bool
+        A patterned zone (its states cost :data:`CURVES_SECONDS_PER_PATTERNED_STATE` and
+        :data:`CURVES_BYTES_PER_PATTERNED_STATE`).
+
+    Returns
+    -------
+    WorkCost
+        Option ``--points``, the fewer option ``--phi-hat, --p-hat``.
+
+    Raises
+    ------
+    SceneError
+        If a count is not a whole number (curves ≥ 0, points ≥ 1).
+
+    Examples
+    --------
+    >>> curves_cost(5, 3, 200).numbers
+    14400
+    >>> curves_cost(2000, 0, 5000).check()
+    Traceback (most recent call last):
+    ...
+    coexist.errors.SceneError: --points: 2000 curves × 5000 points would give 90,000,000 numbers and need about \
+35 GB; the limits are 10,000,000 numbers and 2 GB: take --points 257 or fewer, or fewer of --phi-hat, --p-hat
+    """
+    from .validation import integer
+
+    pv = integer(pressure_volume, "pressure_volume", lo=0)
+    vq = integer(voltage_charge, "voltage_charge", lo=0)
+    points = integer(points, "points", lo=1)
+    curves = pv + vq
+    states = curves * points
+    if patterned:
+        seconds = CURVES_SECONDS_BASE + CURVES_SECONDS_PER_PATTERNED_STATE * states
+        per_state_bytes = CURVES_BYTES_PER_PATTERNED_STATE
+    else:
+        seconds = CURVES_SECONDS_BASE + points * (CURVES_SECONDS_PER_PV_STATE * pv + CURVES_SECONDS_PER_VQ_STATE * vq)
+        per_state_bytes = CURVES_BYTES_PER_STATE
+    fits = _fitting(CURVES_NUMBERS_PER_STATE * curves, per_state_bytes * curves) if curves else points
+    return WorkCost(
+        what=f"{curves} curves × {points} points",
+        numbers=CURVES_NUMBERS_PER_STATE * states,
+        seconds=seconds,
+        memory_bytes=per_state_bytes * states,
+        option="--points",
+        fits=fits,
+        fewer="--phi-hat, --p-hat",
+    )
+
+
+def shape_cost(voltages: int, shapes_per_voltage: int, points: int) -> WorkCost:
+    """The estimated cost of ``coexist shape`` (coefficients above, measured): ``voltages × shapes`` profiles of
+    ``points`` points each.
+
+    Parameters
+    ----------
+    voltages : int
+        Voltages asked for (``--voltage-kV``).
+    shapes_per_voltage : int
+        Zone shapes computed per voltage, at most: one per group of identical zones (at most :data:`MAX_GROUPS`
+        and the number of zones).
+    points : int
+        Points per profile (``--points``).
+
+    Returns
+    -------
+    WorkCost
+        Option ``--points``, the fewer option ``--voltage-kV``.
+
+    Raises
+    ------
+    SceneError
+        If a count is not a whole number ≥ 1.
+
+    Examples
+    --------
+    >>> shape_cost(3, 2, 201).numbers
+    2460
+    >>> shape_cost(1721, 3, 100001).fits
+    867
+    """
+    from .validation import integer
+
+    voltages = integer(voltages, "voltages", lo=1)
+    groups = integer(shapes_per_voltage, "shapes_per_voltage", lo=1)
+    points = integer(points, "points", lo=1)
+    shapes = voltages * groups
+    numbers = shapes * (SHAPE_NUMBERS_PER_POINT * points + SHAPE_NUMBERS_PER_SHAPE)
+    per_point = SHAPE_NUMBERS_PER_POINT * shapes
+    return WorkCost(
+        what=f"{voltages} voltages × {groups} zone shape(s) × {points} points",
+        numbers=numbers,
+        seconds=SHAPE_SECONDS_BASE + SHAPE_SECONDS_PER_POINT * shapes * points,
+        memory_bytes=SHAPE_BYTES_PER_NUMBER * numbers,
+        option="--points",
+        fits=_fitting(per_point, per_point * SHAPE_BYTES_PER_NUMBER, SHAPE_NUMBERS_PER_SHAPE * shapes),
+        fewer="--voltage-kV",
+    )

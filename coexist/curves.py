@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import validation
-from .errors import ModelRangeError, SceneError, SolverError
+from .errors import NoStateInRange, SceneError, SolverError
 from .model import MembraneModel
 from .numerics.roots import bracketed_root, chebyshev_extremum
 from .numerics.sets import unique_sorted
@@ -184,7 +184,7 @@ def _valid_run(states: MembraneStates, pole_stretch):
     ok = states.ok
     if not ok.any():
         i = 0
-        raise ModelRangeError(
+        raise NoStateInRange(
             f"no valid state anywhere in pole stretch {pole_stretch[0]:.4g}..{pole_stretch[-1]:.4g}"
             f" (at {pole_stretch[i]:.4g}: {reason_text(states.status[i])})",
             reason_tag(states.status[i]),

@@ -43,3 +43,8 @@ class ModelRangeError(CoexistError):
     def __init__(self, message: str, reason: str = "out_of_range"):
         self.reason = reason
         super().__init__(message)
+
+
+class NoStateInRange(ModelRangeError):
+    """A curve has no valid state anywhere in the pole-stretch range asked for (its voltage or pressure lies
+    outside the model's range there); ``reason`` tags the first state's failure."""

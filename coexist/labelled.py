@@ -13,8 +13,6 @@ variable-length strings for the status and configuration labels) to a temporary 
 from __future__ import annotations
 
 import json
-import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -292,15 +290,11 @@ def write_netcdf(dataset, path) -> Path:
     pathlib.Path
         ``path``.
     """
+    from .files import atomic  # the permissions open() would give; a symbolic link written through
+
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".nc", dir=path.parent if str(path.parent) else ".")
-    os.close(fd)
-    try:
+    with atomic(path, suffix=".nc") as tmp:
         dataset.to_netcdf(tmp, engine=ENGINE, invalid_netcdf=False)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
     return path
 
 

@@ -56,7 +56,8 @@ def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
 
 def save_figure(fig, path, title=None, title_size=10) -> Path:
     """Lay out ``fig`` and write it to ``path`` atomically: drawn into a temporary file in the same folder,
-    then renamed over ``path``, so a failure leaves no half-written figure (and no old one destroyed).
+    then renamed over ``path``, so a failure leaves no half-written figure (and no old one destroyed)
+    (:func:`coexist.files.atomic`: the permissions ``open()`` would give, a symbolic link written through).
 
     Parameters
     ----------
@@ -74,22 +75,16 @@ def save_figure(fig, path, title=None, title_size=10) -> Path:
     pathlib.Path
         ``path``.
     """
-    import os
-    import tempfile
+    from .files import atomic
 
     plt = pyplot()
     path = Path(path)
-    if title:
-        fig.suptitle(title, fontsize=title_size)
-    fig.tight_layout()
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
     try:
-        fig.savefig(tmp, dpi=130)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        if title:
+            fig.suptitle(title, fontsize=title_size)
+        fig.tight_layout()
+        with atomic(path) as tmp:
+            fig.savefig(tmp, dpi=130)
     finally:
         plt.close(fig)
     return path

@@ -23,7 +23,7 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
               ``inner_fraction`` · zone radius at the centre; "ring": the annulus from ``inner_fraction`` to
               ``outer_fraction`` · zone radius], radius fractions of the reference state, inner in (0, 1),
               outer in (inner, 1]; absent: "full". Patterned zones (coexist.patterned) are computed by
-              ``coexist curves``, ``coexist ramp`` and ``coexist coexistence``; fit and sweep refuse them
+              every command: ``curves``, ``ramp``, ``coexistence``, ``shape``, ``fit`` and ``sweep``
 [layers]      ``passive`` [1]: layers (whole number 1..100) of the regions without electrode, whose stack
               is that many times the membrane; the electrode regions are one layer; only with a pattern
               that has such regions ("inner-circle", "ring"); or ``regions``: one whole number per region

@@ -244,9 +244,13 @@ def parse_values(text: str, section: str, name: str, unit: str, key: str = "") -
                 raise SceneError(f"{where}: {key} takes whole numbers; these steps give fractions", "--vary")
             raw = [int(round(x)) for x in raw]
     else:
-        items = [s.strip() for s in text.split(",") if s.strip()]
-        if not items:
+        items = [s.strip() for s in text.split(",")]
+        if not any(items):
             raise SceneError(f"{where}: expected START:STOP:N or a list v1,v2,...", "--vary")
+        if "" in items:  # "1,,2" or a trailing comma: refused, never silently dropped
+            raise SceneError(
+                f"{where}: empty item {items.index('') + 1}; separate the values by single commas", "--vary"
+            )
         raw = []
         for s in items:
             if spec.kind == "string":

@@ -114,7 +114,8 @@ def test_bad_input_is_exit_2_naming_the_option(args, option):
 def test_curves_defaults_follow_the_prestretch():
     """``coexist curves --prestretch 3`` runs on its defaults: the pole-stretch range follows the prestretch
     (1.01 λpre to max(4, 1.5 λpre), as the library's), and a default Φ̂–Q̂ pressure no state of this membrane
-    reaches is skipped with a note; the same pressure asked for is an error with its reason (exit 1)."""
+    reaches is skipped with a note; the same pressure asked for is bad input naming --p-hat, the pressure and
+    the reason (exit 2: no state anywhere in the range)."""
     r = CliRunner().invoke(
         cli, ["curves", "--material", "neo-hookean", "--prestretch", "3", "--points", "30", "--json"]
     )
@@ -123,4 +124,5 @@ def test_curves_defaults_follow_the_prestretch():
     assert data["settings"]["pole_stretch_range"] == [pytest.approx(3.03), pytest.approx(4.5)]
     assert "no Φ̂–Q̂ curve at the default p̂ = 1.2" in r.stderr
     asked = CliRunner().invoke(cli, ["curves", "--material", "neo-hookean", "--prestretch", "3", "--p-hat", "1.2"])
-    assert asked.exit_code == 1 and "no voltage" in asked.output and "Traceback" not in asked.output
+    assert asked.exit_code == 2 and "no voltage" in asked.output and "Traceback" not in asked.output
+    assert "Error: --p-hat: the zone has no state at p̂ = 1.2 in pole stretch 3.03..4.5" in asked.output

@@ -40,9 +40,10 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
     N = sc.zone_count
     ks = None
     if bulged is not None:
-        ks = [int(k) for k in parse_floats(bulged, "--bulged", positive=True)]
-        if any(k >= N or k != int(k) for k in ks):
+        values = parse_floats(bulged, "--bulged", positive=True)
+        if any(k >= N or k != int(k) for k in values):  # checked before rounding: 1.5 is no number of zones
             raise InputError(f"--bulged: each value must be an integer in 1..{N - 1}, got {bulged!r}")
+        ks = [int(k) for k in values]
     elif N - 1 > MAX_DEFAULT_CONFIGURATIONS:
         raise InputError(
             f"--bulged: this scene has {N} zones; name the numbers of bulged zones to list "

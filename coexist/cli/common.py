@@ -22,7 +22,8 @@ def parse_floats(text: str, option: str, positive=False, nonnegative=False, coun
     Parameters
     ----------
     text : str
-        Comma-separated numbers (blanks and empty items ignored).
+        Comma-separated numbers (blanks ignored; an empty item, as in ``"0.1,,0.2"`` or a trailing comma, is
+        refused).
     option : str
         The option's name for messages, e.g. ``"--phi"``.
     positive, nonnegative : bool
@@ -38,11 +39,18 @@ def parse_floats(text: str, option: str, positive=False, nonnegative=False, coun
     Raises
     ------
     InputError
-        If a value is not a finite number, there is none, one breaks a sign rule, or their number is not
-        in ``count``.
+        If a value is not a finite number, an item is empty, there is none, one breaks a sign rule, or their
+        number is not in ``count``.
     """
+    items = str(text).replace(" ", "").split(",")
+    if items == [""]:
+        raise InputError(f"{option}: expected at least one number")
+    if "" in items:
+        raise InputError(
+            f"{option}: empty item {items.index('') + 1} in {text!r}; separate the numbers by single commas"
+        )
     try:
-        values = [float(x) for x in str(text).replace(" ", "").split(",") if x != ""]
+        values = [float(x) for x in items]
     except ValueError:
         raise InputError(f"{option}: expected comma-separated numbers, got {text!r}") from None
     if not values:
@@ -101,15 +109,15 @@ def settings_from(accuracy, rtol):
     Raises
     ------
     InputError
-        If the level is unknown or the tolerance lies outside ``[1e-14, 1e-2]`` (names the option).
+        If the level is unknown or the tolerance lies outside ``[1e-14, 1e-4]`` (names the option).
     """
     from coexist.errors import SceneError
     from coexist.settings import SolverSettings
 
     try:
         return SolverSettings(rtol=rtol) if rtol is not None else SolverSettings.from_accuracy(accuracy)
-    except SceneError as exc:
-        raise InputError(f"--{exc.field or 'accuracy'}: {exc.message}") from None
+    except SceneError as exc:  # the option the value came from (a tolerance given to --accuracy is its fault)
+        raise InputError(f"--{'rtol' if rtol is not None else 'accuracy'}: {exc.message}") from None
 
 
 def library_errors(func):
@@ -123,8 +131,10 @@ def library_errors(func):
     Returns
     -------
     callable
-        The wrapped function: a :class:`~coexist.errors.SceneError` becomes an :class:`InputError`, any
-        other :class:`~coexist.errors.CoexistError` is printed as ``Error: ...`` on stderr and exits 1.
+        The wrapped function: a :class:`~coexist.errors.SceneError` becomes an :class:`InputError` (one naming a
+        scene field, ``[section].key``, prefixed with the scene it came from, as :func:`load_scene_arg` does for
+        the errors found on loading), any other :class:`~coexist.errors.CoexistError` is printed as
+        ``Error: ...`` on stderr and exits 1.
     """
 
     @functools.wraps(func)
@@ -134,12 +144,28 @@ def library_errors(func):
         try:
             return func(*args, **kwargs)
         except SceneError as exc:
-            raise InputError(str(exc)) from None
+            raise InputError(_scene_prefixed(exc)) from None
         except CoexistError as exc:
             click.echo(f"Error: {exc}", err=True)
             sys.exit(1)
 
     return wrapper
+
+
+#: key of :attr:`click.Context.meta` holding the name of the scene the command loaded (as the user gave it)
+_SCENE_KEY = "coexist.scene"
+
+
+def _scene_prefixed(exc) -> str:
+    """``str(exc)``, prefixed with the loaded scene's name when ``exc`` names a scene field (``[section].key``):
+    a scene value found bad only while computing (a closing pressure below every state, say) is named as the
+    errors found on loading are."""
+    ctx = click.get_current_context(silent=True)
+    label = None if ctx is None else ctx.meta.get(_SCENE_KEY)
+    text = str(exc)
+    if label and (exc.field or "").startswith("[") and not text.startswith(f"{label}: "):
+        return f"{label}: {text}"
+    return text
 
 
 def write_json(data: dict) -> None:
@@ -165,7 +191,10 @@ class Outputs:
     it does not exist unless ``--overwrite`` was given, no two options name the same file, and at most one
     output goes to stdout. Files are drawn or written to temporary names beside their targets
     (:meth:`staged`) and renamed onto them only when the command finishes without error; a failure
-    removes the temporary files and leaves every existing file as it was.
+    removes the temporary files and leaves every existing file as it was. A file gets the permissions
+    ``open()`` would give it (``0o666`` less the umask; a replaced file keeps its own), and a target that is
+    a symbolic link is written through: the file it points to is replaced, the link stays
+    (:mod:`coexist.files`).
 
     Parameters
     ----------
@@ -183,7 +212,7 @@ class Outputs:
         self.overwrite = bool(overwrite)
         self._targets: dict[Path, str] = {}
         self._stdout: str | None = None
-        self._staged: list[tuple[Path, Path]] = []
+        self._staged: list[tuple[Path, Path, Path]] = []  # (temporary file, real target, target as given)
 
     def stdout(self, option: str) -> None:
         """Claim stdout for the output of ``option`` (data go to stdout one format at a time).
@@ -203,12 +232,17 @@ class Outputs:
         self._stdout = option
 
     def _check(self, path: str, option: str, suffixes: tuple) -> Path:
+        from coexist.files import real_target
+
         p = Path(path)
         if p.suffix.lower() not in suffixes:
             raise InputError(
                 f"{option}: unsupported file type {p.suffix or '(none)'!r} for {path!r} (use {', '.join(suffixes)})"
             )
-        parent = p.parent if str(p.parent) else Path(".")
+        real = real_target(p)  # a symbolic link is written through: its file's folder takes the temporary file
+        if real.is_symlink():
+            raise InputError(f"{option}: {p} is a symbolic link that does not resolve (a loop)")
+        parent = real.parent if str(real.parent) else Path(".")
         if not parent.exists():
             raise InputError(f"{option}: folder {parent} does not exist")
         if not parent.is_dir():
@@ -281,7 +315,8 @@ class Outputs:
         return self._check(path, option, (suffix,))
 
     def staged(self, target: Path) -> Path:
-        """A temporary file beside ``target`` (same suffix) to write to; renamed onto ``target`` at the end.
+        """A temporary file beside ``target`` (same suffix) to write to; renamed onto ``target`` at the end
+        (through a symbolic link: onto the file it points to, :func:`coexist.files.temp_file`).
 
         Parameters
         ----------
@@ -292,12 +327,12 @@ class Outputs:
         -------
         pathlib.Path
         """
-        import tempfile  # only a command that writes a file needs it
+        from coexist.files import real_target, temp_file
 
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}-", suffix=target.suffix, dir=target.parent or ".")
-        os.close(fd)
-        self._staged.append((Path(tmp), target))
-        return Path(tmp)
+        real = real_target(target)
+        tmp = temp_file(real)
+        self._staged.append((tmp, real, target))
+        return tmp
 
     def write_text(self, target: Path, text: str) -> None:
         """Write ``text`` to ``target`` through a staged file.
@@ -316,11 +351,11 @@ class Outputs:
 
     def __exit__(self, exc_type, exc, tb) -> None:
         if exc_type is None:
-            for tmp, target in self._staged:
-                os.replace(tmp, target)
+            for tmp, real, target in self._staged:
+                os.replace(tmp, real)
                 info(f"wrote {target}")
         else:
-            for tmp, _ in self._staged:
+            for tmp, _, _ in self._staged:
                 tmp.unlink(missing_ok=True)
         self._staged.clear()
 
@@ -372,12 +407,15 @@ def load_scene_arg(scene):
     from coexist.errors import SceneError
     from coexist.scene import load_scene, parse_scene
 
+    label = scene or "default scene"
     try:
-        if scene == "-":
-            return parse_scene(sys.stdin.read(), source="<stdin>")
-        return load_scene(scene)
+        loaded = parse_scene(sys.stdin.read(), source="<stdin>") if scene == "-" else load_scene(scene)
     except SceneError as exc:
-        raise InputError(f"{scene or 'default scene'}: {exc}") from None
+        raise InputError(f"{label}: {exc}") from None
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None:  # later errors naming one of its fields get the same prefix (library_errors)
+        ctx.meta[_SCENE_KEY] = label
+    return loaded
 
 
 def stderr_progress(length, label):
@@ -393,11 +431,19 @@ def stderr_progress(length, label):
     Returns
     -------
     click.termui.ProgressBar
-        To be used as a context manager.
+        To be used as a context manager; hidden when stderr is not a terminal (click would print the bare label
+        there, a stray line after the progress notes).
     """
     import sys
 
-    return click.progressbar(length=length, label=label, file=sys.stderr)
+    return click.progressbar(length=length, label=label, file=sys.stderr, hidden=not _isatty(sys.stderr))
+
+
+def _isatty(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):  # no isatty, or a closed stream
+        return False
 
 
 def material_options(scene, material, jlim, prestretch):
@@ -440,3 +486,24 @@ def material_options(scene, material, jlim, prestretch):
     material = material or "neo-hookean"
     prestretch = 1.0 if prestretch is None else prestretch
     return material, jlim, prestretch
+
+
+def check_jlim(material, jlim):
+    """Refuse a Jlim the material cannot take: ``--jlim`` is the Gent limit ``Jlim > 0`` and nothing else.
+
+    Parameters
+    ----------
+    material : str
+        The canonical material (:func:`material_options`).
+    jlim : float or None
+        ``--jlim`` (or the scene's), None if not given.
+
+    Raises
+    ------
+    InputError
+        If ``jlim`` is not positive, or given for a material other than Gent (names ``--jlim``).
+    """
+    if jlim is not None and not jlim > 0:
+        raise InputError(f"--jlim: must be positive, got {jlim:g}")
+    if material != "gent" and jlim is not None:
+        raise InputError("--jlim: only the gent material takes jlim")

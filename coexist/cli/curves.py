@@ -10,6 +10,7 @@ from .common import (
     InputError,
     Outputs,
     accuracy_option,
+    check_jlim,
     info,
     library_errors,
     load_scene_arg,
@@ -18,6 +19,9 @@ from .common import (
     settings_from,
     write_json,
 )
+
+#: estimated seconds from which the cost estimate is printed (shorter runs print nothing more)
+LONG_RUN_SECONDS = 10.0
 
 
 @click.command()
@@ -69,8 +73,8 @@ from .common import (
     "--p-hat",
     "p_hat",
     default=None,
-    help="Pressures p̂ of the voltage–charge curves, comma-separated ('none' to skip); default 1.2,1.5,1.7, "
-    "none for a patterned zone (its voltage–charge curves take seconds each: ask for them).",
+    help="Pressures p̂ of the voltage–charge curves, comma-separated ('none' to skip); default 1.2,1.5,1.7 "
+    "(a patterned zone's three take about a second).",
 )
 @click.option(
     "--pole-stretch",
@@ -120,7 +124,7 @@ def curves(
     import numpy as np
 
     from coexist.curves import pressure_volume_curve, voltage_charge_curve
-    from coexist.errors import SceneError
+    from coexist.errors import ModelRangeError, SceneError
     from coexist.model import build_model
 
     settings = settings_from(accuracy, rtol)
@@ -139,10 +143,7 @@ def curves(
         lo, hi = parse_floats(pole_stretch, "--pole-stretch", positive=True, count=(2,))
         if hi <= lo:
             raise InputError(f"--pole-stretch: the range must increase, got {pole_stretch!r}")
-    if jlim is not None and not jlim > 0:
-        raise InputError(f"--jlim: must be positive, got {jlim:g}")
-    if material != "gent" and jlim is not None:
-        raise InputError("--jlim: only the gent material takes jlim")
+    check_jlim(material, jlim)
     try:
         model = build_model(material, jlim=jlim, voltage=True, prestretch=prestretch, wrinkling=wrinkling)
     except SceneError as exc:
@@ -151,6 +152,12 @@ def curves(
         lo, hi = 1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch)
     if lo <= model.prestretch:
         raise InputError(f"--pole-stretch: must start above the prestretch {model.prestretch:g}, got {lo:g}")
+    from coexist.cost import curves_cost
+
+    cost = curves_cost(len(phis), len(pressures), points, patterned=patterned)
+    cost.check()  # refused before any work: exit 2 naming --points (and what fits) or the lists
+    if cost.seconds >= LONG_RUN_SECONDS:
+        info(f"estimated cost: {cost.describe()}")
     out = Outputs(overwrite)
     plot_path = out.figure(plot, "--plot")
     csv_target = out.data(csv_path, "--csv", ".csv")
@@ -164,26 +171,27 @@ def curves(
 
         zone = zone_pattern(*fields.values())
     for phi in phis:
-        if zone is not None:
-            from coexist.patterned import patterned_pressure_volume_curve
+        try:
+            if zone is not None:
+                from coexist.patterned import patterned_pressure_volume_curve
 
-            pv.append(patterned_pressure_volume_curve(model, zone, phi, grid, settings))
-        else:
-            pv.append(pressure_volume_curve(model, phi, grid, settings))
+                pv.append(patterned_pressure_volume_curve(model, zone, phi, grid, settings))
+            else:
+                pv.append(pressure_volume_curve(model, phi, grid, settings))
+        except ModelRangeError as exc:
+            raise _no_curve(exc, "--phi-hat", f"Φ̂ = {phi:g}") from None
         _note(pv[-1])
     if zone is not None and pressures:
         from coexist.patterned import PatternedModel
 
         # the zone's model (refusing wrinkled states): solve_states shoots it region by region
         zone_model = PatternedModel(model.elasticity, model.electrostatics, model.prestretch, "refuse", zone)
-    from coexist.errors import ModelRangeError
-
     for p in pressures:
         try:
             vq.append(voltage_charge_curve(model if zone is None else zone_model, p, grid, settings))
         except ModelRangeError as exc:
             if not defaulted_pressures:
-                raise
+                raise _no_curve(exc, "--p-hat", f"p̂ = {p:g}") from None
             # a default pressure this zone does not reach with any voltage: said, not fatal
             info(f"note: no Φ̂–Q̂ curve at the default p̂ = {p:g}: {exc}")
             continue
@@ -210,6 +218,21 @@ def curves(
         write_json(data)
     else:
         _summary(pv, vq, settings)
+
+
+def _no_curve(exc, option: str, value: str) -> Exception:
+    """The error of a curve that failed at ``value`` of ``option``: when the zone has no state at that value
+    anywhere in the pole-stretch range, the value is out of the model's range for that range, bad input (an
+    :class:`InputError` naming the option, exit 2); any other failure keeps its kind (exit 1), the value named."""
+    from coexist.errors import ModelRangeError, NoStateInRange
+
+    text = str(exc)
+    if isinstance(exc, NoStateInRange):
+        where = text.removeprefix("no valid state anywhere").lstrip()
+        return InputError(
+            f"{option}: the zone has no state at {value} {where}; take another value or --pole-stretch range"
+        )
+    return ModelRangeError(f"{value} ({option}): {text}", exc.reason)
 
 
 def _title(model, zone=None):

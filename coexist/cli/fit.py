@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
 import click
@@ -40,8 +41,8 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     """
     from coexist.fit import Shared, fit_zone_radius, sensitivity, transition_voltage
 
-    if not target_kv > 0:
-        raise InputError(f"--transition-kV: must be positive, got {target_kv:g}")
+    if not (target_kv > 0 and math.isfinite(target_kv)):
+        raise InputError(f"--transition-kV: must be a positive finite number, got {target_kv:g}")
     sc = load_scene_arg(scene)
     settings = settings_from(accuracy, rtol)
     if sc.chamber is None or sc.voltage is None:

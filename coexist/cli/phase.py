@@ -8,6 +8,7 @@ from .common import (
     InputError,
     Outputs,
     accuracy_option,
+    check_jlim,
     info,
     library_errors,
     load_scene_arg,
@@ -39,7 +40,6 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     critical point where they merge."""
     import numpy as np
 
-    from coexist.coexistence import CRITICAL_XTOL
     from coexist.coexistence import phase_diagram as compute
     from coexist.model import build_model
     from coexist.simulation import stretch_range_end
@@ -48,13 +48,12 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     if scene is None and material is None:
         material = "gent"
     material, jlim, prestretch = material_options(scene, material, jlim, None)
+    check_jlim(material, jlim)
     if material == "gent" and jlim is None:
         jlim = 40.0
     lo, hi = parse_floats(phi_range, "--phi-hat", nonnegative=True, count=(2,))
     if hi <= lo:
         raise InputError(f"--phi-hat: the range must increase, got {phi_range!r}")
-    if material == "gent" and not jlim > 0:
-        raise InputError(f"--jlim: must be positive, got {jlim:g}")
     gent = material == "gent"
     model = build_model(material, jlim=jlim if gent else None, prestretch=prestretch)
     pattern = None
@@ -98,5 +97,5 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
         info(f"note: {n}")
     click.echo(
         f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {settings.phase_diagram_points} shot "
-        f"states per voltage, critical voltage bisected to {CRITICAL_XTOL:g})"
+        "states per voltage; a critical point solved on the exact shooting equations, its error in the notes)"
     )

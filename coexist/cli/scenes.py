@@ -74,11 +74,12 @@ def check(scene, as_json, no_solve):
                 f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)"
             )
     cost = None
-    if loaded.patterned:  # the cost model is a uniform zone's: no ramp cost, and say what works
+    if loaded.patterned:  # no ramp cost printed here; say what works (every command takes them)
         info(
             f'note: patterned zones (pattern "{loaded.electrode_pattern}"): `coexist curves --scene {scene}` computes '
-            "their curves, `coexist ramp` and `coexist coexistence` their equilibria (several times a uniform "
-            "scene's time); fit and sweep refuse them so far"
+            "their curves, `coexist ramp`, `coexist coexistence` and `coexist shape` their equilibria (several "
+            "times a uniform scene's time); `coexist fit` fits their zone radius and `coexist sweep` sweeps them, "
+            "[electrodes] and [layers] keys included"
         )
     elif loaded.voltage is not None:
         from coexist.cost import ramp_cost

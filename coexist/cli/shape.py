@@ -24,6 +24,8 @@ MAX_LISTED_ZONES = 6
 MAX_VOLTAGES = 2000
 #: side views drawn in the lens figure of a patterned zone (spread over the voltages reached)
 LENS_SIDE_VIEWS = 5
+#: estimated seconds from which the cost estimate is printed (shorter runs print nothing more)
+LONG_RUN_SECONDS = 10.0
 
 
 @click.command()
@@ -87,7 +89,14 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
         over = [v for v in kv if v > stop * (1 + 1e-12)]
         if over:
             raise InputError(f"--voltage-kV: {over[0]:g} kV is above the scene's stop, {stop:g} kV ([voltage])")
-    if sc.patterned and sc.zone_count == 1:  # one patterned zone: its own path, and the lens figure
+    from coexist.cost import MAX_GROUPS, shape_cost
+
+    one_patterned = sc.patterned and sc.zone_count == 1
+    cost = shape_cost(len(kv), 1 if one_patterned else min(MAX_GROUPS, sc.zone_count), points)
+    cost.check()  # refused before any work: exit 2 naming --points (and what fits) or --voltage-kV
+    if cost.seconds >= LONG_RUN_SECONDS:
+        info(f"estimated cost: {cost.describe()}")
+    if one_patterned:  # one patterned zone: its own path, and the lens figure
         _patterned(sc, settings, kv, plot, as_json, points, overwrite)
         return
     with Outputs(overwrite) as out:
