@@ -7,7 +7,7 @@ per zone). The cost model (coefficients measured with ``benchmarks/bench_pipelin
 ``tracemalloc`` run on this 2-core machine, rounded up)::
 
     time   ≈ 0.5 s + 0.25 ms × voltages + 2.5 µs × numbers printed
-    memory ≈ 4 kB × voltages (states, while they are solved) + 32 B × numbers printed
+    memory ≈ 4 kB × voltages (states, while they are solved) + 80 B × numbers printed
     numbers printed = rows × (2 N + 3 groups + 8),  rows = voltages / every (+ changes)
 
 A scene with patterned zones (:mod:`coexist.patterned`: every state a Newton iteration on the interface scale,
@@ -39,8 +39,10 @@ SECONDS_PER_VOLTAGE = 0.25e-3
 SECONDS_PER_NUMBER = 2.5e-6
 #: bytes held per path voltage while the states are solved
 BYTES_PER_VOLTAGE = 4e3
-#: bytes per number of the output held in memory
-BYTES_PER_NUMBER = 32
+#: bytes per number of the output held in memory: the number in the result, in a list, and its JSON text (measured
+#: 2026-12-01: 1000 zones, 200 001 voltages, ``--every 45``, ``--json``: 8.98 million numbers, peak RSS 1.56 GB, of
+#: which ~0.1 GB the interpreter and libraries and ~0.8 GB the states of the path voltages: 73 B a number)
+BYTES_PER_NUMBER = 80
 #: a ramp printing more numbers than this is refused (about 200 MB of JSON)
 MAX_OUTPUT_NUMBERS = 10_000_000
 #: a ramp needing more memory than this is refused
