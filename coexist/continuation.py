@@ -400,8 +400,10 @@ def hermite(a_z, a_t, b_z, b_t, tau):
     return (2 * t3 - 3 * t2 + 1) * a_z + (t3 - 2 * t2 + tau) * L * a_t + (-2 * t3 + 3 * t2) * b_z + (t3 - t2) * L * b_t
 
 
-#: the longest continuation step (scaled arclength) taken across the onset of wrinkling of a zone group
-WRINKLING_STEP = 0.02
+#: the longest continuation step (scaled arclength) taken across a change the event functions do not locate: the
+#: onset of wrinkling of a zone group, or a change of stability without an event (past a longer step the corrector
+#: may land on another branch)
+SHORT_STEP = 0.02
 
 
 def _wrinkled(point: Point) -> tuple:
@@ -610,7 +612,7 @@ class Tracer:
             if turn > cfg.max_turn and h > cfg.min_step:
                 h *= 0.5
                 continue
-            if h > WRINKLING_STEP and _wrinkled(new) != _wrinkled(cur):
+            if h > SHORT_STEP and _wrinkled(new) != _wrinkled(cur):
                 # a zone group wrinkles (or goes taut again) within the step: cross its onset with a short step, so
                 # that the corrector stays on this branch (past a long step it may land on another one: a huge
                 # chamber's bulged zone pulls in just past its onset, and a long step had reached a wrinkled state
@@ -619,6 +621,11 @@ class Tracer:
                 continue
             new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
             found = self._events_between(cur, new)
+            if new.stable != cur.stable and not found and h > SHORT_STEP:
+                # stability changed within the step, but no event function changed sign: the step is too long to
+                # see the event (or it crossed to another branch); a shorter one locates it
+                h *= 0.5
+                continue
             if getattr(self, "stable_only", False):
                 stop = [
                     e for e in found if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")

@@ -365,7 +365,10 @@ class Ramp:
         phi_e = end.phi_hat
         counts, u, dv, mode = self._push(end, seg)
         last_err = ""
-        for eps in (1e-5, 1e-4, 1e-3):
+        # a split is a pitchfork: its mode pushed both ways (the second only where the first lands on no stable
+        # state: under near pressure control, e.g. a 1000 l chamber, one way the flow stalls on a saddle)
+        signs = (1.0, -1.0) if end.kind == "split" else (1.0,)
+        for eps, sign in ((e, g) for g in signs for e in (1e-5, 1e-4, 1e-3)):
             phi_f = phi_e + direction * eps * max(abs(phi_e), 0.01)
             try:
                 curve = self._curve(phi_f)
@@ -373,7 +376,7 @@ class Ramp:
                 last_err = str(exc)
                 continue
             v_scale = max(float(np.max(np.abs(curve.v(u)))), 1e-9)
-            du = 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12)
+            du = sign * 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12)
             counts_end, u_end, status, snaps = gradient_flow(
                 curve, self.emap.gas, counts, u + du, settings=self.emap.settings
             )
