@@ -148,9 +148,11 @@ class MaxwellSolver:
         rising = [b for b in self.curve.branches if b.rising and b.usable]
         if len(rising) < 2:
             why = f"; {self.curve.stopped_because}" if self.curve.stopped_because else ""
+            end = float(np.max(self.curve.pole_stretch))
             raise ModelRangeError(
-                f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the curve has no second stable branch "
-                f"(no stiffening within the model's range{why})",
+                f"no coexistence at Φ̂ = {self.curve.phi_hat:.6g}: the curve has no second stable branch up to "
+                f"λ0 = {end:.4g}, the end of the range computed{why} (past its pressure minimum it rises again too "
+                "little there, or not at all)",
                 "no_coexistence",
             )
         return rising[0], rising[1]
