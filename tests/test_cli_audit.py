@@ -199,6 +199,9 @@ def test_a_scene_error_found_while_computing_names_the_file(tmp_path):
     line = refused(result, "[chamber].closing_pressure_mbar")
     assert line.startswith("Error: low.toml: [chamber].closing_pressure_mbar: ")
     assert written == set()
+    # `coexist check` says the same (it called this scene "a stable start")
+    checked = refused(run(["check", "low.toml"], tmp_path)[0], "[chamber].closing_pressure_mbar")
+    assert "below the smallest computed state" in checked and "below the smallest computed state" in line
 
 
 def test_bulged_counts_must_be_whole(tmp_path):

@@ -73,6 +73,13 @@ def check(scene, as_json, no_solve):
                 f"{loaded.controlled_pressure / 100:.4g} mbar: it is at or above their {name} "
                 f"pressure ({loaded.pressure(p_max) / 100:.4g} mbar)"
             )
+        # the closing state itself, as `coexist ramp` builds it (e.g. a pressure below the smallest computed state)
+        from coexist.simulation import Simulation
+
+        try:
+            Simulation.from_scene(loaded)
+        except SceneError as exc:
+            raise InputError(f"{scene}: {exc}") from None
     cost = None
     if loaded.patterned:  # no ramp cost printed here; say what works (every command takes them)
         info(
