@@ -736,9 +736,10 @@ def voltage_at_pressure(
     Raises
     ------
     SceneError
-        If the model has no electrostatics, or for invalid pole stretches.
+        If the model has no electrostatics, or for invalid pole stretches or ``iterations`` (a whole number ≥ 1).
     """
     p_hat, settings = _checked_voltage_inputs(model, p_hat, settings)
+    iterations = validation.integer(iterations, "iterations", lo=1)
     _require_voltage(model)
     l0 = validation.real_array(pole_stretch, "pole_stretch")
     roots = _VoltageRoots(model, l0, p_hat, settings, solve_states(model, l0, 0.0, settings))

@@ -580,7 +580,8 @@ class GasChamber:
         Raises
         ------
         SceneError
-            If ``V̂c``, ``p̂atm`` or the resulting ``n̂`` is not a positive finite number.
+            If ``V̂c``, ``p̂atm`` or the resulting ``n̂`` is not a positive finite number, ``p̂`` is not finite, or
+            ``ΣV̂`` is negative or not finite.
 
         Examples
         --------
@@ -588,6 +589,8 @@ class GasChamber:
         >>> float(gas.pressure(0.2)), float(gas.stiffness(0.2))
         (0.5, 1.25)
         """
+        closing_pressure = real(closing_pressure, "closing_pressure")
+        zone_volumes_total = real(zone_volumes_total, "zone_volumes_total", lo=0.0)
         n = (chamber_volume + zone_volumes_total) * (atmospheric_pressure + closing_pressure)
         return cls(float(chamber_volume), float(atmospheric_pressure), float(n))
 
@@ -645,7 +648,8 @@ class PressureReservoir:
     name = "pressure-control"
 
     def __post_init__(self):
-        object.__setattr__(self, "pressure_hat", real(self.pressure_hat, "pressure_hat"))
+        # a gauge pressure the zones hold inflated: positive (below the atmosphere they would invert)
+        object.__setattr__(self, "pressure_hat", real(self.pressure_hat, "pressure_hat", lo=0.0, lo_open=True))
 
     def pressure(self, total_volume):
         """``p̂``, whatever the volume.
@@ -755,7 +759,7 @@ def material_from_name(name: str, jlim: float | None = None):
     name : str
         ``neo-hookean`` (also ``neohookean``, ``nh``) or ``gent``; case and ``_``/``-`` do not matter.
     jlim : float, optional
-        ``Jlim`` of the Gent material (required for it, ignored otherwise).
+        ``Jlim`` of the Gent material (required for it, refused for the neo-Hookean material).
 
     Returns
     -------
@@ -764,10 +768,12 @@ def material_from_name(name: str, jlim: float | None = None):
     Raises
     ------
     SceneError
-        For an unknown name, or for ``gent`` without a positive finite ``jlim``.
+        For an unknown name, for ``gent`` without a positive finite ``jlim``, or a ``jlim`` for ``neo-hookean``.
     """
     key = canonical_material(name)
     if key == "neo-hookean":
+        if jlim is not None:
+            raise SceneError("only the gent material takes jlim (the neo-Hookean material has no limit)", "jlim")
         return NeoHookean()
     if key == "gent":
         if jlim is None:

@@ -51,6 +51,10 @@ class Shared:
         return cls(model, snap_through(model, settings, pole_stretch_max(scene, settings)), settings)
 
 
+#: the transitions a zone radius can be fitted to
+TRANSITION_KINDS = ("spinodal", "equal_free_energy")
+
+
 def transition_voltage(
     scene: Scene, kind: str = "spinodal", shared: Shared | None = None, measure: bool = False
 ) -> tuple[float, float]:
@@ -87,7 +91,7 @@ def transition_voltage(
     ModelRangeError
         If there is no such transition in the scene's voltage window (``reason="no_transition"``).
     """
-    if kind not in ("spinodal", "equal_free_energy"):
+    if kind not in TRANSITION_KINDS:
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
     shared = shared or Shared.of(scene)
     settings = shared.settings if measure else replace(shared.settings, error_estimates=False)
@@ -132,7 +136,7 @@ def fit_zone_radius(
     Raises
     ------
     SceneError
-        If the scene has no ``[chamber]`` or no ``[voltage]``.
+        If the scene has no ``[chamber]`` or no ``[voltage]``, or ``kind`` is unknown.
     ModelRangeError
         If no radius in the bracket puts the transition at ``target_voltage`` (``reason="no_fit"``; the
         message gives the range of transitions the radii reach).
@@ -141,6 +145,8 @@ def fit_zone_radius(
     if scene.chamber is None or scene.voltage is None:
         raise SceneError("fitting needs a scene with [chamber] and [voltage]", "[chamber]")
     target_voltage = validation.real(target_voltage, "target_voltage", lo=0.0, lo_open=True)
+    if kind not in TRANSITION_KINDS:
+        raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
     shared = shared or Shared.of(scene)
     mu_h = scene.shear_modulus * scene.thickness
     a_max = shared.snap[0] * mu_h / scene.chamber.closing_pressure  # closing pressure = snap-through

@@ -799,6 +799,8 @@ def parse_scene(text: str, source: str = "<string>") -> Scene:
     SceneError
         For invalid TOML, or the first invalid section, key or value (naming the field).
     """
+    if not isinstance(text, str):
+        raise SceneError(f"a scene is TOML text (a str), got {type(text).__name__}", "text")
     try:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

@@ -10,8 +10,8 @@ from coexist.coexistence import maxwell_coexistence, phase_diagram
 from coexist.curves import pressure_volume_curve, voltage_at_pressure, voltage_charge_curve
 from coexist.effects import Breakdown, GasChamber, Gent, PressureReservoir
 from coexist.fit import fit_zone_radius, sensitivity, transition_voltage
-from coexist.model import MembraneModel
-from coexist.scene import load_scene
+from coexist.model import MembraneModel, build_model
+from coexist.scene import load_scene, parse_scene
 from coexist.settings import SolverSettings
 from coexist.shooting import solve_states
 from coexist.simulation import Simulation, equilibria_on_gas, simulate_ramp
@@ -52,6 +52,18 @@ CASES = [
     ("voltage_charge_curve(m, nan)", lambda: voltage_charge_curve(M, NAN), "p_hat"),
     ("voltage_at_pressure(m, [2], nan)", lambda: voltage_at_pressure(M, [2.0], NAN), "p_hat"),
     ("voltage_at_pressure(m, [2], 0)", lambda: voltage_at_pressure(M, [2.0], 0.0), "p_hat"),
+    # second audit: a bad iteration count read as "no voltage holds this pole stretch" (a false reason)
+    ("voltage_at_pressure(iterations=0)", lambda: voltage_at_pressure(M, [1.5], 1.0, iterations=0), "iterations"),
+    ("voltage_at_pressure(iterations=-1)", lambda: voltage_at_pressure(M, [1.5], 1.0, iterations=-1), "iterations"),
+    ("fit_zone_radius(kind='maxwell')", lambda: fit_zone_radius(load_scene("tricircle"), 3900.0, "maxwell"), "kind"),
+    ("parse_scene(5)", lambda: parse_scene(5), "text"),
+    ("PressureReservoir(-1)", lambda: PressureReservoir(-1.0), "pressure_hat"),
+    (
+        "GasChamber.closed_at(zones=-0.2)",
+        lambda: GasChamber.closed_at(1.0, 1.0, closing_pressure=0.5, zone_volumes_total=-0.2),
+        "zone_volumes_total",
+    ),
+    ("build_model('neo-hookean', jlim=97)", lambda: build_model("neo-hookean", jlim=97.0), "jlim"),
     ("maxwell_coexistence(None)", lambda: maxwell_coexistence(None), "curve"),
     ("phase_diagram(m, 'x', 3)", lambda: phase_diagram(M, "x", 3.0), "phi_values"),
     ("phase_diagram(m, [0.1], nan)", lambda: phase_diagram(M, [0.1], NAN), "pole_stretch_max"),
