@@ -78,7 +78,11 @@ REASONS = {
     STEP_LIMIT: ("solver_budget", "the integration used up its step budget (SolverSettings.max_steps)"),
     NOT_FINITE: ("no_equilibrium", "the integration produced non-finite values"),
     FOLDED_BACK: ("no_equilibrium", "the meridian turns back on itself (θ > π)"),
-    NO_VOLTAGE: ("no_equilibrium", "no voltage Φ̂ ≥ 0 holds this pole stretch at the requested pressure"),
+    NO_VOLTAGE: (
+        "no_equilibrium",
+        "no voltage Φ̂ ≥ 0 holds this pole stretch at the requested pressure (at zero voltage it is already below "
+        "it, or it stays above it up to the voltage where the states fail, e.g. the pole wrinkles)",
+    ),
     BELOW_RESOLUTION: (
         "out_of_range",
         "the pole stretch is within 5e-9 of the flat membrane: its deviation "
