@@ -556,7 +556,7 @@ class Ramp:
                             source_counts=seg.tracer.system.configuration.counts,
                         )
                     )
-                    notes.append(f"{seg.label} at {phi_end:.10g}: {land.reason}")
+                    notes.append(f"{seg.label} at Φ̂ = {phi_end:.10g}: {land.reason}")
                     exited = (seg, end, direction)
                     seg = None
                     note = land.reason
