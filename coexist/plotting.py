@@ -273,7 +273,8 @@ def plot_coexisting_states(curve, state, scale_title, path):
     u = np.linspace(curve.grid[0], curve.grid[-1], 800)
     ax.plot(curve.v(u), curve.p(u), color="tab:blue", lw=1.6, label=f"zone curve at Φ̂ = {curve.phi_hat:.4f}")
     ax.axhline(state.p_hat, color="0.5", ls="--", lw=0.8)
-    marks = [(state.v_unbulged, "o", "tab:green", f"unbulged ({state.zones - state.k} zones)")]
+    n_unbulged = state.zones - state.k
+    marks = [(state.v_unbulged, "o", "tab:green", f"unbulged ({n_unbulged} zone{'s' if n_unbulged != 1 else ''})")]
     if state.k:
         marks.append((state.v_bulged, "s", "tab:red", f"bulged ({state.k} zone{'s' if state.k > 1 else ''})"))
     for v, marker, color, label in marks:
