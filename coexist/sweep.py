@@ -1524,10 +1524,18 @@ def plot_design_map(
         fig.legend(handles=handles, loc="outside lower center", ncols=min(4, len(handles)), fontsize=8, frameon=False)
     ax.set_xlabel(_axis_label(dataset[x], x))
     ax.set_ylabel(_axis_label(dataset[y], y))
+    # few values (e.g. zone counts 2 and 5): ticks at the values computed, not at ones in between
+    for values, set_ticks in ((xs, ax.set_xticks), (ys, ax.set_yticks)):
+        if values.size <= MAP_TICKS_MAX:
+            set_ticks(values, [f"{v:g}" for v in values])
     if title:
         ax.set_title(title, fontsize=9)
     fig.savefig(path, dpi=130)
     plt.close(fig)
+
+
+#: a design map's axis with at most this many values has its ticks at exactly those values
+MAP_TICKS_MAX = 12
 
 
 def _cell_edges(centres: np.ndarray) -> np.ndarray:
