@@ -234,3 +234,22 @@ def test_no_bare_progress_label_on_stderr(tmp_path):
     assert result.exit_code == 0, result.output
     assert "ramp" not in result.stderr.splitlines()
     assert any(ln.startswith("following the stable states") for ln in result.stderr.splitlines())
+
+
+def test_a_fit_says_when_no_stable_state_follows_the_spinodal(tmp_path):
+    """At 18 mbar the homogeneous state is lost at a split after which no stable state exists (a zone reaches a
+    volume fold): the fit's spinodal is that loss, and it says so (second audit); at the default scene a zone
+    bulges there, and there is no note."""
+    import json
+
+    text = builtin_scene_text("tricircle").replace("closing_pressure_mbar = 20", "closing_pressure_mbar = 18")
+    (tmp_path / "t18.toml").write_text(text)
+    r = CliRunner().invoke(
+        cli, ["fit", str(tmp_path / "t18.toml"), "--transition-kV", "4.4", "--no-sensitivity", "--json"]
+    )
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    assert data["zone_radius_mm"] == pytest.approx(23.462605, abs=1e-5)
+    assert "no stable state follows" in data["note"] and "no_stable_state [split]" in data["note"]
+    r = CliRunner().invoke(cli, ["fit", "--transition-kV", "3.9", "--no-sensitivity", "--json"])
+    assert r.exit_code == 0 and json.loads(r.stdout)["note"] is None

@@ -52,6 +52,9 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     radius = fit_zone_radius(sc, target_kv * 1e3, kind, shared)
     fitted = replace(sc, zone_radius=radius)
     check, err = transition_voltage(fitted, kind, shared, measure=settings.error_estimates)
+    after = _what_follows(fitted, settings) if kind == "spinodal" else None
+    if after:
+        info(f"note: {after}")
     rows = []
     if not no_sensitivity:
         info("sensitivity (each input moved by ±1 %) ...")
@@ -63,6 +66,7 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
         "target_kV": target_kv,
         "transition_kV_at_fit": check / 1e3,
         "transition_error_kV": err / 1e3,
+        "note": after,
         "sensitivity": rows,
         "relative_tolerance": settings.rtol,
     }
@@ -85,3 +89,21 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     if any(r["spinodal"] is None or r["equal_free_energy"] is None for r in rows):
         click.echo("('-': no stable start, the zones cannot hold the closing pressure, or no transition in range)")
     click.echo(f"(exact equilibria, solver rtol {settings.rtol:.0e})")
+
+
+def _what_follows(fitted, settings) -> str | None:
+    """What the ramp of the fitted scene does where its homogeneous state is lost, when that is not a jump to a
+    stable state (a loss with no stable state after it is the spinodal all the same, but not a bulging zone);
+    None when a stable state follows. One ramp of the fitted scene (about a second)."""
+    from coexist.simulation import Simulation
+
+    report = Simulation.from_scene(fitted, settings).ramp()
+    first = next((t for t in report.result.transitions if t.direction == "up"), None)
+    if first is None or first.kind != "no_stable_state":
+        return None
+    kv = report.voltage_kV(first.phi_hat)
+    return (
+        f"at the fitted radius no stable state follows the loss of the homogeneous state at {kv:.6g} kV "
+        f"(the ramp: no_stable_state [{first.event}]{': ' + first.reason if first.reason else ''}): the fitted "
+        "transition is not a zone bulging"
+    )
