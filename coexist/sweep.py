@@ -40,9 +40,7 @@ import hashlib
 import itertools
 import json
 import math
-import os
 import shutil
-import tempfile
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -1133,14 +1131,11 @@ class Parts:
 
 
 def _atomic_write(path: Path, text: str) -> None:
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    """Write ``text`` to ``path`` whole or not at all (:func:`coexist.files.atomic`)."""
+    from .files import atomic
+
+    with atomic(path) as tmp:
+        tmp.write_text(text, encoding="utf-8")
 
 
 def parts_folder(output) -> Path:
