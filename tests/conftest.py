@@ -3,6 +3,7 @@
 Models are built once per session (building one takes ~50 ms).
 """
 
+import re
 import signal
 import time
 from contextlib import contextmanager
@@ -12,6 +13,7 @@ import pytest
 
 from coexist.effects import Gent, IdealDielectric, NeoHookean
 from coexist.model import MembraneModel
+from coexist.scene import builtin_scene_text, parse_scene
 from coexist.settings import SolverSettings
 
 #: the tightest setting the tests compare against (integrator rtol 1e-12)
@@ -132,3 +134,15 @@ def complete_scene(text: str) -> str:
             lines.append(f"[{section}]")
             lines += [f"{k} = {_toml_value(v)}" for k, v in table.items()]
     return "\n".join(lines) + "\n"
+
+
+def variant(**changes):
+    """The tricircle scene with some of its keys changed (``values_kV`` replaces the ramp)."""
+    text = builtin_scene_text("tricircle")
+    for key, val in changes.items():
+        if key == "values_kV":
+            text = text.replace("start_kV = 0\nstop_kV = 5\nstep_kV = 0.02", f"values_kV = {val}")
+        else:
+            text, n = re.subn(rf"^{key} = .*$", f"{key} = {val}", text, flags=re.M)
+            assert n == 1, key
+    return parse_scene(text)

@@ -7,27 +7,13 @@ step (or a huge chamber, whose segments are narrow) crosses a whole segment betw
 Now every segment the state enters is compared, from exact states over the whole overlap.
 """
 
-import re
-
 import numpy as np
 import pytest
+from conftest import variant
 
 from coexist.ramp import _hermite_dip
-from coexist.scene import builtin_scene_text, parse_scene
 from coexist.simulation import Simulation
 from coexist.sweep import FLOAT_FIELDS, evaluate_point, make_spec, summarise
-
-
-def variant(**changes):
-    """The tricircle scene with some of its keys changed (``values_kV`` replaces the ramp)."""
-    text = builtin_scene_text("tricircle")
-    for key, val in changes.items():
-        if key == "values_kV":
-            text = text.replace("start_kV = 0\nstop_kV = 5\nstep_kV = 0.02", f"values_kV = {val}")
-        else:
-            text, n = re.subn(rf"^{key} = .*$", f"{key} = {val}", text, flags=re.M)
-            assert n == 1, key
-    return parse_scene(text)
 
 
 def crossings(report):

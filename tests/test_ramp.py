@@ -5,28 +5,15 @@ Scenes are variations of the built-in ``tricircle`` (its fitted zone radius, Gen
 20 mbar): other ramp steps, stop voltages, a list of voltages, two zones, a 30 ml chamber.
 """
 
-import re
-
 import numpy as np
 import pytest
+from conftest import variant
 from scipy.optimize import brentq, root
 
-from coexist.scene import builtin_scene_text, load_scene, parse_scene
+from coexist.scene import load_scene
 from coexist.settings import SolverSettings
 from coexist.shooting import solve_states
 from coexist.simulation import Simulation
-
-
-def variant(**changes):
-    """The tricircle scene with some of its keys changed (``values_kV`` replaces the ramp)."""
-    text = builtin_scene_text("tricircle")
-    for key, val in changes.items():
-        if key == "values_kV":
-            text = text.replace("start_kV = 0\nstop_kV = 5\nstep_kV = 0.02", f"values_kV = {val}")
-        else:
-            text, n = re.subn(rf"^{key} = .*$", f"{key} = {val}", text, flags=re.M)
-            assert n == 1, key
-    return parse_scene(text)
 
 
 def transitions(report, kinds=("spinodal", "no_stable_state", "merge", "re_entry", "equal_free_energy")):
