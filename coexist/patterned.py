@@ -2224,7 +2224,8 @@ def _newton(
                 # the trajectory met the clamp stretch at stop_R inside the interfaces (s too large): with the
                 # uniform slope −1, G ≈ ln(stop_R) − σ, so the next s is stop_R
                 hi[i] = sigma[i]
-                nxt = math.log(stop_R[j])
+                # (met at the pole itself, stop_R ≤ 0: no estimate, a step down; the bracket bisects past it)
+                nxt = math.log(stop_R[j]) if stop_R[j] > 0 else sigma[i] - MAX_SCALE_STEP
             elif code == _FAR_CLAMP:
                 lo[i] = sigma[i]  # R* > LAST_REGION_REACH·s: G > ln 8
                 nxt = sigma[i] + MAX_SCALE_STEP

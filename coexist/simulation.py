@@ -191,7 +191,22 @@ def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: flo
     """
     lo, hi = float(lam_lo), float(lam_hi)
     s_lo = solve_states(model, [lo], 0.0, settings)
-    if not (s_lo.ok[0] and s_lo.p_hat[0] <= p_hat):
+    if not s_lo.ok[0]:
+        # no state just above the prestretch (a patterned zone can wrinkle there at tiny inflation): the search
+        # starts at the first valid state of a batch between the two ends
+        grid = lo + (hi - lo) * np.geomspace(1e-3, 0.5, 24)
+        scan = solve_states(model, grid, 0.0, settings)
+        if not scan.ok.any():
+            from .shooting import reason_text
+
+            raise SceneError(
+                f"p̂ = {p_hat:.6g} cannot be placed on the zone's curve: no state exists from pole stretch {lo:.6g} "
+                f"to {grid[-1]:.6g} at zero voltage ({reason_text(int(s_lo.status[0]))} at {lo:.6g})",
+                "pressure",
+            )
+        first = int(np.argmax(scan.ok))
+        lo, s_lo = float(grid[first]), solve_states(model, [grid[first]], 0.0, settings)
+    if not s_lo.p_hat[0] <= p_hat:
         raise SceneError(f"p̂ = {p_hat:.6g} is below the smallest computed state (p̂ = {s_lo.p_hat[0]:.3g})", "pressure")
 
     def residual(x, _):
