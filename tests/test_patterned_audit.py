@@ -33,3 +33,9 @@ def test_an_inner_circle_on_a_prestretched_membrane_ramps(tmp_path):
     assert r.exit_code == 0, r.output
     kinds = [(t["kind"], round(t["voltage_kV"], 4)) for t in json.loads(r.stdout)["transitions"]]
     assert kinds == [("no_stable_state", 3.9315), ("re_entry", 3.9315)], kinds
+
+
+def test_coexistence_of_one_zone_says_where_its_bistability_is():
+    r = CliRunner().invoke(cli, ["coexistence", "inner-circle"])
+    assert r.exit_code == 0, r.output
+    assert "one zone has no configurations" in r.stderr and "coexist ramp" in r.stderr

@@ -49,6 +49,11 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
             f"--bulged: this scene has {N} zones; name the numbers of bulged zones to list "
             f"(e.g. --bulged 1,2): each is a continuation of its own"
         )
+    if N == 1:
+        info(
+            "note: one zone has no configurations of bulged and unbulged zones to list; its own bistability (a jump "
+            "and its way back) is in `coexist ramp`, its equal-area pressures in `coexist phase-diagram`"
+        )
     info("tracing the stable states of each configuration ...")
     sim = Simulation.from_scene(sc, settings)
     if sc.voltage is None:
