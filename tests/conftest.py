@@ -146,3 +146,14 @@ def variant(**changes):
             text, n = re.subn(rf"^{key} = .*$", f"{key} = {val}", text, flags=re.M)
             assert n == 1, key
     return parse_scene(text)
+
+
+def one_line_error(result, *fragments):
+    """Exit 2, no traceback, exactly one ``Error:`` line holding every fragment."""
+    assert result.exit_code == 2, result.output
+    assert "Traceback" not in result.output
+    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error:")]
+    assert len(errors) == 1, result.output
+    for fragment in fragments:
+        assert fragment in errors[0], errors[0]
+    return errors[0]

@@ -7,6 +7,7 @@ import stat
 
 import pytest
 from click.testing import CliRunner
+from conftest import one_line_error as refused
 
 from coexist.cli.main import cli
 from coexist.cost import MAX_MEMORY_BYTES, MAX_OUTPUT_NUMBERS, curves_cost, shape_cost
@@ -25,17 +26,6 @@ def run(args, folder):
     finally:
         os.chdir(cwd)
     return result, set(os.listdir(folder)) - before
-
-
-def refused(result, *names):
-    """Exit 2, one ``Error:`` line naming each of ``names``, no traceback; the error line."""
-    assert result.exit_code == 2, result.output
-    assert "Traceback" not in result.output
-    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error:")]
-    assert len(errors) == 1, result.output
-    for name in names:
-        assert name in errors[0], errors[0]
-    return errors[0]
 
 
 def mode(path) -> int:

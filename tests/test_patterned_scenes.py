@@ -13,6 +13,7 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import one_line_error
 
 from coexist import patterned
 from coexist.errors import SceneError
@@ -43,17 +44,6 @@ def invoke(args, stdin=None):
     from coexist.cli.main import cli
 
     return CliRunner().invoke(cli, args, input=stdin)
-
-
-def one_line_error(result, *fragments):
-    """Exit 2, no traceback, exactly one ``Error:`` line holding every fragment."""
-    assert result.exit_code == 2, result.output
-    assert "Traceback" not in result.output
-    errors = [ln for ln in result.output.splitlines() if ln.startswith("Error:")]
-    assert len(errors) == 1, result.output
-    for fragment in fragments:
-        assert fragment in errors[0], errors[0]
-    return errors[0]
 
 
 # --- parsing ---------------------------------------------------------------------------------------------
