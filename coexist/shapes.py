@@ -900,6 +900,8 @@ def _patterned_points(model, pattern, st, S, settings) -> list:
 PATH_STENCIL = 0.01
 #: stencils tried per voltage before the search for the branch's state gives up
 MAX_STENCILS = 40
+#: the first stencil of a voltage samples at most this many pole stretches between the last state and the guess
+BRIDGE_SAMPLES = 40
 #: a path's end voltage is bisected until the last voltage with a state and the first without lie this close
 #: (``Φ̂``; 1e-6 is about 0.02 V for the paper's membranes)
 END_TOLERANCE = 1e-6
@@ -957,7 +959,11 @@ def _kind_of(status: int) -> str:
 
 
 class _Balance:
-    """``F(λ0) = p̂(λ0, Φ̂) − p̂gas(V̂(λ0, Φ̂))`` of one patterned zone at one voltage, evaluated in batches."""
+    """``F(λ0) = p̂(λ0, Φ̂) − p̂gas(V̂(λ0, Φ̂))`` of one patterned zone at one voltage, evaluated in batches.
+
+    A pole stretch whose state fails (wrinkles, loses stiffness, locks, ...) has no ``F``: it is kept apart
+    (``failed_x``, with the failure as a :class:`_NoState` in ``failures``) and its ``F`` is NaN in the values
+    returned; the valid ones are accumulated in ``x, F, p, v``."""
 
     def __init__(self, model, pattern, source, phi, settings):
         self.model, self.pattern, self.source, self.phi, self.settings = model, pattern, source, phi, settings
@@ -965,31 +971,69 @@ class _Balance:
         self.F = np.empty(0)
         self.p = np.empty(0)
         self.v = np.empty(0)
+        self.failed_x: list = []
+        self.failures: list = []
         self.sigma = None
 
     def __call__(self, lam):
         from .patterned import solve_patterned_states
+        from .shooting import reason_text
 
         lam = np.atleast_1d(np.asarray(lam, dtype=float))
         guess = None if self.sigma is None else np.full(lam.size, self.sigma)
         st = solve_patterned_states(self.model, self.pattern, lam, self.phi, self.settings, scale_guess=guess)
-        for i in range(lam.size):
-            if not st.ok[i]:
-                detail = st.failure_detail[i]
-                from .shooting import reason_text
-
-                raise _NoState(
+        ok = np.asarray(st.ok, dtype=bool)
+        for i in np.flatnonzero(~ok):
+            detail = st.failure_detail[i]
+            self.failed_x.append(float(lam[i]))
+            self.failures.append(
+                _NoState(
                     _kind_of(int(st.status[i])),
                     f"at Φ̂ = {self.phi:.6g}, pole stretch {lam[i]:.6g}: {reason_text(st.status[i])}"
                     + (f" ({detail})" if detail else ""),
                 )
-        self.sigma = float(np.log(st.clamp_radius[-1]))
-        F = st.p_hat - np.asarray(self.source.pressure(st.v_hat), dtype=float)
-        self.x = np.concatenate([self.x, lam])
-        self.F = np.concatenate([self.F, F])
-        self.p = np.concatenate([self.p, st.p_hat])
-        self.v = np.concatenate([self.v, st.v_hat])
+            )
+        F = np.full(lam.size, np.nan)
+        if ok.any():
+            self.sigma = float(np.log(st.clamp_radius[np.flatnonzero(ok)[-1]]))
+            F[ok] = st.p_hat[ok] - np.asarray(self.source.pressure(st.v_hat[ok]), dtype=float)
+            self.x = np.concatenate([self.x, lam[ok]])
+            self.F = np.concatenate([self.F, F[ok]])
+            self.p = np.concatenate([self.p, st.p_hat[ok]])
+            self.v = np.concatenate([self.v, st.v_hat[ok]])
         return F
+
+    def samples(self):
+        """Every pole stretch evaluated, ascending, with its ``F`` (NaN where the state failed)."""
+        X = np.concatenate([self.x, np.asarray(self.failed_x, dtype=float)])
+        F = np.concatenate([self.F, np.full(len(self.failed_x), np.nan)])
+        order = np.argsort(X, kind="stable")
+        return X[order], F[order]
+
+    def failure_at(self, x):
+        """The failure recorded at the evaluated pole stretch nearest ``x``."""
+        i = int(np.argmin(np.abs(np.asarray(self.failed_x) - x)))
+        return self.failures[i]
+
+
+def _rising_pairs(X, F):
+    """Indices ``j`` of consecutive samples with ``F[j] < 0 ≤ F[j+1]``, both valid (NaN compares false)."""
+    with np.errstate(invalid="ignore"):
+        return np.flatnonzero((F[:-1] < 0) & (F[1:] >= 0))
+
+
+def _gaps_to_failures(X, F):
+    """Intervals ``(valid, failed)`` of neighbouring samples where the root lies towards the failure: a valid
+    ``F < 0`` followed by a failed state (the root is at larger ``λ0``: ``F`` rises through 0), or a failed state
+    followed by a valid ``F ≥ 0`` (the root is at smaller ``λ0``). Returns ``(a, b, failed_end)`` triples."""
+    out = []
+    valid = np.isfinite(F)
+    for i in range(X.size - 1):
+        if valid[i] and not valid[i + 1] and F[i] < 0:
+            out.append((X[i], X[i + 1], X[i + 1]))
+        elif not valid[i] and valid[i + 1] and F[i + 1] >= 0:
+            out.append((X[i], X[i + 1], X[i]))
+    return out
 
 
 def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
@@ -1000,6 +1044,9 @@ def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
     for _ in range(rounds):
         xs = np.linspace(a, b, samples + 2)[1:-1]
         F = bal(xs)
+        if not np.isfinite(F).any():
+            raise bal.failure_at(0.5 * (a + b))
+        F = np.where(np.isfinite(F), F, -np.inf)
         x_all = bal.x
         order = np.argsort(x_all)
         xa, Fa = x_all[order], bal.F[order]
@@ -1038,33 +1085,73 @@ def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
     )
 
 
-def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH_STENCIL):
+#: a gap between a valid state short of the balance and a failed one is narrowed until it is this narrow (relative
+#: to ``λ0``) before the failure is taken as the branch's end at that voltage
+FAILURE_GAP = 1e-9
+
+
+def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH_STENCIL, last=None):
     """The state at ``Φ̂`` on the branch through ``guess``: the root of ``F`` where it rises through 0 nearest
     ``guess``. Stencils of six pole stretches ``h`` apart are evaluated from ``guess`` until the samples hold a
-    rising sign change; a maximum of ``F`` below 0 among them is looked at closely (:func:`_fold_or_bracket`:
-    the fold, :class:`_NoState` ``"snap-through"``). The bracket is then polished by safeguarded secant steps
-    (three points a step) until ``|F| ≤ rtol (p̂ + c V̂)`` (``c`` the gas stiffness: the accuracy both terms
-    carry) or the bracket is ``1e-13 λ0`` wide. Returns ``(λ0, p̂, V̂, F)``."""
+    rising sign change between two valid states; a maximum of ``F`` below 0 among them is looked at closely
+    (:func:`_fold_or_bracket`: the fold, :class:`_NoState` ``"snap-through"``). A pole stretch whose state
+    fails does not end the search: when the root lies towards a failed sample (a valid ``F < 0`` below it, or
+    a valid ``F ≥ 0`` above it) the gap between them is sampled until it holds the sign change, or until it is
+    :data:`FAILURE_GAP` narrow — then the state fails before the balance is met, and that failure is raised.
+    The bracket is then polished by safeguarded secant steps (three points a step) until
+    ``|F| ≤ rtol (p̂ + c V̂)`` (``c`` the gas stiffness: the accuracy both terms carry) or the bracket is
+    ``1e-13 λ0`` wide. With ``last``, the pole stretch of the previous voltage's state, the first stencil also
+    samples the pole stretches between it and ``guess`` (at most ``h`` apart, up to :data:`BRIDGE_SAMPLES`): a
+    prediction that overshoots a fold then still sees the fold's maximum of ``F`` below 0 instead of walking on
+    to the root of another branch. Returns ``(λ0, p̂, V̂, F)``."""
     bal = _Balance(model, pattern, source, phi, settings)
     centre = guess
-    for _ in range(MAX_STENCILS):
+    for attempt in range(MAX_STENCILS + 60):
         xs = centre + h * np.arange(-2, 4)
+        if attempt == 0 and last is not None and abs(guess - last) > 2 * h:
+            bridge = np.linspace(last, guess, min(BRIDGE_SAMPLES, int(abs(guess - last) / h) + 2))
+            xs = unique_sorted(np.r_[bridge[1:-1], xs])
         xs = xs[xs > lam_floor]
         if xs.size < 2:
             raise _NoState("no-state", f"at Φ̂ = {phi:.6g} the branch reaches the flat membrane")
         bal(xs)
-        order = np.argsort(bal.x)
-        X, Fa = bal.x[order], bal.F[order]
-        up = np.flatnonzero((Fa[:-1] < 0) & (Fa[1:] >= 0))
+        X, F = bal.samples()
+        up = _rising_pairs(X, F)
         if up.size:
             j = int(up[np.argmin(np.abs(X[up] - guess))])
-            lo, hi, Flo, Fhi = X[j], X[j + 1], Fa[j], Fa[j + 1]
+            lo, hi, Flo, Fhi = X[j], X[j + 1], F[j], F[j + 1]
             break
-        k = int(np.argmax(Fa))
-        if Fa[k] < 0 and 0 < k < X.size - 1:
-            lo, hi, Flo, Fhi = _fold_or_bracket(bal, X[k - 1], X[k + 1], phi)
+        valid = np.isfinite(F)
+        if not valid.any():
+            raise bal.failure_at(guess)
+        gaps = _gaps_to_failures(X, F)
+        if gaps:
+            ga, gb, failed = min(gaps, key=lambda g: min(abs(g[0] - guess), abs(g[1] - guess)))
+            while True:  # narrow the gap: sign change, or the failure next to a state short of the balance
+                if gb - ga <= FAILURE_GAP * gb:
+                    raise bal.failure_at(failed)
+                bal(np.linspace(ga, gb, 7)[1:-1])
+                X, F = bal.samples()
+                up = _rising_pairs(X, F)
+                inside = (X[up] >= ga) & (X[up + 1] <= gb)
+                if inside.any():
+                    j = int(up[inside][0])
+                    break
+                sub = [g for g in _gaps_to_failures(X, F) if g[0] >= ga and g[1] <= gb]
+                if not sub:  # the gap holds valid states only, none crossing: look again around them
+                    j = -1
+                    break
+                ga, gb, failed = min(sub, key=lambda g: min(abs(g[0] - guess), abs(g[1] - guess)))
+            if j >= 0:
+                lo, hi, Flo, Fhi = X[j], X[j + 1], F[j], F[j + 1]
+                break
+            continue
+        Xv, Fv = X[valid], F[valid]
+        k = int(np.argmax(Fv))
+        if Fv[k] < 0 and 0 < k < Xv.size - 1:
+            lo, hi, Flo, Fhi = _fold_or_bracket(bal, Xv[k - 1], Xv[k + 1], phi)
             break
-        centre = X[0] - 4 * h if Fa[0] >= 0 else X[-1] + 3 * h
+        centre = Xv[0] - 4 * h if Fv[0] >= 0 else Xv[-1] + 3 * h
     else:
         raise _NoState(
             "no-state",
@@ -1077,7 +1164,8 @@ def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH
         x = min(max(x, lo + 0.01 * (hi - lo)), hi - 0.01 * (hi - lo))
         eps = max(1e-4 * (hi - lo), tol_x)
         pts = unique_sorted(np.clip([x - eps, x, x + eps], lo + tol_x / 4, hi - tol_x / 4))
-        bal(pts)
+        if not np.isfinite(bal(pts)).all():  # a failed state between two valid ones: the branch breaks there
+            raise bal.failure_at(float(x))
         order = np.argsort(bal.x)
         X, Fa = bal.x[order], bal.F[order]
         inside = (X >= lo) & (X <= hi)
@@ -1092,7 +1180,9 @@ def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH
     return float(bal.x[i]), float(bal.p[i]), float(bal.v[i]), float(bal.F[i])
 
 
-def zone_path(model: MembraneModel, pattern, source, phi_hat, start_stretch: float, settings=None) -> ZonePath:
+def zone_path(
+    model: MembraneModel, pattern, source, phi_hat, start_stretch: float, settings=None, start_phi_hat=None
+) -> ZonePath:
     """The states of one patterned zone on ``source`` (a gas chamber or a controlled pressure) at rising voltages,
     continued from the state at ``start_stretch``.
 
@@ -1101,9 +1191,12 @@ def zone_path(model: MembraneModel, pattern, source, phi_hat, start_stretch: flo
     derivatives yet, so the root is bracketed by a stencil of pole stretches around the previous voltage's
     state, extrapolated, and polished by safeguarded secant steps until ``|F| ≤ rtol p̂`` or the bracket is
     ``1e-13 λ0`` wide). The branch is the one continued from the start: the root where ``F`` rises through 0
-    nearest the prediction. The states stop where none exists on that branch: a fold (``F``'s maximum below
-    0: snap-through), or a state that fails (wrinkling, pull-in, locking); the end is then bisected between the
-    last voltage with a state and the first without, each trial continued from the nearest state below.
+    nearest the prediction; a pole stretch near it whose state fails does not end the branch (the search narrows
+    the gap to the failure, :func:`_branch_root`). A voltage whose state is not found from the last state is
+    approached in halved steps from the last voltage with a state (states in between are not reported), each
+    continued from the nearest state below; the states stop where a step of :data:`END_TOLERANCE` still finds
+    none on the branch: a fold (``F``'s maximum below 0: snap-through), or a state that fails before the balance
+    is met (wrinkling, pull-in, locking).
 
     Parameters
     ----------
@@ -1116,8 +1209,12 @@ def zone_path(model: MembraneModel, pattern, source, phi_hat, start_stretch: flo
     phi_hat : array_like
         Voltages ``Φ̂ ≥ 0``, ascending.
     start_stretch : float
-        ``λ0`` of the state at the first voltage, or near it.
+        ``λ0`` of the state at the first voltage, or near it; with ``start_phi_hat``, of the converged state at
+        that voltage.
     settings : SolverSettings, optional
+    start_phi_hat : float, optional
+        The voltage of the start state (at most the first of ``phi_hat``): the path then steps up from it
+        (halving a step that finds no state) instead of starting at the first voltage asked for.
 
     Returns
     -------
@@ -1130,7 +1227,7 @@ def zone_path(model: MembraneModel, pattern, source, phi_hat, start_stretch: flo
         raise SceneError("must be a non-empty ascending sequence", "phi_hat")
     floor = model.prestretch * (1 + 1e-3)
     rows: list = []
-    end = None
+    end: tuple | None = None
     lam_prev = [float(start_stretch)]
     phi_prev: list = []
 
@@ -1140,36 +1237,51 @@ def zone_path(model: MembraneModel, pattern, source, phi_hat, start_stretch: flo
             return lam_prev[-1] + slope * (phi - phi_prev[-1])
         return lam_prev[-1]
 
+    phi_ok = None  # the last voltage with a state (asked for, or an intermediate step)
+    if start_phi_hat is not None:
+        phi_ok = validation.real(start_phi_hat, "start_phi_hat", lo=0.0, hi=float(phis[0]))
+        phi_prev.append(phi_ok)
     for phi in phis:
-        try:
-            lam, p, v, F = _branch_root(model, pattern, source, float(phi), predict(phi), floor, settings)
-        except _NoState as failure:
-            end = (float(phi), failure)
+        target = float(phi)
+        tried: tuple | None = None  # the last voltage that failed, with its failure
+        bad: tuple | None = None  # a voltage that failed again from a closer state: no state there, not tried again
+        while True:  # from the last state towards ``phi``: a failed step is halved, down to END_TOLERANCE
+            if bad is not None and phi_ok is not None and bad[0] - phi_ok <= END_TOLERANCE:
+                end = bad
+                break
+            guess = predict(target)
+            last = None if phi_ok is None else lam_prev[-1]
+            try:
+                lam, p, v, F = _branch_root(model, pattern, source, target, guess, floor, settings, last=last)
+            except _NoState as failure:
+                if phi_ok is None or target - phi_ok <= END_TOLERANCE:
+                    end = (target, failure)
+                    break
+                if tried is not None and tried[0] == target:
+                    bad = (target, failure)
+                tried = (target, failure)
+                target = 0.5 * (phi_ok + target)
+                continue
+            step = target - (phi_ok if phi_ok is not None else target)
+            lam_prev.append(lam)
+            phi_prev.append(target)
+            phi_ok = target
+            if target == float(phi):
+                rows.append((target, lam, p, v, F))
+                break
+            # grow the step again from the closer state; towards a voltage that failed twice, bisect instead
+            target = min(float(phi), target + 2 * step)
+            if bad is not None and target >= bad[0]:
+                target = 0.5 * (phi_ok + bad[0])
+        if end is not None:
             break
-        rows.append((float(phi), lam, p, v, F))
-        lam_prev.append(lam)
-        phi_prev.append(float(phi))
     arr = np.array(rows, dtype=float).reshape(-1, 5)
     path = ZonePath(arr[:, 0].copy(), arr[:, 1].copy(), arr[:, 2].copy(), arr[:, 3].copy(), arr[:, 4].copy())
     if end is None:
         return path
-    phi_bad, last = end
-    if not rows:
-        path.end_kind, path.end_reason, path.end_phi_hat = last.kind, last.reason, None
-        return path
-    # bisect the end between the last voltage with a state and the first without
-    phi_ok, lam_ok = rows[-1][0], rows[-1][1]
-    slope = (lam_prev[-1] - lam_prev[-2]) / (phi_prev[-1] - phi_prev[-2]) if len(phi_prev) >= 2 else 0.0
-    while phi_bad - phi_ok > END_TOLERANCE:
-        mid = 0.5 * (phi_ok + phi_bad)
-        try:
-            lam = _branch_root(model, pattern, source, mid, lam_ok + slope * (mid - phi_ok), floor, settings)[0]
-        except _NoState as failure:
-            phi_bad, last = mid, failure
-            continue
-        slope = (lam - lam_ok) / (mid - phi_ok)
-        phi_ok, lam_ok = mid, lam
-    path.end_kind, path.end_reason, path.end_phi_hat = last.kind, last.reason, (phi_ok, phi_bad)
+    phi_bad, stop = end
+    path.end_kind, path.end_reason = stop.kind, stop.reason
+    path.end_phi_hat = None if phi_ok is None else (phi_ok, phi_bad)
     return path
 
 
@@ -1249,7 +1361,7 @@ def scene_zone_path(scene, phi_hat, settings: SolverSettings | None = None) -> t
         )
     else:
         source = PressureReservoir(p_close)
-    return zone_path(model, pattern, source, phi_hat, lam_c, settings), source
+    return zone_path(model, pattern, source, phi_hat, lam_c, settings, start_phi_hat=0.0), source
 
 
 def lens_ratio(profile: Profile) -> float:
