@@ -29,6 +29,7 @@ from .settings import SolverSettings
 from .shooting import (
     NO_VOLTAGE,
     OK,
+    WRINKLED_AT_POLE,
     MembraneStates,
     StateDerivatives,
     first_valid_run,
@@ -179,8 +180,16 @@ def _take(states: MembraneStates, index) -> MembraneStates:
     return MembraneStates(**kw)
 
 
-def _valid_run(states: MembraneStates, pole_stretch):
-    """The first contiguous run of valid states, and why the range was cut before and after it."""
+def _valid_run(states: MembraneStates, pole_stretch, explain=None):
+    """The first contiguous run of valid states, and why the range was cut before and after it (``explain(i)``, if
+    given, says why state ``i`` has no voltage, for the status ``NO_VOLTAGE``)."""
+
+    def why(i):
+        code = states.status[i]
+        if explain is not None and code == NO_VOLTAGE:
+            return explain(i)
+        return reason_text(code)
+
     ok = states.ok
     if not ok.any():
         i = 0
@@ -194,11 +203,11 @@ def _valid_run(states: MembraneStates, pole_stretch):
     starts = None
     if first > 0:
         code = states.status[first - 1]
-        starts = f"{reason_tag(code)}: below pole stretch {pole_stretch[first]:.6g} {reason_text(code)}"
+        starts = f"{reason_tag(code)}: below pole stretch {pole_stretch[first]:.6g} {why(first - 1)}"
     stopped = None
     if last + 1 < ok.size:
         code = states.status[last + 1]
-        stopped = f"{reason_tag(code)}: beyond pole stretch {pole_stretch[last]:.6g} {reason_text(code)}"
+        stopped = f"{reason_tag(code)}: beyond pole stretch {pole_stretch[last]:.6g} {why(last + 1)}"
     return run, starts, stopped
 
 
@@ -446,6 +455,7 @@ class _VoltageRoots:
         self.finished = np.zeros(n, dtype=bool)
         self.lo, self.f_lo = np.zeros(n), np.full(n, np.nan)
         self.hi, self.f_hi = self.s_pole.copy(), np.full(n, -np.inf)  # no state at the pole-wrinkling voltage
+        self.status_hi = np.full(n, WRINKLED_AT_POLE)  # why there is no state at ``hi`` (when ``f_hi = −∞``)
         self.f_last = np.full(n, np.nan)
         if states0 is not None:
             self._record_zero(np.arange(n), states0)
@@ -515,6 +525,7 @@ class _VoltageRoots:
         above = ~ok | ((f < 0) & clear)
         self.lo[rows[below]], self.f_lo[rows[below]] = x[below], f[below]
         self.hi[rows[above]], self.f_hi[rows[above]] = x[above], f[above]
+        self.status_hi[rows[above]] = st.status[above]
         met = ok & (np.abs(f) <= self.ftol)
         self.converged[rows[met]] = True
         self.finished[rows[met]] = True
@@ -655,6 +666,23 @@ class _VoltageRoots:
         """Converged with the pressure met to ``10 residual_tol p̂`` at the last state evaluated."""
         tol = 10 * self.settings.residual_tol * self.p_hat
         return self.converged & np.isfinite(self.f_last) & (np.abs(self.f_last) <= tol)
+
+    def why_no_voltage(self, i: int) -> str:
+        """Why pole stretch ``i`` has no voltage that carries ``p̂``: its zero-voltage pressure is already below
+        ``p̂``, or its pressure stays above ``p̂`` up to the voltage where its states fail (and how they fail)."""
+        p0 = self.f0[i] + self.p_hat
+        if self.known[i] and not self.feasible[i] and np.isfinite(p0):
+            return (
+                f"no voltage Φ̂ ≥ 0 holds this pole stretch at p̂ = {self.p_hat:g}: at zero voltage its pressure is "
+                f"already below, p̂ = {p0:.6g} (a voltage lowers it)"
+            )
+        if np.isfinite(self.f_lo[i]) and self.f_lo[i] > 0 and not np.isfinite(self.f_hi[i]):
+            return (
+                f"no voltage Φ̂ ≥ 0 holds this pole stretch at p̂ = {self.p_hat:g}: its pressure stays above it up "
+                f"to Φ̂ = {np.sqrt(self.hi[i]):.6g} (p̂ = {self.f_lo[i] + self.p_hat:.6g} at Φ̂ = "
+                f"{np.sqrt(self.lo[i]):.6g}), where its states fail: {reason_text(self.status_hi[i])}"
+            )
+        return reason_text(NO_VOLTAGE)
 
     def states(self, with_derivatives: bool) -> MembraneStates:
         """The states found (flags and NaN set as :func:`voltage_at_pressure` documents)."""
@@ -849,7 +877,7 @@ def _zero_voltage_plan(roots: _VoltageRoots, coarse: np.ndarray) -> tuple[np.nda
     return np.concatenate(rows), int(coarse[k + 1]) + 1
 
 
-def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> MembraneStates:
+def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> tuple[MembraneStates, _VoltageRoots]:
     """:func:`voltage_at_pressure` on an increasing grid, using that the voltage is a smooth function of the
     pole stretch.
 
@@ -871,7 +899,8 @@ def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> Membran
 
     The same acceptance as :func:`voltage_at_pressure`: every state meets ``inner_ftol · p̂`` (or is
     noise-limited); problems beyond the end of the first valid run are given up as soon as that end is
-    known (:func:`_beyond_first_run`)."""
+    known (:func:`_beyond_first_run`). Returns the states and the search (which says why a pole stretch has no
+    voltage, :meth:`_VoltageRoots.why_no_voltage`)."""
     n = l0.size
     roots = _VoltageRoots(model, l0, p_hat, settings)
     coarse = unique_sorted(np.r_[np.arange(0, n, COARSE_STRIDE), n - 1])
@@ -912,7 +941,7 @@ def _voltage_charge_states(model, l0, p_hat, settings, iterations=60) -> Membran
         roots.zero(rows)
         rows = rows[~roots.finished[rows]]
         roots.newton(rows, roots.regula_falsi(rows), iterations, _beyond_first_run)
-    return roots.states(with_derivatives=False)
+    return roots.states(with_derivatives=False), roots
 
 
 def _fine_voltages(roots: _VoltageRoots, is_open, nodes, handed, iterations) -> None:
@@ -1150,8 +1179,8 @@ def voltage_charge_curve(
         )
     l0 = _check_range(pole_stretch, model)
     _require_voltage(model)
-    states = _voltage_charge_states(model, l0, p_hat, settings)
-    run, starts, stopped = _valid_run(states, l0)
+    states, roots = _voltage_charge_states(model, l0, p_hat, settings)
+    run, starts, stopped = _valid_run(states, l0, roots.why_no_voltage)
     states = _take(states, run)
     limits = _charge_limit_points(
         model, p_hat, states, settings, lambda x: voltage_at_pressure(model, x, p_hat, settings)

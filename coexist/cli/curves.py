@@ -67,7 +67,7 @@ LONG_RUN_SECONDS = 10.0
     "phi_hat",
     default="0,0.05,0.1,0.15,0.2",
     show_default=True,
-    help="Voltages Φ̂ of the pressure–volume curves, comma-separated.",
+    help="Voltages Φ̂ of the pressure–volume curves, comma-separated ('none' to skip).",
 )
 @click.option(
     "--p-hat",
@@ -134,11 +134,13 @@ def curves(
         wrinkling = sc.wrinkling if sc is not None else "refuse"
     fields = _pattern_fields(sc, pattern, inner_fraction, outer_fraction, passive_layers)
     patterned = fields["electrode_pattern"] != "full"
-    phis = parse_floats(phi_hat, "--phi-hat", nonnegative=True)
+    phis = [] if phi_hat.strip().lower() == "none" else parse_floats(phi_hat, "--phi-hat", nonnegative=True)
     defaulted_pressures = p_hat is None
     if p_hat is None:
         p_hat = "1.2,1.5,1.7"
     pressures = [] if p_hat.strip().lower() == "none" else parse_floats(p_hat, "--p-hat", positive=True)
+    if not phis and not pressures:
+        raise InputError("--phi-hat, --p-hat: both are 'none': no curve to compute")
     if pole_stretch is not None:
         lo, hi = parse_floats(pole_stretch, "--pole-stretch", positive=True, count=(2,))
         if hi <= lo:
