@@ -406,6 +406,52 @@ def hermite(a_z, a_t, b_z, b_t, tau):
 SHORT_STEP = 0.02
 
 
+#: a step whose voltage slope dips inside it below this fraction of its smaller end value is examined inside
+DIP_FRACTION = 0.9
+#: where a step is examined inside: its fractions of the chord (with the Hermite slope's minimum)
+DIP_SAMPLES = (0.25, 0.5, 0.75)
+
+
+def _voltage_dip(a: Point, b: Point, M: int) -> float | None:
+    """Where the step ``a -> b`` may hide two folds: the chord fraction ``τ`` at which the slope of the cubic
+    Hermite of ``wΦ̂`` along the step dips inside it well below the slopes at both ends, or None.
+
+    With the chord ``L = |z_b − z_a|``, ``τ ∈ [0, 1]``, end values ``φa``, ``φb`` of ``wΦ̂`` and slopes ``fa``,
+    ``fb`` (the fold function: the tangent's ``wΦ̂`` component, tangents oriented from ``a`` to ``b``), the
+    Hermite derivative is the quadratic
+    ``φ'(τ) = (6τ²−6τ) φa + (3τ²−4τ+1) L fa + (−6τ²+6τ) φb + (3τ²−2τ) L fb``; the step is suspect when ``fa``
+    and ``fb`` have one sign and ``sign(fa) φ'(τ)/L`` has an interior minimum below
+    ``DIP_FRACTION min(|fa|, |fb|)``. Near a cusp of the branch two folds can lie a few 10⁻⁶ kV apart (a
+    swallowtail), far below what a step resolves: the Hermite only shows the slope dipping (measured, the
+    tricircle with inner-circle electrodes of 0.9 of the radius and two passive layers: to 0.02–0.63 of the
+    smaller end value). A step across both folds sees no sign change of the fold function, and a stable-only
+    trace would run through the unstable piece between them onto the other stable piece. The smooth minima
+    of the slope on ordinary branches are shallow (the 10⁹ ml tricircle's: to 0.9999 of it) and are left
+    alone (a threshold of 1 shortened its homogeneous steps, and one of its equal-free-energy voltages then
+    failed to converge at rtol/100: the states' rounding dominates ``ΔĜ`` there).
+    """
+    L = float(np.linalg.norm(b.z - a.z))
+    if L == 0.0:
+        return None
+    d = b.z - a.z
+    ta = a.tangent if d @ a.tangent >= 0 else -a.tangent
+    tb = b.tangent if d @ b.tangent >= 0 else -b.tangent
+    fa, fb = float(ta[M]), float(tb[M])
+    if fa == 0.0 or fa * fb <= 0.0:
+        return None  # a sign change (or a zero) at the ends: the event functions see it
+    pa, pb = float(a.z[M]), float(b.z[M])
+    c2 = 6 * pa + 3 * L * fa - 6 * pb + 3 * L * fb
+    c1 = -6 * pa - 4 * L * fa + 6 * pb - 2 * L * fb
+    c0 = L * fa
+    if c2 == 0.0:
+        return None  # a linear slope: its extremes are at the ends
+    tv = -c1 / (2 * c2)
+    if not 0.0 < tv < 1.0:
+        return None
+    dip = np.sign(fa) * (c2 * tv * tv + c1 * tv + c0) / L
+    return float(tv) if dip < DIP_FRACTION * min(abs(fa), abs(fb)) else None
+
+
 def _wrinkled(point: Point) -> tuple:
     """Which zone groups of ``point`` are hoop-wrinkled (tension-field states: smallest tension zero)."""
     return tuple(bool(t <= 0) for t in np.atleast_1d(point.eq.min_tension))
@@ -626,6 +672,11 @@ class Tracer:
                 # see the event (or it crossed to another branch); a shorter one locates it
                 h *= 0.5
                 continue
+            if h > cfg.min_step and not any(e.kind == "fold" for e in found) and self._hides_folds(cur, new, h):
+                # the voltage turns back and forth within the step (two folds, no sign change at its ends): a
+                # shorter step meets one fold at a time
+                h *= 0.5
+                continue
             if getattr(self, "stable_only", False):
                 stop = [
                     e for e in found if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")
@@ -702,6 +753,27 @@ class Tracer:
             ev.stable_before, ev.stable_after = a.stable, b.stable
             events.append(ev)
         return sorted(events, key=lambda e: e.s)
+
+    def _hides_folds(self, a: Point, b: Point, h: float) -> bool:
+        """Whether the step ``a -> b`` (of length ``h``) may cross two folds (or a stability change and back)
+        that its ends do not show. Only where the Hermite slope of ``wΦ̂`` dips inside the step
+        (:func:`_voltage_dip`): a step longer than ``SHORT_STEP`` is then suspect as it is (the unstable piece
+        between two close folds can be a tenth of a long step, between any samples); in a shorter one,
+        converged points at the dip and at ``DIP_SAMPLES`` of the step (one batched corrector) are examined, and
+        the step hides folds when one of them has the fold function of the other sign, or another stability,
+        than ``a``. A point that does not converge is no evidence either way."""
+        tv = _voltage_dip(a, b, self.M)
+        if tv is None:
+            return False
+        if h > SHORT_STEP:
+            return True
+        sig_b = float(a.tangent @ (b.z - a.z))
+        sigmas = sig_b * np.array(sorted({tv, *DIP_SAMPLES}))
+        fa = np.sign(a.tangent[self.M])
+        return any(
+            p is not None and (np.sign(p.tangent[self.M]) != fa or p.stable != a.stable)
+            for p in self._points_at(a, b, sig_b, sigmas, loose=True)
+        )
 
     def _points_at(self, a: Point, b: Point | None, sig_b, sigmas, loose, formal=False, chord=False) -> list:
         """Converged points at arclength offsets ``sigmas`` from ``a`` (one batched corrector); None where

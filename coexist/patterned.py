@@ -577,8 +577,8 @@ def interface_stretch(model: MembraneModel, l1_in, l2, phi_in, n_in, phi_out, n_
     target = n_in * np.asarray(model.tensions(l1_in, l2, phi_in)[0]) / n_out
 
     def t1(x):
-        T = model.tensions(x, l2, phi_out)
-        return np.asarray(T[0]) * np.ones_like(x) - target, np.asarray(T[2]) * np.ones_like(x)
+        T1, T11 = _meridional_tension(model, x, l2, phi_out)
+        return T1 - target, T11
 
     x = l1_in.copy()
     g, d = t1(x)
@@ -618,17 +618,78 @@ def _stable_bracket(model: MembraneModel, x, g, l2, phi_out, target):
     both_target = np.concatenate([target.ravel(), target.ravel()])
 
     def ends(a, b):  # T̂1 − target at both ends of the brackets in one evaluation, and ∂T̂1/∂λ1 at the upper
-        T = model.tensions(np.concatenate([a.ravel(), b.ravel()]), both_l2, both_phi)
-        gg = np.asarray(T[0]) - both_target
-        return (
-            gg[:n].reshape(x.shape),
-            gg[n:].reshape(x.shape),
-            (np.asarray(T[2]) * np.ones(2 * n))[n:].reshape(x.shape),
-        )
+        T1, T11 = _meridional_tension(model, np.concatenate([a.ravel(), b.ravel()]), both_l2, both_phi)
+        gg = T1 - both_target
+        return gg[:n].reshape(x.shape), gg[n:].reshape(x.shape), T11[n:].reshape(x.shape)
 
     lo, hi, g_lo, g_hi, d_hi = _widen_bracket(ends, lo, hi)
-    ok = (g_lo < 0) & (g_hi > 0) & (d_hi > 0) & np.isfinite(g_lo) & np.isfinite(g_hi)
+    # NaN fails every comparison; an infinite end is a locked one (:func:`_meridional_tension`), a valid bracket end
+    ok = (g_lo < 0) & (g_hi > 0) & (d_hi > 0)
+    hi, ok = _below_first_maximum(model, x, hi, l2, phi_out, target, ok)
     return lo, hi, ok
+
+
+#: pole stretches sampled (geometrically) between ``λ1⁻`` and a bracket's upper end to find a maximum of ``T̂1``
+#: inside it (:func:`_below_first_maximum`; the falling stretch past the outer side's electromechanical instability
+#: spans tens of per cent of ``λ1`` on the membranes of this project — a resolution chosen, not derived)
+MAXIMUM_SAMPLES = 16
+
+
+def _below_first_maximum(model: MembraneModel, x, hi, l2, phi_out, target, ok):
+    """Cut brackets ``[·, hi]`` whose upper end was widened above ``x`` (``λ1⁻``) at the first sampled maximum of
+    ``T̂1(λ1)`` inside them: a side with voltage loses stiffness at its electromechanical instability
+    (``∂T̂1/∂λ1 = 0``), and beyond it ``T̂1`` falls, then rises again towards the Gent locking stretch. A bracket that
+    reaches over that fall holds the root of the far, stiffening branch too; the stable root is the one on the
+    branch rising from ``λ1⁻``, below the maximum, and there is none when ``T̂1`` at the maximum stays below the
+    target. Only columns with voltage (``Φ̂⁺ ≠ 0``) are sampled: without it ``T̂1`` rises monotonically up to
+    locking. Returns ``(hi, ok)``: ``hi`` cut at the first sample with ``∂T̂1/∂λ1 ≤ 0`` where ``T̂1`` there still
+    exceeds the target, ``ok`` False where it does not."""
+    x, hi, l2, phi_out, target = np.broadcast_arrays(
+        *(np.asarray(a, dtype=float) for a in (x, hi, l2, phi_out, target))
+    )
+    hi, ok = hi.copy(), np.array(ok, dtype=bool, copy=True)
+    cols = np.flatnonzero(ok.ravel() & (phi_out.ravel() != 0) & (hi.ravel() > x.ravel()))
+    if cols.size == 0:
+        return hi, ok
+    a, b = x.ravel()[cols], hi.ravel()[cols]
+    frac = np.arange(1, MAXIMUM_SAMPLES + 1) / MAXIMUM_SAMPLES
+    pts = a[None, :] * (b / a)[None, :] ** frac[:, None]  # (samples, cols), the last at hi
+    T1, T11 = _meridional_tension(
+        model, pts.ravel(), np.tile(l2.ravel()[cols], frac.size), np.tile(phi_out.ravel()[cols], frac.size)
+    )
+    T1, T11 = T1.reshape(pts.shape), T11.reshape(pts.shape)
+    falling = ~(T11 > 0)
+    has = falling.any(axis=0)
+    first = np.argmax(falling, axis=0)
+    j = np.flatnonzero(has)
+    k = first[j]
+    above = T1[k, j] - target.ravel()[cols[j]] > 0
+    hi_flat, ok_flat = hi.reshape(-1), ok.reshape(-1)
+    hi_flat[cols[j[above]]] = pts[k[above], j[above]]
+    ok_flat[cols[j[~above]]] = False
+    return hi, ok
+
+
+def _meridional_tension(model: MembraneModel, l1, l2, phi):
+    """``(T̂1, ∂T̂1/∂λ1)`` at ``(λ1, λ2; φ)``, with their limits where the Gent chains are locked (margin
+    ``1 − (I1 − 3)/Jlim ≤ 0``): there the formulas hold no state (``T̂1 = (λ1 − λ1⁻³λ2⁻²)/margin − φ²λ1λ2²`` has
+    changed sign through a pole), and ``T̂1 → ±∞`` as the margin falls to zero, with the sign of
+    ``∂I1/∂λ1 = 2(λ1 − λ1⁻³λ2⁻²)`` (the electrical term stays finite): a locked point reached by stretching is beyond
+    every root of ``T̂1 = target`` (``+∞``, slope ``+∞``), one reached by compressing below every root (``−∞``).
+    The root searches of the interface jump thus stay between the locking stretches (a bracket doubled into
+    the locked region had ``T̂1 < 0`` there and was refused: at zero voltage with equal sides, the identity
+    jump failed beyond a pole stretch of about 5 on a Gent membrane with ``Jlim = 97``)."""
+    l1, l2, phi = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (l1, l2, phi)))
+    T = model.tensions(l1, l2, phi)
+    T1 = np.asarray(T[0], dtype=float) * np.ones(l1.shape)
+    T11 = np.asarray(T[2], dtype=float) * np.ones(l1.shape)
+    locked = ~(np.asarray(T[4], dtype=float) * np.ones(l1.shape) > 0)
+    if locked.any():
+        with np.errstate(all="ignore"):
+            up = l1**4 * l2**2 >= 1.0  # ∂I1/∂λ1 ≥ 0: locked by stretching
+        T1 = np.where(locked, np.where(up, np.inf, -np.inf), T1)
+        T11 = np.where(locked, np.inf, T11)
+    return T1, T11
 
 
 def _widen_bracket(ends, lo, hi):
@@ -1270,9 +1331,8 @@ def _jump(model, l1_in, l2, phi_in, n_in, phi_out, n_out, T1_in, guess):
         m = todo.size
         if it == 0:
             pts = np.concatenate([x[todo], l1_b[todo], 0.5 * l1_b[todo], 2.0 * l1_b[todo]])
-            T = model.tensions(pts, np.tile(l2_b[todo], 4), np.tile(phi_b[todo], 4))
-            T1 = np.asarray(T[0]) * np.ones(4 * m) - np.tile(target[todo], 4)
-            T11 = np.asarray(T[2]) * np.ones(4 * m)
+            T1, T11 = _meridional_tension(model, pts, np.tile(l2_b[todo], 4), np.tile(phi_b[todo], 4))
+            T1 = T1 - np.tile(target[todo], 4)
             g, d = T1[:m], T11[:m]
             gi, gh, gd = T1[m : 2 * m], T1[2 * m : 3 * m], T1[3 * m :]
             g_in[todo] = gi
@@ -1282,10 +1342,12 @@ def _jump(model, l1_in, l2, phi_in, n_in, phi_out, n_out, T1_in, guess):
             g_lo, g_hi = np.where(below, gi, gh), np.where(gi > 0, gi, gd)
             d_hi = np.where(gi > 0, T11[m : 2 * m], T11[3 * m :])
             first_ok[todo] = (g_lo < 0) & (g_hi > 0) & (d_hi > 0)
+            first_hi[todo], first_ok[todo] = _below_first_maximum(
+                model, l1_b[todo], first_hi[todo], l2_b[todo], phi_b[todo], target[todo], first_ok[todo]
+            )
         else:
-            T = model.tensions(x[todo], l2_b[todo], phi_b[todo])
-            g = np.asarray(T[0]) * np.ones(m) - target[todo]
-            d = np.asarray(T[2]) * np.ones(m)
+            g, d = _meridional_tension(model, x[todo], l2_b[todo], phi_b[todo])
+            g = g - target[todo]
         with np.errstate(all="ignore"):
             step = g / d
         nxt = x[todo] - step

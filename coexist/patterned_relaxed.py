@@ -50,6 +50,7 @@ from .patterned import (
     _keep_bracketed,
     _Layout,
     _layout,
+    _meridional_tension,
     _patterned,
     _pole_region_scale,
     _pole_start,
@@ -234,9 +235,8 @@ def relaxed_interface_stretch(model: MembraneModel, l1_in, w_in, wrinkled_in, rh
     if wr_in.any():
         sel = wr_in
 
-        def taut_side(x):
-            T = model.tensions(x, rho[sel], phi_out[sel])
-            return np.asarray(T[0]) * np.ones_like(x), np.asarray(T[2]) * np.ones_like(x)
+        def taut_side(x):  # locked points beyond every root (T̂1 → +∞ at the locking stretch)
+            return _meridional_tension(model, x, rho[sel], phi_out[sel])
 
         taut_l1[sel] = _increasing_root(taut_side, target[sel], l1_in[sel])[0]
     with np.errstate(all="ignore"):
@@ -249,8 +249,11 @@ def relaxed_interface_stretch(model: MembraneModel, l1_in, w_in, wrinkled_in, rh
     if need.size:
 
         def wrinkled_side(x):
-            T1, K, _ = relaxed_meridional_tension(model, x, rho[need], phi_out[need], np.ones(x.shape, dtype=bool))
-            return T1, K
+            T1, K, w = relaxed_meridional_tension(model, x, rho[need], phi_out[need], np.ones(x.shape, dtype=bool))
+            # locked at its natural width (stretched along the meridian): beyond every root, as for a taut side
+            with np.errstate(all="ignore"):
+                locked = np.isfinite(w) & ~(np.asarray(model.tensions(x, w, phi_out[need])[4]) * np.ones(x.shape) > 0)
+            return np.where(locked, np.inf, T1), np.where(locked, np.inf, K)
 
         start = np.where(np.isfinite(taut_l1[need]), taut_l1[need], l1_in[need])
         x, found = _increasing_root(wrinkled_side, target[need], start)

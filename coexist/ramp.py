@@ -264,6 +264,56 @@ def _equal_volume_shape(curve, u_fold, settings=None):
     return float(min(cands, key=lambda x: abs(x - u_fold)))
 
 
+def _bounded_push(curve, u, du):
+    """The push ``du`` of a lost state, shortened (all groups by one factor: the mode's direction is kept) so
+    that every group's start ``uj + duj`` stays on the curve's grid and on the piece of the curve where ``V̂(u)``
+    is monotone as at ``uj``: at most half the way to the curve's end or to the first volume fold
+    (``dV̂/du = 0``) between ``uj`` and ``uj + duj``.
+
+    The push is a volume step (``1e-3`` of the volume scale) divided by ``dV̂/du``; where the lost state lies
+    just before a volume fold that slope is small and the step in ``u`` large: it jumped over the fold or off
+    the curve, and the flow started there decided nothing (a fold of the one-zone equilibrium at
+    ``dV̂/dλ0 ≈ 9e-4``, 0.002 in ``u`` before the zone's volume maximum, was pushed by 0.9, beyond the curve's
+    range, and the flow ran away: an inner-circle electrode of 5 % of the radius, one passive layer).
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        The zone curve the flow runs on (``grid``, ``dv``).
+    u, du : ndarray, shape (M,)
+        Each group's ``u`` and its push.
+
+    Returns
+    -------
+    ndarray, shape (M,)
+        ``du`` times a factor in ``(0, 1]``.
+    """
+    u = np.asarray(u, dtype=float)
+    du = np.asarray(du, dtype=float)
+    g = np.asarray(curve.grid, dtype=float)
+    lo, hi = float(g[0]), float(g[-1])
+    factor = 1.0
+    for uj, dj in zip(u, du):
+        if not (dj != 0.0 and np.isfinite(dj) and lo <= uj <= hi):
+            continue
+        end = uj + dj
+        room = (hi - uj) if dj > 0 else (uj - lo)
+        reach = min(abs(dj), 0.5 * room)
+        s0 = np.sign(float(curve.dv(uj)))
+        if s0 != 0.0:
+            inner = g[(g > min(uj, end)) & (g < max(uj, end))]
+            pts = np.concatenate([np.sort(inner)[:: 1 if dj > 0 else -1], [min(max(end, lo), hi)]])
+            flips = np.flatnonzero(np.sign(curve.dv(pts)) != s0)
+            if flips.size:
+                k = int(flips[0])
+                a = uj if k == 0 else float(pts[k - 1])
+                b = float(pts[k])
+                fold = float(bracketed_root(lambda s, _: curve.dv(s), min(a, b), max(a, b), xtol=1e-14).x[0])
+                reach = min(reach, 0.5 * abs(fold - uj))
+        factor = min(factor, reach / abs(dj))
+    return du * factor
+
+
 class Ramp:
     """Walks a voltage path over the stable segments of an :class:`EquilibriumMap`.
 
@@ -376,7 +426,7 @@ class Ramp:
                 last_err = str(exc)
                 continue
             v_scale = max(float(np.max(np.abs(curve.v(u)))), 1e-9)
-            du = sign * 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12)
+            du = _bounded_push(curve, u, sign * 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12))
             counts_end, u_end, status, snaps = gradient_flow(
                 curve, self.emap.gas, counts, u + du, settings=self.emap.settings
             )
@@ -806,6 +856,11 @@ def equal_free_energy(segments: list) -> list:
     ``ΔĜ(Φ̂)`` with both states converged exactly at every iterate (:func:`equal_free_energy_voltage`).
     Only the segments' own traces enter, so the result does not depend on which voltages a ramp visited.
 
+    A root where both segments hold one state (``_same_state``: they join there, or repeat a stretch of one
+    branch) is no coexistence and gives none: there ``ΔĜ ≡ 0`` and its sign changes are rounding. A crossing
+    found twice (the same two states at the same voltage within the errors, from two segments that repeat a
+    stretch of states) is listed once.
+
     Parameters
     ----------
     segments : list of StableSegment
@@ -835,7 +890,23 @@ def equal_free_energy(segments: list) -> list:
                 t = _crossing(A, B, a, b, da, db)
                 if t is not None:
                     out.append(t)
-    return sorted(out, key=lambda t: t.phi_hat)
+    kept: list = []
+    for t in sorted(out, key=lambda t: (t.phi_hat, t.phi_hat_error)):
+        if not any(_same_crossing(t, k) for k in kept):
+            kept.append(t)
+    return kept
+
+
+def _same_crossing(t: Transition, k: Transition) -> bool:
+    """Whether two equal-free-energy crossings are one: the same two states (:func:`_same_state`, in the same
+    order) at the same voltage within their errors (two segments that repeat a stretch of one branch each
+    cross a third segment there)."""
+    tb, kb, ta, ka = t.state_before, k.state_before, t.state_after, k.state_after
+    if tb is None or kb is None or ta is None or ka is None:
+        return False
+    return (
+        abs(t.phi_hat - k.phi_hat) <= t.phi_hat_error + k.phi_hat_error and _same_state(tb, kb) and _same_state(ta, ka)
+    )
 
 
 def equal_free_energy_voltage(
@@ -891,7 +962,10 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
     Its error is the last Newton step plus the rounding floor of the difference of two free energies,
     ``δΦ̂ = 4 ε max(|Ĝa|, |Ĝb|) / |Q̂a − Q̂b|`` (``ε`` the machine epsilon): ``ΔĜ`` is a difference of two
     nearly equal numbers, scattered by about ``ε |Ĝ|`` (measured), which a chamber of 10⁹ ml
-    (``|Ĝ| ≈ 2·10¹¹``) makes ``≈ 10⁻⁶`` in ``Φ̂``, far above the Newton step."""
+    (``|Ĝ| ≈ 2·10¹¹``) makes ``≈ 10⁻⁶`` in ``Φ̂``, far above the Newton step.
+
+    None where both segments hold one state at the root (or, when the iteration fails, at the secant
+    estimate; :func:`_same_state`): ``ΔĜ ≡ 0`` there and its sign change is rounding, no coexistence."""
     phi0 = lo - dlo * (hi - lo) / (dhi - dlo)
     try:
         phi, step, ea, eb = equal_free_energy_voltage(
@@ -904,7 +978,17 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
             np.sign(dlo),
         )
     except SolverError as exc:
+        try:
+            one = _same_state(A.states([phi0])[0], B.states([phi0])[0])
+        except SolverError:
+            one = False
+        if one:
+            return None  # rounding of two equal free energies (see below): nothing to converge to
         raise SolverError(f"{A.label} and {B.label}: {exc}") from None
+    if _same_state(ea, eb):
+        # both segments hold one state here (they join there, or one state was traced twice): ΔĜ vanishes
+        # identically and its sign changes are the rounding of two equal free energies, not a coexistence
+        return None
     dq = abs(ea.total_charge - eb.total_charge)
     floor = 4 * np.finfo(float).eps * max(abs(ea.free_energy), abs(eb.free_energy)) / dq if dq > 0 else 0.0
     # label: from the configuration lower in G below the crossing to the one lower above it
