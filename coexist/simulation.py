@@ -1045,7 +1045,7 @@ class RampReport:
         for i, s in enumerate(self.result.steps):
             label = s.segment.label if s.segment is not None else "none"
             changed, previous = previous is not None and label != previous, label
-            if i % every and not changed and i != last:
+            if i % every and not changed and not s.note and i != last:
                 continue
             d = {
                 "voltage_kV": round(float(self.voltage_kV(s.phi_hat)), 10),

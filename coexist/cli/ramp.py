@@ -158,9 +158,13 @@ def _table(data):
     prev = None
     for s in data["steps"]:
         changed = prev is not None and s["configuration"] != prev
+        # a jump onto another branch of the same configuration (a fold inside it) changes no label: its note says
+        within = prev is not None and not changed and "note" in s and s["configuration"] != "none"
         prev = s["configuration"]
         p = "-" if s["pressure_mbar"] is None else f"{s['pressure_mbar']:.4f}"
-        mark = "  <- " + s.get("note", "transition") if changed else ""
+        mark = "  <- " + s.get("note", "transition") if changed or within else ""
+        if within and s.get("note") == "transition":
+            mark += f" onto another branch of {s['configuration']}"
         wrinkled = [f"{100 * f:.0f}%" if f > 0 else "taut" for f in s.get("wrinkled_area_fraction") or []]
         if any(w != "taut" for w in wrinkled):  # a tension-field scene: which zones are wrinkled, how much
             mark += "  wrinkled: " + " ".join(wrinkled)
@@ -174,6 +178,9 @@ def _table(data):
         click.echo(
             f"  {t['kind']:<18} {t['direction']:<6} {format_voltage(t['voltage_kV'], t['voltage_error_kV']):<26}"
             f" {t['from']} -> {t['to']}  [{t['event']}]"
+            + ("  (another branch of the same configuration)" if t["from"] == t["to"] and t["from"] != "none" else "")
+            # an error that could not be measured (the re-location failed) is the location's bracket alone
+            + ("" if t.get("error_measured", True) else "  (error not measured: its bracket only)")
         )
     click.echo(f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e})")
     for note in data["notes"]:

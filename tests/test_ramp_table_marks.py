@@ -1,0 +1,30 @@
+"""The ramp's table marks every jump, also one onto another branch of the same configuration (a fold inside
+it), and the transitions list says so: two zones of the default membrane jump at 4.106 kV from one bulged state
+to a more bulged one (the bulged zone's volume 30.7 -> 36.7 ml between the rows at 4.10 and 4.12 kV), which
+printed no marker (audit of 2026-12-01)."""
+
+import re
+
+from click.testing import CliRunner
+
+from coexist.cli.main import cli
+from coexist.scene import builtin_scene_text
+
+
+def test_a_jump_within_one_configuration_is_marked(tmp_path):
+    scene = tmp_path / "zones2.toml"
+    scene.write_text(builtin_scene_text("tricircle").replace("count = 3", "count = 2"))
+    r = CliRunner().invoke(cli, ["ramp", str(scene)])
+    assert r.exit_code == 0, r.output
+    rows = {
+        (m.group(1), m.group(2)): line
+        for line in r.output.splitlines()
+        if (m := re.match(r"\s+(4\.120|3\.940)\s+(up|down)", line))
+    }
+    assert "<- transition onto another branch of 1 of 2 bulged" in rows[("4.120", "up")]
+    assert "<- transition onto another branch of 1 of 2 bulged" in rows[("3.940", "down")]
+    assert "<-" not in rows[("4.120", "down")]
+    same = [ln for ln in r.output.splitlines() if "1 of 2 bulged -> 1 of 2 bulged" in ln and "spinodal" in ln]
+    assert len(same) == 2 and all("(another branch of the same configuration)" in ln for ln in same)
+    up = [ln for ln in same if " up " in ln][0]
+    assert re.search(r"4\.1060489\d* kV", up), up
