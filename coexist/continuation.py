@@ -51,7 +51,7 @@ from .equilibria import (
 )
 from .errors import SolverError
 from .numerics.roots import newton
-from .shooting import WRINKLED
+from .shooting import STEP_LIMIT, WRINKLED
 
 # The driver's step control and tolerances are in SolverSettings (initial_step, max_step, min_step,
 # max_turn, max_newton, max_points, loose_tolerance, chord_below; newton_tol and event_tol from rtol).
@@ -95,6 +95,9 @@ class Event:
     stable_after: bool | None = None
     tangent: np.ndarray | None = field(default=None, repr=False)
     measured: bool = False  # True once ``error`` includes the re-location at a tighter tolerance
+    # the integration step budget its states needed, where larger than the settings' (an end approached by
+    # states whose integration takes ever more steps: Tracer._budget_end); its re-location uses it too
+    max_steps: int | None = None
 
 
 @dataclass
@@ -478,6 +481,8 @@ class Tracer:
         self.counts = np.asarray(system.configuration.counts)
         # the tight states of the last pull-in extrapolation beyond the branch's last point (pull_in_end)
         self._end_points: list = []
+        # the settings' own step budget, where this tracer's was raised (with_budget, _budget_end)
+        self.base_steps: int = system.settings.max_steps
 
     # points -------------------------------------------------------------------------------------------
     def _point(self, corr: Corrected, i: int, orient, index) -> Point:
@@ -1026,6 +1031,14 @@ class Tracer:
             offsets = lo + (float(end_guess) - lo) * np.array([0.25, 0.5, 0.75])
         star = None
         rough: list = []  # (offset, stiffness) of loosely converged states
+        # a converged valid state proves that the end lies beyond it; a failed probe only suggests that it
+        # lies before: its Newton iterates may have crossed the end from a predictor that overshoots the
+        # curving branch (a 3000 ml chamber's bulged zone: a loose probe 4e-5 before the end failed so, and
+        # the end had been put there). The bracket's ``hi`` is the nearest failure beyond every valid state
+        # (``hi`` as given when there is none), and a failure that bounds the extrapolated end is checked
+        # once more from the nearest valid state (below)
+        hi_given, failures = float(hi), []
+        rechecked = False
         for _round in range(PULL_IN_ROUNDS):
             # predicted from the valid state nearest the end, on the hyperplanes of cur's tangent (one
             # parametrisation for every round: offset o is t·(z − z_cur) = o)
@@ -1036,18 +1049,18 @@ class Tracer:
             pts = self._points_at(frame, None, h, offsets - best_offset, loose, chord=True)
             for o, p in zip(offsets, pts):
                 if p is None or not p.tangent @ cur.tangent > 0:
-                    hi = min(hi, float(o))
+                    failures.append(float(o))
                     continue
-                if o < hi:
-                    if o > lo:
-                        lo = float(o)
-                    if o > best_offset:
-                        best, best_offset = p, float(o)
-                    g = stiffness(p)
-                    if np.isfinite(g) and g > 0 and not loose:
-                        samples.append((float(o), g, p.z, p))
-                    elif np.isfinite(g) and g > 0:
-                        rough.append((float(o), g))
+                if o > lo:
+                    lo = float(o)
+                if o > best_offset:
+                    best, best_offset = p, float(o)
+                g = stiffness(p)
+                if np.isfinite(g) and g > 0 and not loose:
+                    samples.append((float(o), g, p.z, p))
+                elif np.isfinite(g) and g > 0:
+                    rough.append((float(o), g))
+            hi = min([f for f in failures if f > lo], default=hi_given)
             samples = sorted((x for x in samples if x[0] <= lo), key=lambda x: x[0])
             if len(samples) < 3:
                 # too few tight states to extrapolate from: the next round's three, placed just below the end
@@ -1070,7 +1083,21 @@ class Tracer:
                 return None
             new = float(roots.min())
             if not new <= hi + (hi - lo):
-                return None  # the extrapolated end lies well beyond an invalid state: not this kind of end
+                # the extrapolated end lies well beyond a failed probe: solve that probe again, tightly, from the
+                # nearest valid state (a short predictor); still failing, it is not this kind of end
+                if rechecked or hi >= hi_given:
+                    return None
+                rechecked = True
+                p = self._points_at(replace(best, tangent=cur.tangent), None, h, [hi - best_offset], False)[0]
+                g = stiffness(p) if p is not None and p.tangent @ cur.tangent > 0 else -np.inf
+                if not (np.isfinite(g) and g > 0):
+                    return None
+                failures.remove(hi)
+                lo, best, best_offset = hi, p, hi
+                samples.append((hi, g, p.z, p))
+                hi = min([f for f in failures if f > lo], default=hi_given)
+                offsets = new - 0.25 * (new - lo) * np.array([3.0, 2.0, 1.0])
+                continue
             change = abs(new - star) if star is not None else np.inf
             star = new
             if change <= PULL_IN_BRACKET:
@@ -1110,6 +1137,90 @@ class Tracer:
             else:
                 out.append(p)
         return out
+
+    def with_budget(self, max_steps: int) -> Tracer:
+        """The same tracer with another integration step budget (``SolverSettings.max_steps``).
+
+        Parameters
+        ----------
+        max_steps : int
+            The budget per trajectory.
+
+        Returns
+        -------
+        Tracer
+            A tracer of the same configuration, window and breakdown, whose settings differ in ``max_steps``
+            only (every state that integrates within both budgets is the same state).
+        """
+        from dataclasses import replace
+
+        settings = replace(self.system.settings, max_steps=int(max_steps))
+        system = GroupSystem(self.system.model, self.system.gas, self.system.configuration, settings)
+        out = Tracer(system, (self.phi_lo, self.phi_hi), self.breakdown)
+        out.stable_only = getattr(self, "stable_only", False)
+        out.base_steps = self.base_steps
+        return out
+
+    def _budget_end(self, prev, cur: Point, h, phi_fail: float) -> Event:
+        """The end of a branch whose states stopped at ``phi_fail`` because their integration used up its step
+        budget: the same step again with :data:`BUDGET_ESCALATION` times the budget, up to
+        :data:`BUDGET_ESCALATION_MAX` times the settings' own.
+
+        Near some ends the meridian's integration takes ever more steps as the end is approached (a pole whose
+        tension falls to zero: the pole of a nearly slack zone), so a fixed budget runs out just before the
+        physical end. Where a larger budget reaches a physical end (any failure but the budget) it is that end,
+        located as usual by the tracer with the larger budget, which the event records (``max_steps``: its
+        re-location uses it too).
+
+        Parameters
+        ----------
+        prev, cur : Point
+            The last two points of the branch (``cur`` valid).
+        h : float
+            The step from ``cur`` that failed.
+        phi_fail : float
+            Where the states were seen to stop (for the message).
+
+        Returns
+        -------
+        Event
+            The physical end (``range_end``).
+
+        Raises
+        ------
+        SolverError
+            If the states go on with a larger budget (the continuation at the settings' budget cannot follow
+            them), or still run out of steps at the largest budget: a numerical failure, never a transition.
+        """
+        settings = self.system.settings
+        base = self.base_steps
+        where = f"the states of {self.system.configuration} at Φ̂ = {phi_fail:.10g}"
+        if settings.max_steps * BUDGET_ESCALATION > base * BUDGET_ESCALATION_MAX:
+            raise SolverError(
+                f"{where} stop: their integration used up its step budget (SolverSettings.max_steps = "
+                f"{settings.max_steps}, {settings.max_steps // base} times the settings' {base}) without reaching "
+                "a physical end"
+            )
+        big = self.with_budget(settings.max_steps * BUDGET_ESCALATION)
+        new = big._solve(
+            self._predict(prev, cur, h), cur.tangent, cur.tangent @ cur.z + h, cur.tangent, cur.index, loose=True
+        )
+        failure = getattr(big, "_last_failure", None)
+        codes = [c[2] for c in getattr(failure, "failed_states", {}).values() if c[2] is not None]
+        end = None
+        if new is None and codes:
+            big._end_points = []
+            end = big._range_end(prev, cur, h, failure)
+        if end is None:
+            raise SolverError(
+                f"{where} stop: their integration used up its step budget (SolverSettings.max_steps = "
+                f"{settings.max_steps}); with {big.system.settings.max_steps} steps they go on: raise "
+                "SolverSettings.max_steps"
+            )
+        if end.max_steps is None:
+            end.max_steps = big.system.settings.max_steps
+        self._end_points = big._end_points
+        return end
 
     def _range_end(self, prev, cur: Point, h, failure):
         """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or
@@ -1169,6 +1280,9 @@ class Tracer:
                 return None
             best, lo, hi, new_code = found
             code = new_code if new_code is not None else code
+            if code == STEP_LIMIT:
+                # the states stop because their integration runs out of steps: no physical end
+                return self._budget_end(prev, cur, h, best.phi)
             if best is cur:
                 return None
         tag, text = failure_reason(code)
@@ -1186,6 +1300,11 @@ class Tracer:
         )
 
 
+#: factor by which :meth:`Tracer._budget_end` raises the integration step budget at an end where the states
+#: ran out of steps, and the largest multiple of the settings' budget it goes to (heuristic: a pole whose
+#: tension falls to zero needed 16 times the default 4000 steps to reach its end within 1e-8 in Φ̂)
+BUDGET_ESCALATION = 4
+BUDGET_ESCALATION_MAX = 64
 #: points per round of the bisection that locates where the states stop being valid
 RANGE_END_PROBES = 7
 #: rounds of the pull-in extrapolation (:meth:`Tracer.pull_in_end`) before it gives up
@@ -1203,6 +1322,18 @@ def _is_pull_in(code_or_note) -> bool:
 
     tag = reason_tag(int(code_or_note)) if isinstance(code_or_note, (int, np.integer)) else str(code_or_note)
     return bool(code_or_note == PULL_IN or tag.startswith("electromechanical_instability: a wrinkled"))
+
+
+def _note_reason(note: str) -> tuple:
+    """``(tag, sentence)`` of a range end's note (``"tag: sentence"``, as :func:`failure_reason` gives)."""
+    tag, _, text = note.partition(": ")
+    return tag, text
+
+
+def _is_formal_end(note: str) -> bool:
+    """Is a range end of this note the onset of wrinkling between pole and clamp (located as the root of the
+    formally continued states' smallest tension, not by validity)?"""
+    return _note_reason(note) == tuple(failure_reason(WRINKLED))
 
 
 def _validity_tol(code_or_note) -> float | None:
@@ -1241,6 +1372,8 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
         If a ``merge``'s symmetric branch point does not converge.
     """
     M = tracer.M
+    if event.max_steps is not None and event.max_steps > tight.system.settings.max_steps:
+        tight = tight.with_budget(event.max_steps)  # its states needed that budget (Tracer._budget_end)
     if event.kind == "merge":
         j = event.group or 0
         counts = list(tracer.counts)
@@ -1254,14 +1387,20 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
         change = abs(bp["phi"] - event.phi_hat)
     elif event.tangent is None:
         return event.error
-    elif event.kind == "range_end" and not event.note.startswith("wrinkling"):
-        # an end without a smooth event function (Gent locking, pull-in, no equilibrium): the same validity
-        # bisection with the tight tracer, in a bracket of ±δ around the loose end; a pull-in is extrapolated
-        # again from the tight states on the valid side
+    elif event.kind == "range_end" and not _is_formal_end(event.note):
+        # an end without a smooth event function (Gent locking, pull-in, a pole that wrinkles, no equilibrium):
+        # the same validity bisection with the tight tracer, in a bracket of ±δ around the loose end, which must
+        # end on a state of the same failure (one that runs out of integration steps first gets a larger budget,
+        # as the loose end did: Tracer._budget_end); a pull-in is extrapolated again from the tight states on the
+        # valid side
         change = None
         base = Point(event.z.copy(), event.tangent, event.eq, np.zeros(M), np.zeros(M), (0,) * M, True)
         for delta in (1e-5, 1e-4, 1e-3):
             pts = tight._points_at(base, None, 0.0, [-delta, delta], False)
+            if pts[0] is None and not _is_pull_in(event.note):
+                # the tangent's predictor back along a branch that curves into its end can fail (a pole whose
+                # tension falls to zero): the loose end's own state, converged tightly, is the valid side
+                pts[0] = tight._points_at(base, None, 0.0, [0.0], False)[0]
             beyond = pts[1] is None or not pts[1].tangent @ event.tangent > 0
             if pts[0] is None or not beyond:
                 continue
@@ -1272,8 +1411,15 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
                     change = abs(float(z_end[M]) / tight.w - event.phi_hat) + abs(best.tangent[M]) * err / tight.w
                     break
             found = tight.validity_bisection(base, 2 * delta, -delta, delta, _validity_tol(event.note))
-            if found is None:
-                continue
+            while (
+                found is not None
+                and found[3] == STEP_LIMIT
+                and tight.system.settings.max_steps * BUDGET_ESCALATION <= BUDGET_ESCALATION_MAX * tight.base_steps
+            ):
+                tight = tight.with_budget(tight.system.settings.max_steps * BUDGET_ESCALATION)
+                found = tight.validity_bisection(base, 2 * delta, -delta, delta, _validity_tol(event.note))
+            if found is None or (found[3] is not None and failure_reason(found[3]) != _note_reason(event.note)):
+                continue  # undecided, or another end than the loose one's
             best, lo, hi, _ = found
             if best is base:
                 best = pts[0]
