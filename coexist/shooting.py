@@ -502,6 +502,32 @@ CASADI_BATCH_LIMIT = 24
 COMPILED_BATCH_LIMIT = 256
 #: uses of a model's attempt function in one process after which it is compiled (once per machine)
 COMPILE_AFTER = 12
+#: while a model's library is compiled in the background, the cache is looked at again every this many uses
+RECHECK_EVERY = 16
+
+
+#: times a process starts a library's background compilation again after finding the lock another's
+RESTARTS = 3
+
+
+def _may_start_again(entry: dict) -> bool:
+    """Whether a library still missing from the cache may start its own background compilation now: the lock is
+    free (the compilation that held it was another library's) and it has not been started :data:`RESTARTS` times
+    in this process (counted in ``entry["starts"]``)."""
+    from .numerics.compiled import compiling
+
+    if compiling() or entry.get("starts", 0) >= RESTARTS:
+        return False
+    entry["starts"] = entry.get("starts", 0) + 1
+    return True
+
+
+def _compiling_elsewhere() -> bool:
+    """Whether the last :func:`~coexist.numerics.compiled.compiled` left the library to a compilation in the
+    background (this process's or another's): it is loaded from the cache later."""
+    from .numerics.compiled import STATUS
+
+    return STATUS["last"] in ("compiling in the background", "another compilation is running")
 
 
 class _Integrators:
@@ -570,8 +596,17 @@ class _Integrators:
                 entry["fun"] = make() if key is None else cache.casadi_function(name, key, make)
         entry["uses"] += 1
         if not entry["compiled"] and entry["uses"] >= self.compile_after:
-            fast = compiled(entry["fun"], name, key=key)
-            entry["compiled"] = True  # tried (whether it worked or not)
+            if entry.get("pending"):  # compiling in the background: loaded once it is in the cache
+                fast = None
+                if entry["uses"] % RECHECK_EVERY == 0 and key is not None:
+                    fast = load_cached(name, key, f"attempts_{kind}")
+                    if fast is None and _may_start_again(entry):  # the lock was another library's
+                        fast = compiled(entry["fun"], name, key=key)
+                entry["compiled"] = fast is not None
+            else:
+                fast = compiled(entry["fun"], name, key=key)
+                entry["pending"] = fast is None and key is not None and _compiling_elsewhere()
+                entry["compiled"] = not entry["pending"]  # tried (whether it worked or not), or waited for
             if fast is not None:
                 entry["fun"], entry["maps"], entry["fast"] = fast, {}, True
         return entry
@@ -616,11 +651,25 @@ class _Integrators:
                 step = make() if key is None else cache.casadi_function(name, key, make)
             st = self._casadi[kind] = _int.CasadiStepper(step, fun, rows)
         uses = self._casadi[("stepper uses", kind)] = self._casadi[("stepper uses", kind)] + 1
+        fast = None
         if uses == self.compile_after:  # used often in this process: worth compiling once per machine
             fast = compiled(st._step, name, key=key)
-            if fast is not None:
-                st = self._casadi[kind] = _int.CasadiStepper(fast, fun, rows)
-                self._casadi[("stepper compiled", kind)] = True
+            self._casadi[("stepper pending", kind)] = fast is None and key is not None and _compiling_elsewhere()
+        elif (
+            uses > self.compile_after
+            and self._casadi.get(("stepper pending", kind))
+            and not self._casadi[("stepper compiled", kind)]
+            and uses % RECHECK_EVERY == 0
+            and key is not None
+        ):  # compiling in the background: loaded once it is in the cache
+            fast = load_cached(name, key, f"dop853_{kind}")
+            tries = self._casadi.setdefault(("stepper starts", kind), {})
+            if fast is None and _may_start_again(tries):  # the lock was another library's
+                fast = compiled(st._step, name, key=key)
+        if fast is not None:
+            st = self._casadi[kind] = _int.CasadiStepper(fast, fun, rows)
+            self._casadi[("stepper compiled", kind)] = True
+            self._casadi[("stepper pending", kind)] = False
         if n > CASADI_BATCH_LIMIT and not self._casadi[("stepper compiled", kind)]:
             return _int.NumpyStepper(fun)  # the virtual machine loses to numpy here
         return st

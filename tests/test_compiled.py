@@ -11,6 +11,7 @@ from coexist.shooting import attempt_function, solve_states
 
 def test_compiled_function_equals_the_virtual_machine(tmp_path, monkeypatch):
     monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(C, "BACKGROUND", False)  # wait for the compiler
     model = build_model("gent", 97.0)
     fun = attempt_function(model, "radius", 9, K=2)
     fast = C.compiled(fun, "coexist_test_attempts")
@@ -38,6 +39,7 @@ def test_states_do_not_depend_on_the_path_taken(monkeypatch, tmp_path):
     the same statuses, and the same states to the tolerance (the small batches start from another first
     step, so their steps differ: 10 rtol for the states, 100 rtol for their derivatives)."""
     monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(C, "BACKGROUND", False)  # compiled in this process at the COMPILE_AFTER-th use
     model = build_model("gent", 97.0)
     l0 = np.linspace(1.05, 6.8, 12)
     phi = np.linspace(0.0, 0.32, 12)
@@ -79,3 +81,45 @@ def test_a_large_wrinkled_batch_is_its_states_alone():
     for name in ("p_hat", "v_hat", "q_hat", "min_tension", "max_field"):
         np.testing.assert_allclose(getattr(big, name)[pick][ok], getattr(small, name)[ok], rtol=1e-9, err_msg=name)
     np.testing.assert_allclose(big.derivatives.dp_dl0[pick][ok], small.derivatives.dp_dl0[ok], rtol=1e-8)
+
+
+def test_a_missing_library_is_compiled_in_the_background(tmp_path, monkeypatch):
+    """By default a library missing from the cache is compiled by a detached process: the call returns at once
+    (None: the caller keeps the virtual machine), a second compilation meanwhile is not started (one at a time
+    per cache), and once the library is in the cache it loads and gives the virtual machine's numbers; a model
+    shot again and again in the meantime switches to it (checked by the attempt function's entry)."""
+    import time
+
+    monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
+    if C._compiler() is None or not C.enabled():
+        pytest.skip("no C compiler on this machine")
+    model = build_model("gent", 97.0)
+    fun = attempt_function(model, "radius", 9, K=2)
+    assert C.compiled(fun, "coexist_bg_a", key="k1") is None
+    assert C.STATUS["last"] == "compiling in the background"
+    assert not C.library_path("coexist_bg_a", "k1").exists()  # returned before the compiler finished
+    assert C.compiled(attempt_function(model, "radius", 9, K=3), "coexist_bg_b", key="k2") is None
+    assert C.STATUS["last"] == "another compilation is running"
+    for _ in range(600):  # the detached compiler: some seconds
+        if C.load_cached("coexist_bg_a", "k1", fun.name()) is not None:
+            break
+        time.sleep(0.5)
+    fast = C.load_cached("coexist_bg_a", "k1", fun.name())
+    assert fast is not None and not (tmp_path / C.COMPILE_LOCK).exists()
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".coexist_bg_a")]  # no temporary file left
+    x = np.random.default_rng(2).uniform(0.5, 1.5, (fun.size1_in(0), 3))
+    x[4] = 0
+    np.testing.assert_allclose(fast(x).full(), fun(x).full(), rtol=1e-13, atol=1e-300)
+
+
+def test_a_stale_lock_is_taken_over(tmp_path, monkeypatch):
+    """A lock left by a compiler that died (older than STALE_LOCK_SECONDS) does not block compiling for ever; a
+    fresh one does."""
+    import os
+
+    lock = tmp_path / C.COMPILE_LOCK
+    lock.write_text("1")
+    assert C._take_lock(tmp_path) is None
+    old = lock.stat().st_mtime - C.STALE_LOCK_SECONDS - 10
+    os.utime(lock, (old, old))
+    assert C._take_lock(tmp_path) == lock and lock.read_text() == str(os.getpid())

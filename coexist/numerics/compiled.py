@@ -12,7 +12,12 @@ compiler is at hand:
 - a library is built in a temporary file in that directory and renamed into place, so concurrent
   processes never load a half-written one;
 - ``COEXIST_COMPILE=0`` turns compilation off; without a compiler, or if compiling fails, the
-  caller keeps CasADi's virtual machine (same numbers, slower) and :data:`STATUS` says why.
+  caller keeps CasADi's virtual machine (same numbers, slower) and :data:`STATUS` says why;
+- by default (:data:`BACKGROUND`) a library not in the cache is compiled by a detached compiler process
+  while the caller goes on in the virtual machine, and loaded from the cache once it is there (a new
+  model — another Jlim, another prestretch — costs the compiler some 10 s of CPU: a run that needs it once
+  does not wait for it, the next run finds it); one such compilation at a time per cache directory
+  (:data:`COMPILE_LOCK`), so a sweep over many materials never starts more.
 """
 
 from __future__ import annotations
@@ -24,8 +29,15 @@ from .cache import cache_dir
 
 #: compiler flags (part of the cache key)
 FLAGS = ("-O2", "-fPIC", "-shared")
-#: why the last compilation did not happen, or "compiled" / "cached"
+#: why the last compilation did not happen, or "compiled" / "cached" / "compiling in the background"
 STATUS = {"last": "not tried"}
+#: compile a library missing from the cache in a detached process (the caller keeps the virtual machine meanwhile)
+#: instead of waiting for the compiler; ``COEXIST_COMPILE=wait`` waits
+BACKGROUND = True
+#: the lock file of the one background compilation at a time (in the cache directory), and the age in seconds
+#: after which a lock is taken to be left by a compiler that died
+COMPILE_LOCK = ".compiling.lock"
+STALE_LOCK_SECONDS = 900.0
 _BROKEN = {"compiler": False}
 
 
@@ -39,6 +51,72 @@ def enabled() -> bool:
         before in this process; True otherwise.
     """
     return os.environ.get("COEXIST_COMPILE", "1") not in ("0", "false", "no", "off") and not _BROKEN["compiler"]
+
+
+def _in_background() -> bool:
+    return BACKGROUND and os.environ.get("COEXIST_COMPILE", "1") != "wait" and os.name == "posix"
+
+
+def compiling() -> bool:
+    """Whether a background compilation holds the cache directory's lock (:data:`COMPILE_LOCK`) now."""
+    return (cache_dir() / COMPILE_LOCK).exists()
+
+
+def _take_lock(root: Path) -> Path | None:
+    """The background-compilation lock of ``root`` if no other compilation holds it (a lock older than
+    :data:`STALE_LOCK_SECONDS` is taken over), else None."""
+    import time
+
+    lock = root / COMPILE_LOCK
+    for _ in range(2):
+        try:
+            fd = os.open(lock, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o600)
+        except FileExistsError:
+            try:
+                if time.time() - lock.stat().st_mtime > STALE_LOCK_SECONDS:
+                    lock.unlink()
+                    continue
+            except OSError:
+                pass
+            return None
+        os.write(fd, str(os.getpid()).encode())
+        os.close(fd)
+        return lock
+    return None
+
+
+def _compile_detached(cc: str, source: bytes, root: Path, name: str, lib: Path) -> bool:
+    """Start a detached compiler process that builds ``lib`` from ``source`` (a temporary file in ``root``, renamed
+    into place when complete, then the lock released); False when another compilation holds the lock."""
+    import subprocess
+    import tempfile
+
+    lock = _take_lock(root)
+    if lock is None:
+        return False
+    try:
+        fd, src = tempfile.mkstemp(prefix=f".{name}-", suffix=".c", dir=root)
+        with os.fdopen(fd, "wb") as f:
+            f.write(source)
+        fd, tmp = tempfile.mkstemp(prefix=f".{name}-", suffix=".so", dir=root)
+        os.close(fd)
+        # the shell puts the compiler in the background and returns at once (nothing left to wait for here)
+        script = '( "$0" "$@" "$SRC" -o "$TMP" -lm && mv -f "$TMP" "$LIB"; rm -f "$SRC" "$TMP" "$LOCK" ) &'
+        env = dict(os.environ, SRC=src, TMP=tmp, LIB=str(lib), LOCK=str(lock))
+        subprocess.run(
+            ["sh", "-c", script, cc, *FLAGS],
+            env=env,
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+            start_new_session=True,
+            check=True,
+            timeout=30,
+        )
+    except (OSError, subprocess.SubprocessError):
+        lock.unlink(missing_ok=True)
+        raise
+    return True
 
 
 def _compiler() -> str | None:
@@ -103,7 +181,10 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
     """``fun`` (a CasADi ``Function``) compiled to a shared library and loaded, or None when compiling is
     off, no compiler is found, or it fails (:data:`STATUS` says which). ``cached_only``: load it if the
     cache has it, never compile. ``key``: the cache key (default: the SHA-256 of the generated source
-    with the compiler, its flags and CasADi's version).
+    with the compiler, its flags and CasADi's version). With :data:`BACKGROUND` (the default; not with
+    ``COEXIST_COMPILE=wait``) a library missing from the cache is compiled by a detached process and None is
+    returned (:data:`STATUS` ``"compiling in the background"``, or ``"another compilation is running"``): the
+    caller keeps the virtual machine and loads the library later (:func:`load_cached`).
 
     Parameters
     ----------
@@ -159,6 +240,10 @@ def compiled(fun, name: str, cached_only: bool = False, key: str | None = None):
             STATUS["last"] = "cached"
         elif cached_only:
             STATUS["last"] = "not in the cache"
+            return None
+        elif _in_background():
+            started = _compile_detached(cc, source, root, name, lib)
+            STATUS["last"] = "compiling in the background" if started else "another compilation is running"
             return None
         else:
             fd, tmp = tempfile.mkstemp(prefix=f".{name}-", suffix=".so", dir=root)
