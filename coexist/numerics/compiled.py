@@ -58,7 +58,14 @@ def _in_background() -> bool:
 
 
 def compiling() -> bool:
-    """Whether a background compilation holds the cache directory's lock (:data:`COMPILE_LOCK`) now."""
+    """Whether a background compilation holds the cache directory's lock (:data:`COMPILE_LOCK`) now.
+
+    Returns
+    -------
+    bool
+        True while the lock file exists (a compiler process is running, or died within
+        :data:`STALE_LOCK_SECONDS`).
+    """
     return (cache_dir() / COMPILE_LOCK).exists()
 
 
