@@ -116,7 +116,10 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     its volume (its shape relaxes fast compared with the flow). When a zone reaches a volume fold of
     its curve while the flow still inflates it, that shape stops being stable at its volume: the
     membrane snaps, at that volume, to the other shape of equal volume that is stable (one zone of
-    the group; the others follow only if the flow takes them there), and the flow goes on.
+    the group; the others follow only if the flow takes them there), and the flow goes on. The flow stops
+    where a group's slope ``dV̂/du`` falls to ten times its floor (a heuristic trigger, before the floor acts);
+    that is a fold only if the spline's slope reaches zero before its next minimum (:func:`_volume_fold_ahead`):
+    a slope that dips and rises again without reaching zero is a near-fold, and the flow goes on through it.
 
     Each group moves on ``curve`` (a :class:`~coexist.zone_curves.ZoneCurve` at the jump's voltage, used
     only to decide *which* state the flow reaches; that state is then solved exactly). Returns
@@ -173,19 +176,32 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     def out_of_range(t, x):
         return float(min(np.min(x) - lo, hi - np.max(x)))
 
-    for _ in range(max_snaps + 1):
+    passes = 0  # slope dips passed without a volume fold (a restart each)
+    while True:
         eqs = _FlowEquations(pv, gas, counts, lo, hi, dv_floor, tol)
         rhs, jac, settled = eqs.rhs, eqs.jacobian, eqs.settled
+        m = len(counts)
 
-        def vfold(t, x, eqs=eqs):
-            return float(np.min(eqs.terms(x)[2])) - 10 * dv_floor
+        def vfold(j, eqs=eqs):
+            # heuristic trigger: stop where group j's slope dV̂/du falls to 10 floors (before the floor acts);
+            # whether a volume fold really lies ahead is then decided on the spline (_volume_fold_ahead)
+            return lambda t, x: float(eqs.terms(x)[2][j]) - 10 * dv_floor
 
-        flow = rosenbrock2(rhs, u, t_max, events=(settled, vfold, out_of_range), rtol=1e-4, atol=1e-7, jac=jac)
+        events = (settled, *(vfold(j) for j in range(m)), out_of_range)
+        flow = rosenbrock2(rhs, u, t_max, events=events, rtol=1e-4, atol=1e-7, jac=jac)
         u = flow.u
-        if flow.event == 2:
+        if flow.event == m + 1:
             return counts, u, "range_end", snaps
-        if flow.event == 1:
-            j = int(np.argmin(curve.dv(u)))
+        if flow.event is not None and 1 <= flow.event <= m:
+            j = flow.event - 1
+            if not _volume_fold_ahead(curve, float(u[j]), float(np.sign(rhs(0.0, u)[j]))):
+                # the slope dips but stays positive (a near-fold, e.g. the Gent stiffening's inflection):
+                # the zone's shape stays stable at its volume and the flow goes on through the dip (its
+                # event is armed again only once the slope has risen above the trigger)
+                passes += 1
+                if passes > 4 * (max_snaps + 1):
+                    return counts, u, "stalled", snaps
+                continue
             target = _equal_volume_shape(curve, u[j], settings)
             if target is None:
                 return counts, u, "volume_fold", snaps
@@ -196,11 +212,12 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
                 u = np.concatenate([u[: j + 1], [target], u[j + 1 :]])
             else:
                 u[j] = target
+            if len(snaps) > max_snaps:
+                return counts, u, "stalled", snaps
             continue
         if flow.event == 0 or settled(0, u) <= 0:
             return counts, u, "converged", snaps
         return counts, u, "stalled", snaps
-    return counts, u, "stalled", snaps
 
 
 class _FlowEquations:
@@ -262,6 +279,43 @@ def _equal_volume_shape(curve, u_fold, settings=None):
     if not cands:
         return None
     return float(min(cands, key=lambda x: abs(x - u_fold)))
+
+
+def _volume_fold_ahead(curve, u, direction) -> bool:
+    """Whether a zone at ``u`` whose slope ``dV̂/du`` falls as it moves in ``direction`` (``±1``) reaches a volume
+    fold ``dV̂/du = 0`` before that slope's next minimum (or the curve's end), on the spline.
+
+    The flow's fold event fires where the slope falls to a small trigger value; that alone does not make a fold.
+    Where the slope has a positive minimum ahead, ``min dV̂/du > 0``, the volume keeps growing (or shrinking)
+    through it and the zone's shape stays stable at its volume: a near-fold the flow passes (a Gent zone at
+    ``Jlim = 200``, 2.642 kV: ``dV̂/du`` falls to 0.004 at ``λ0 ≈ 5.9`` between 3 and 850 on the curve; taken for a
+    fold, it ended the ramp down with no state although the near bulged branch is stable there). Exact on the
+    spline: the slope ``V̂'`` is piecewise quadratic, its next minimum ``u*`` the first root of ``V̂''`` ahead
+    (the curve's end if none), and a fold lies ahead iff ``V̂'(u*) ≤ 0``.
+
+    Parameters
+    ----------
+    curve : ZoneCurve
+        The zone curve (``v`` spline, ``grid``).
+    u : float
+        Where the zone is.
+    direction : float
+        The sign of ``du/dt`` there (0 counts as a fold: the flow is not moving the zone through the dip).
+
+    Returns
+    -------
+    bool
+        True if ``dV̂/du`` reaches zero between ``u`` and its next minimum (or the curve's end) ahead.
+    """
+    if direction == 0.0:
+        return True
+    lo, hi = float(curve.grid[0]), float(curve.grid[-1])
+    dv = curve.dv
+    turns = dv.derivative().roots()
+    ahead = turns[turns > u] if direction > 0 else turns[turns < u][::-1]
+    stop = float(ahead[0]) if ahead.size else (hi if direction > 0 else lo)
+    # between u and stop the slope is monotone (it falls): it reaches zero there iff it is not positive at stop
+    return bool(float(dv(stop)) <= 0.0)
 
 
 def _bounded_push(curve, u, du):
