@@ -950,23 +950,26 @@ class Tracer:
         -------
         tuple or None
             ``(best, lo, hi, code)``: the last valid point (``cur`` if none beyond it), the final bracket and
-            the failure code met; None when the corrector fails on a valid state (undecided).
+            the failure code met; None when the corrector fails on a valid state, or when ``hi`` is no tight
+            probe's failure (a loose probe's, or the caller's) and its state, solved again tightly from ``best``,
+            converges (that failure was the corrector's): undecided.
         """
-        best, code = cur, None
+        best, code, confirmed = cur, None, False
         tol = self.system.settings.event_tol if tol is None else max(tol, self.system.settings.event_tol)
         base = lo  # the offset of ``best``: each round predicts from the last valid point, so that the
         # predictor's error shrinks with the bracket and no Newton iterate is carried past the end (where
         # it would refuse a point that converges inside)
         while hi - lo > tol:
             steps = (hi - lo) * np.arange(1, RANGE_END_PROBES + 1) / (RANGE_END_PROBES + 1) + (lo - base)
-            pts = self._points_at(best, None, h, steps, (hi - lo) > 1e-4)
+            loose = (hi - lo) > 1e-4
+            pts = self._points_at(best, None, h, steps, loose)
             failed = self._last_failure
             bad = [j for j, p in enumerate(pts) if p is None or not p.tangent @ best.tangent > 0]
             mids = base + steps
             if not bad:
                 lo, best, base = float(mids[-1]), pts[-1], float(mids[-1])
                 continue
-            j = bad[0]
+            j, confirmed = bad[0], not loose
             entry = failed.failed_states.get(j) if hasattr(failed, "failed_states") else None
             if pts[j] is None and (entry is None or entry[2] is None):
                 return None  # the corrector failed on a valid state: undecided
@@ -975,6 +978,15 @@ class Tracer:
             hi = float(mids[j])
             if entry is not None and entry[2] is not None:
                 code = entry[2]
+        if not confirmed:
+            # no tight probe failed: the bracket closed on a failure of a loose probe or on the caller's ``hi`` (a
+            # continuation step's, from its own predictor), whose Newton iterates may have crossed the end from a
+            # predictor that overshoots the curving branch (an inner-circle zone of the tricircle scene, 0.84 of
+            # its radius: a loose probe 2e-5 before its pull-in failed so, and the end had been put there).
+            # Solved again, tightly, from the nearest valid state: converging, it is no end
+            p = self._points_at(best, None, h, [hi - base], False)[0]
+            if p is not None and p.tangent @ best.tangent > 0:
+                return None
         return best, lo, hi, code
 
     def pull_in_end(self, cur: Point, h, lo: float, hi: float, end_guess: float | None = None):
@@ -1009,7 +1021,8 @@ class Tracer:
         -------
         tuple or None
             ``(best, z_end, error, lo, hi, near)``: the valid state nearest the end, the extrapolated ``z`` of the
-            end, the error of its offset (arclength), the final validity bracket and the tight states of the
+            end, the error of its offset (arclength), the final validity bracket (``hi`` infinite when valid
+            states beyond the given ``hi`` disproved it and no probe failed beyond them) and the tight states of the
             extrapolation beyond ``cur`` in order (the branch's last points: states asked for between them and
             the end start from them, not from a predictor across the whole last step); None where the states
             carry no wrinkled stiffness or the extrapolation does not settle inside the bracket (the caller
@@ -1036,7 +1049,11 @@ class Tracer:
         # curving branch (a 3000 ml chamber's bulged zone: a loose probe 4e-5 before the end failed so, and
         # the end had been put there). The bracket's ``hi`` is the nearest failure beyond every valid state
         # (``hi`` as given when there is none), and a failure that bounds the extrapolated end is checked
-        # once more from the nearest valid state (below)
+        # once more from the nearest valid state (below). The given ``hi`` is such a failure too (the
+        # continuation step that failed there, from its own predictor): a valid state beyond it disproves it,
+        # and then only the probes' own failures bound the end (an inner-circle zone of the tricircle scene,
+        # 0.84 of its radius: the step failed 2e-5 before the end, the extrapolation's states went past it and
+        # were refused, and the end had been put at the failed step)
         hi_given, failures = float(hi), []
         rechecked = False
         for _round in range(PULL_IN_ROUNDS):
@@ -1060,6 +1077,8 @@ class Tracer:
                     samples.append((float(o), g, p.z, p))
                 elif np.isfinite(g) and g > 0:
                     rough.append((float(o), g))
+            if lo >= hi_given:
+                hi_given = np.inf  # a converged valid state beyond the given hi: it was no end
             hi = min([f for f in failures if f > lo], default=hi_given)
             samples = sorted((x for x in samples if x[0] <= lo), key=lambda x: x[0])
             if len(samples) < 3:
@@ -1071,8 +1090,10 @@ class Tracer:
                     (s0, g0), (s1, g1) = pairs
                     guess = min(hi, s1 + g1 * (s1 - s0) / (g0 - g1))
                     offsets = guess - (guess - lo) / 8 * np.array([3.0, 2.0, 1.0])
-                else:
+                elif np.isfinite(hi):
                     offsets = lo + (hi - lo) * np.array([0.25, 0.5, 0.75])
+                else:
+                    return None  # no bracket and no secant to place the next states by
                 continue
             sig = np.array([x[0] for x in samples[-3:]])
             gs = np.array([x[1] for x in samples[-3:]])
@@ -1083,16 +1104,20 @@ class Tracer:
                 return None
             new = float(roots.min())
             if not new <= hi + (hi - lo):
-                # the extrapolated end lies well beyond a failed probe: solve that probe again, tightly, from the
-                # nearest valid state (a short predictor); still failing, it is not this kind of end
-                if rechecked or hi >= hi_given:
+                # the extrapolated end lies well beyond a failed probe (or the given hi): solve that point again,
+                # tightly, from the nearest valid state (a short predictor); still failing, it is not this kind of
+                # end
+                if rechecked:
                     return None
                 rechecked = True
                 p = self._points_at(replace(best, tangent=cur.tangent), None, h, [hi - best_offset], False)[0]
                 g = stiffness(p) if p is not None and p.tangent @ cur.tangent > 0 else -np.inf
                 if not (np.isfinite(g) and g > 0):
                     return None
-                failures.remove(hi)
+                if hi in failures:
+                    failures.remove(hi)
+                if hi >= hi_given:
+                    hi_given = np.inf
                 lo, best, best_offset = hi, p, hi
                 samples.append((hi, g, p.z, p))
                 hi = min([f for f in failures if f > lo], default=hi_given)
@@ -1653,7 +1678,13 @@ class StableSegment:
         """A first guess of ``z`` at voltage ``Φ̂`` (cubic Hermite between the two points around it).
 
         The chord parameter at which the Hermite cubic reaches ``Φ̂`` is found by Newton's method (8
-        iterations at most); beyond the end points the end piece is extrapolated.
+        iterations at most); beyond the end nodes the end piece is extrapolated. The nodes are the segment's
+        points and, at an end that is a fold located beyond the last point, the fold's state with its tangent
+        (``dΦ̂/ds = 0`` there): between the last point and the fold the branch turns, and the end piece
+        extrapolated past the last point would cross the fold onto the unstable side, from where Newton's
+        method at fixed voltage, its matrix nearly singular, steps out of the physical range (the tricircle
+        with Gent ``Jlim = 300``: 2.22 kV, 5e-4 kV below the fold that ends its bulged segment). On the piece
+        that ends at the fold the chord parameter is kept within ``[0, 1]``.
 
         Parameters
         ----------
@@ -1665,30 +1696,46 @@ class StableSegment:
         ndarray, shape (M + 1,)
             ``z = (u1 … uM, wΦ̂)``, its voltage entry exactly ``w phi``.
         """
-        phis = self._phi[self._order]
-        pts = [self.points[i] for i in self._order]
+        # nodes (Φ̂, z, tangent) in ascending Φ̂; True marks a fold end
+        nodes = [(p.phi, p.z, p.tangent, False) for p in (self.points[i] for i in self._order)]
+        for direction in (-1, +1):
+            e = self.end(direction)
+            edge = nodes[-1 if direction > 0 else 0][0]
+            if (
+                isinstance(e, Event)
+                and e.kind == "fold"
+                and e.tangent is not None
+                and direction * (e.phi_hat - edge) > 0
+            ):
+                node = (e.phi_hat, e.z, e.tangent, True)
+                nodes = nodes + [node] if direction > 0 else [node] + nodes
+        phis = np.array([nd[0] for nd in nodes])
         if phi <= phis[0]:
             k = 0
         elif phi >= phis[-1]:
-            k = len(pts) - 2
+            k = len(nodes) - 2
         else:
             k = int(np.searchsorted(phis, phi) - 1)
-        if len(pts) == 1:
-            z = pts[0].z.copy()
+        if len(nodes) == 1:
+            z = nodes[0][1].copy()
             z[-1] = phi * self.tracer.w
             return z
-        a, b = pts[k], pts[k + 1]
-        ta = a.tangent if (b.z - a.z) @ a.tangent >= 0 else -a.tangent
-        tb = b.tangent if (b.z - a.z) @ b.tangent >= 0 else -b.tangent
-        frac = (phi - a.phi) / (b.phi - a.phi) if b.phi != a.phi else 0.0
+        (a_phi, a_z, a_t, a_fold), (b_phi, b_z, b_t, b_fold) = nodes[k], nodes[k + 1]
+        ta = a_t if (b_z - a_z) @ a_t >= 0 else -a_t
+        tb = b_t if (b_z - a_z) @ b_t >= 0 else -b_t
+        frac = (phi - a_phi) / (b_phi - a_phi) if b_phi != a_phi else 0.0
         frac = float(np.clip(frac, -0.5, 1.5))
 
         def voltage_gap(x, _):  # Φ̂ along the Hermite curve minus the target, and its slope (forward difference)
-            z0, z1 = hermite(a.z, ta, b.z, tb, float(x[0])), hermite(a.z, ta, b.z, tb, float(x[0]) + 1e-6)
+            z0, z1 = hermite(a_z, ta, b_z, tb, float(x[0])), hermite(a_z, ta, b_z, tb, float(x[0]) + 1e-6)
             return np.array([z0[-1] / self.tracer.w - phi]), np.array([(z1[-1] - z0[-1]) / self.tracer.w / 1e-6])
 
-        frac = float(newton(voltage_gap, frac, xtol=1e-12, max_iter=8, stop_when_stalled=False).x[0])
-        z = hermite(a.z, ta, b.z, tb, frac)
+        lo = hi = None
+        if (a_fold or b_fold) and a_phi <= phi <= b_phi:
+            # the fold's piece: Φ̂ is stationary at the fold node, a Newton step may leave the piece (bisected)
+            frac, lo, hi = float(np.clip(frac, 0.0, 1.0)), 0.0, 1.0
+        frac = float(newton(voltage_gap, frac, xtol=1e-12, max_iter=8, stop_when_stalled=False, lo=lo, hi=hi).x[0])
+        z = hermite(a_z, ta, b_z, tb, frac)
         z[-1] = phi * self.tracer.w
         return z
 
