@@ -1422,10 +1422,11 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
         base = Point(event.z.copy(), event.tangent, event.eq, np.zeros(M), np.zeros(M), (0,) * M, True)
         for delta in (1e-5, 1e-4, 1e-3):
             pts = tight._points_at(base, None, 0.0, [-delta, delta], False)
+            start = -delta  # the offset of the valid side's state from the loose end
             if pts[0] is None and not _is_pull_in(event.note):
                 # the tangent's predictor back along a branch that curves into its end can fail (a pole whose
                 # tension falls to zero): the loose end's own state, converged tightly, is the valid side
-                pts[0] = tight._points_at(base, None, 0.0, [0.0], False)[0]
+                pts[0], start = tight._points_at(base, None, 0.0, [0.0], False)[0], 0.0
             beyond = pts[1] is None or not pts[1].tangent @ event.tangent > 0
             if pts[0] is None or not beyond:
                 continue
@@ -1435,19 +1436,19 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
                     best, z_end, err, _, _, _ = ext
                     change = abs(float(z_end[M]) / tight.w - event.phi_hat) + abs(best.tangent[M]) * err / tight.w
                     break
-            found = tight.validity_bisection(base, 2 * delta, -delta, delta, _validity_tol(event.note))
+            # offsets from the valid side's tight state (validity_bisection measures them from its ``cur``, at 0)
+            span = delta - start
+            found = tight.validity_bisection(pts[0], span, 0.0, span, _validity_tol(event.note))
             while (
                 found is not None
                 and found[3] == STEP_LIMIT
                 and tight.system.settings.max_steps * BUDGET_ESCALATION <= BUDGET_ESCALATION_MAX * tight.base_steps
             ):
                 tight = tight.with_budget(tight.system.settings.max_steps * BUDGET_ESCALATION)
-                found = tight.validity_bisection(base, 2 * delta, -delta, delta, _validity_tol(event.note))
+                found = tight.validity_bisection(pts[0], span, 0.0, span, _validity_tol(event.note))
             if found is None or (found[3] is not None and failure_reason(found[3]) != _note_reason(event.note)):
                 continue  # undecided, or another end than the loose one's
             best, lo, hi, _ = found
-            if best is base:
-                best = pts[0]
             change = abs(best.phi - event.phi_hat) + abs(best.tangent[M]) * abs(hi - lo) / tight.w
             break
         if change is None:
