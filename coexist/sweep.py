@@ -10,6 +10,10 @@ needs (:data:`FLOAT_FIELDS`):
 * ``spinodal_up_kV`` — where the homogeneous zones lose stability on the way up and one (or more) bulges;
 * ``spinodal_down_kV`` — where the bulged state is lost on the way down and the zones return to equal;
 * ``hysteresis_kV = spinodal_up_kV − spinodal_down_kV``;
+* ``jump_up_kV`` / ``jump_down_kV`` — the first transition up / down where the zones' state jumps (some zone's
+  volume changes by more than :data:`JUMP_VOLUME`): the spinodal where the split is a jump (the default scene),
+  the fold inside the bulged configuration where the split is continuous (two zones: a pitchfork whose bulged
+  branch starts at the homogeneous state), and ``jump_hysteresis_kV`` between them;
 * ``equal_free_energy_kV`` — where a bulged configuration has the free energy of the homogeneous one;
 * ``breakdown_kV``, ``range_end_kV`` — where the field reaches the breakdown field, where the ramp leaves
   the model's range (wrinkling);
@@ -57,10 +61,14 @@ from .settings import SolverSettings
 MAX_POINTS = 100_000
 #: values one ``START:STOP:N`` range may hold
 MAX_AXIS_POINTS = 10_000
+#: a transition is a jump when some zone's volume changes by more than this fraction between the lost and the landing
+#: state (a heuristic: a continuous split lands 1e-5 Φ̂ past its pitchfork, a change of ~0.3 %; the jumps of the
+#: default membrane change a volume by 27-110 %)
+JUMP_VOLUME = 0.02
 #: a sweep whose estimated wall time (with its workers) passes this is refused before it starts (s)
 MAX_WALL_SECONDS = 24 * 3600.0
 #: format of the parts folder (its manifest says which)
-PARTS_FORMAT = 1
+PARTS_FORMAT = 2  # 2: the jump fields (jump_up_kV, ...)
 
 #: per point: voltages in kV of the transitions, and their measured errors (missing where there is none)
 FLOAT_FIELDS = (
@@ -69,6 +77,11 @@ FLOAT_FIELDS = (
     "spinodal_down_kV",
     "spinodal_down_error_kV",
     "hysteresis_kV",
+    "jump_up_kV",
+    "jump_up_error_kV",
+    "jump_down_kV",
+    "jump_down_error_kV",
+    "jump_hysteresis_kV",
     "equal_free_energy_kV",
     "equal_free_energy_error_kV",
     "breakdown_kV",
@@ -105,6 +118,10 @@ DESCRIPTIONS = {
     "spinodal_up_kV": "voltage at which the homogeneous zones lose stability on the way up and zones bulge",
     "spinodal_down_kV": "voltage at which the bulged state is lost on the way down and the zones return to equal",
     "hysteresis_kV": "spinodal_up_kV - spinodal_down_kV",
+    "jump_up_kV": "voltage of the first jump of the zones' state on the way up (a zone's volume changes by more "
+    "than 2 %): the spinodal, or where the split is continuous the fold inside the bulged configuration",
+    "jump_down_kV": "voltage of the first jump of the zones' state on the way down",
+    "jump_hysteresis_kV": "jump_up_kV - jump_down_kV",
     "equal_free_energy_kV": "voltage of equal free energy of the homogeneous and the first bulged configuration",
     "breakdown_kV": "voltage at which the largest field reaches the breakdown field",
     "range_end_kV": "voltage at which the ramp first leaves the model's range (e.g. wrinkling)",
@@ -760,6 +777,10 @@ def summarise(index: int, sim, report) -> dict:
         if t.direction == "down" and t.to_label == "homogeneous" and t.kind in ("spinodal", "merge"):
             down = t
     put("spinodal_down", down)
+    jump_up = put("jump_up", next((t for t in trans if t.direction == "up" and _is_jump(t)), None))
+    jump_down = put("jump_down", next((t for t in trans if t.direction == "down" and _is_jump(t)), None))
+    if jump_up is not None and jump_down is not None:
+        rec["jump_hysteresis_kV"] = rec["jump_up_kV"] - rec["jump_down_kV"]
     broke = put("breakdown", first(lambda t: t.kind == "breakdown"))
     left = put("range_end", first(lambda t: t.kind == "no_stable_state"))
     eq = next((t for t in result.equal_free_energy if "homogeneous" in (t.from_label, t.to_label)), None)
@@ -799,6 +820,16 @@ def summarise(index: int, sim, report) -> dict:
     if missing:
         rec["reason"] = _one_line("; ".join(([rec["reason"]] if rec["reason"] else []) + missing))
     return rec
+
+
+def _is_jump(t) -> bool:
+    """Whether transition ``t`` (a spinodal, fold, split or merge) moves the zones' state discontinuously: some zone's
+    volume, zones sorted by volume on either side, changes by more than :data:`JUMP_VOLUME` of it."""
+    if t.kind not in ("spinodal", "merge") or t.state_before is None or t.state_after is None:
+        return False
+    before = np.sort(np.asarray(t.state_before.zone_volumes, dtype=float))
+    after = np.sort(np.asarray(t.state_after.zone_volumes, dtype=float))
+    return before.size == after.size and bool(np.max(np.abs(after - before) / np.abs(before)) > JUMP_VOLUME)
 
 
 def _missing_reasons(rec: dict, sim, report) -> list:

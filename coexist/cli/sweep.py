@@ -43,7 +43,9 @@ from .common import InputError, Outputs, accuracy_option, info, library_errors, 
 def sweep(scene, vary, output, plot, variable, workers, scheduler, resume, overwrite, accuracy, rtol):
     """Run the ramp of SCENE (default: tricircle) at every point of a grid of scene fields.
 
-    Per point: the jump voltage up (spinodal) and the return down, the hysteresis, the voltage of equal
+    Per point: the voltage where the homogeneous zones lose stability up (spinodal) and where they return down, the
+    hysteresis, the first jump of the zones' state up and down (where a continuous split is followed by a fold
+    inside the bulged configuration, the fold), the voltage of equal
     free energy, breakdown, where each configuration is lost, the configuration at the top of the ramp
     and a status with the reason where a point has no answer. Every voltage is an event of the exact
     continuation, with its measured error. Finished chunks go to OUTPUT.parts as they finish, so an
@@ -130,7 +132,10 @@ def _title(sc, result):
 def _report(result):
     """A table of the points on stdout: swept values, jump up, return, hysteresis, status."""
     keys = [ax.key for ax in result.spec.axes]
-    click.echo("  ".join(f"{k:>24}" for k in keys) + f"  {'up_kV':>10} {'down_kV':>10} {'hyst_kV':>9} status")
+    click.echo(
+        "  ".join(f"{k:>24}" for k in keys)
+        + f"  {'up_kV':>10} {'down_kV':>10} {'hyst_kV':>9} {'jump_up':>10} {'jump_dn':>10} status"
+    )
 
     def num(x):
         return f"{x:10.6f}" if x is not None else f"{'-':>10}"
@@ -140,7 +145,10 @@ def _report(result):
         cells = "  ".join(f"{v:>24.6g}" if isinstance(v, float) else f"{v!s:>24}" for v in values)
         hyst = f"{r['hysteresis_kV']:9.6f}" if r["hysteresis_kV"] is not None else f"{'-':>9}"
         reason = f"  ({r['reason']})" if r["status"] != "bulges" and r["reason"] else ""
-        click.echo(f"{cells}  {num(r['spinodal_up_kV'])} {num(r['spinodal_down_kV'])} {hyst} {r['status']}{reason}")
+        jumps = f"{num(r.get('jump_up_kV'))} {num(r.get('jump_down_kV'))}"
+        click.echo(
+            f"{cells}  {num(r['spinodal_up_kV'])} {num(r['spinodal_down_kV'])} {hyst} {jumps} {r['status']}{reason}"
+        )
     counts = ", ".join(f"{k}: {v}" for k, v in sorted(result.counts().items()))
     info(
         f"{result.spec.size} points ({counts}); computed {result.computed}, reused {result.reused}, "

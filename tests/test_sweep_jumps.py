@@ -1,0 +1,59 @@
+"""The sweep's jump fields: the first transition up and down where the zones' state jumps. For two zones the
+split is continuous (a pitchfork: the bulged branch starts at the homogeneous state), so the spinodal voltages
+and their 'hysteresis' of 0 say nothing about where the zones jump; the jump is the fold inside the bulged
+configuration (4.106 kV up, 3.949 kV down). For three zones the split is the jump. Checked against the ramp's
+own transitions and the states either side of them."""
+
+import numpy as np
+import pytest
+
+from coexist import load_scene
+from coexist.settings import SolverSettings
+from coexist.simulation import Simulation
+from coexist.sweep import JUMP_VOLUME, evaluate_point, make_spec
+
+
+@pytest.fixture(scope="module")
+def records():
+    spec = make_spec(load_scene("tricircle"), ["zones.count=2,3"], SolverSettings())
+    return spec, [evaluate_point(spec, i) for i in range(spec.size)]
+
+
+def _jumps(scene):
+    """(kV, kind, event) of the ramp's transitions whose states differ by more than JUMP_VOLUME in some zone."""
+    sim = Simulation.from_scene(scene, SolverSettings(error_estimates=False))
+    report = sim.ramp()
+    out = {}
+    for t in report.result.transitions:
+        if t.state_before is None or t.state_after is None:
+            continue
+        a, b = np.sort(t.state_before.zone_volumes), np.sort(t.state_after.zone_volumes)
+        out.setdefault(t.direction, []).append((float(report.voltage_kV(t.phi_hat)), np.max(np.abs(b - a) / a)))
+    return out
+
+
+def test_two_zones_jump_at_the_fold_not_at_the_continuous_split(records):
+    spec, recs = records
+    two = recs[0]
+    assert two["status"] == "bulges"
+    assert two["spinodal_up_kV"] == pytest.approx(3.852155213, abs=1e-8)
+    assert two["hysteresis_kV"] == pytest.approx(0.0, abs=1e-8)  # the split and the merge: one voltage
+    assert two["jump_up_kV"] == pytest.approx(4.106048950, abs=1e-8)
+    assert two["jump_down_kV"] == pytest.approx(3.948982644, abs=1e-8)
+    assert two["jump_hysteresis_kV"] == pytest.approx(4.106048950 - 3.948982644, abs=2e-8)
+    assert 0 < two["jump_up_error_kV"] < 1e-7 and 0 < two["jump_down_error_kV"] < 1e-7
+    # independently: the ramp's transitions, and how far each moves the zones' volumes
+    jumps = _jumps(spec.scene_at(0))
+    ups = [kv for kv, dv in jumps["up"] if dv > JUMP_VOLUME]
+    split = [dv for kv, dv in jumps["up"] if abs(kv - 3.852155213) < 1e-6]
+    assert ups[0] == pytest.approx(two["jump_up_kV"], abs=1e-8)
+    assert split and split[0] < 0.01  # the split moves the volumes by ~0.3 %: continuous
+
+
+def test_three_zones_jump_at_the_split(records):
+    _, recs = records
+    three = recs[1]
+    assert three["jump_up_kV"] == pytest.approx(three["spinodal_up_kV"], abs=1e-12)
+    assert three["jump_down_kV"] == pytest.approx(three["spinodal_down_kV"], abs=1e-12)
+    assert three["jump_up_kV"] == pytest.approx(3.900030858, abs=1e-8)
+    assert three["jump_hysteresis_kV"] == pytest.approx(three["hysteresis_kV"], abs=1e-12)
