@@ -15,6 +15,13 @@ rest of the project uses; its own error against shooting is measured by the curv
 (``interpolation_error``). A solution with the two states merged (the trivial one) is never
 returned: near the critical point where the two stable branches merge, :class:`ModelRangeError`
 says that coexistence ends there.
+
+The spline solution is only a first guess for a reported number (the splines are accurate to about
+1e-6): :func:`exact_coexistence` solves the same two equations again by Newton on exactly shot states
+(exact derivatives from the variational equations, ``∂Ψ̂/∂λ0 = p̂ ∂V̂/∂λ0``) and measures the error of
+``p̂`` by solving once more at ``rtol/100``; :func:`phase_diagram` reports only such solutions, and its
+spinodals are limit points located on exact states (as :func:`~coexist.curves.pressure_volume_curve`
+locates them), their errors measured the same way.
 """
 
 from __future__ import annotations
@@ -39,6 +46,45 @@ ROUNDOFF = 1e-13
 #: width in Φ̂ to which a change between loop and no loop is bisected on the curves, and to which the critical
 #: point (where the pressure maximum and minimum merge) is then solved on the exact equations
 CRITICAL_XTOL = 1e-8
+#: Newton iterations allowed to the solve of a coexisting pair on exact states (from the spline solution it
+#: takes two or three)
+EXACT_NEWTON_ITERATIONS = 20
+
+
+def tight_settings(settings: SolverSettings) -> SolverSettings:
+    """The settings an error is measured with: ``rtol/100``, at least 1e-13 (as a transition voltage's).
+
+    Parameters
+    ----------
+    settings : SolverSettings
+        The settings of the run.
+
+    Returns
+    -------
+    SolverSettings
+        ``settings`` with ``rtol = max(rtol/100, 1e-13)``.
+    """
+    return settings.with_rtol(max(settings.rtol / 100, 1e-13))
+
+
+def measured_error(value: float, tight_value: float, rtol: float) -> float:
+    """The error given to a number solved at ``rtol`` and again at ``rtol/100``: ``2 |value − tight| + rtol |value|``
+    (twice the change, as the tighter value carries noise of its own; never below the relative tolerance the
+    states themselves carry).
+
+    Parameters
+    ----------
+    value, tight_value : float
+        The number at the run's tolerance and at the tighter one.
+    rtol : float
+        The run's relative tolerance.
+
+    Returns
+    -------
+    float
+        The error estimate.
+    """
+    return float(2 * abs(value - tight_value) + rtol * abs(value))
 
 
 @dataclass
@@ -52,11 +98,18 @@ class Coexistence:
     pole_stretch_unbulged, pole_stretch_bulged : float
         Pole stretches ``λ0`` of the two states.
     v_unbulged, v_bulged, q_unbulged, q_bulged, psi_unbulged, psi_bulged : float
-        ``V̂``, ``Q̂`` and ``Ψ̂`` of the two states (from the curve's splines).
+        ``V̂``, ``Q̂`` and ``Ψ̂`` of the two states (from the curve's splines; from the exact states when
+        ``exact``).
     residual : float
-        Largest residual of the equal-area equations at the solution.
+        Largest residual of the equal-area equations at the solution (of the spline equations; of the exact
+        equations on the shot states when ``exact``).
     iterations : int
         Newton iterations taken (-1 if CasADi does not report them).
+    exact : bool
+        Whether the pair is solved on exactly shot states (:func:`exact_coexistence`), not on the splines.
+    p_hat_error : float or None
+        The error of ``p_hat``, measured by solving again at ``rtol/100`` (:func:`measured_error`); None
+        for a spline solution (whose error is that of the splines, about 1e-6).
     """
 
     phi_hat: float
@@ -71,6 +124,8 @@ class Coexistence:
     psi_bulged: float
     residual: float
     iterations: int
+    exact: bool = False
+    p_hat_error: float | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dict of the fields.
@@ -294,7 +349,7 @@ def _maxwell_functions(K: int, abstol: float):
     return _MAXWELL_FUNCTIONS[key]
 
 
-def maxwell_coexistence(curve: ZoneCurve, settings: SolverSettings | None = None) -> Coexistence:
+def maxwell_coexistence(curve: ZoneCurve, settings: SolverSettings | None = None, model=None) -> Coexistence:
     """Coexisting unbulged and bulged states of one zone curve at fixed voltage (equal areas).
 
     Parameters
@@ -303,6 +358,10 @@ def maxwell_coexistence(curve: ZoneCurve, settings: SolverSettings | None = None
         The zone's ``p̂–V̂`` curve at one voltage, with two stable (rising) branches.
     settings : SolverSettings, optional
         Tolerances (the spline equations are solved to ``inner_ftol``, verified to ``residual_tol``).
+    model : MembraneModel, optional
+        The model the curve was shot with. Given, the spline solution is only the first guess of
+        :func:`exact_coexistence`, which returns the pair converged on exact states with its measured error;
+        without it the result is the spline solution (accurate to the splines, about 1e-6).
 
     Returns
     -------
@@ -317,7 +376,136 @@ def maxwell_coexistence(curve: ZoneCurve, settings: SolverSettings | None = None
         The Newton solve failed (says why).
     """
     instance(curve, ZoneCurve, "curve", "a ZoneCurve (ZoneCurve.compute(model, phi_hat, pole_stretch))")
-    return MaxwellSolver(curve, settings_or_default(settings)).solve()
+    settings = settings_or_default(settings)
+    guess = MaxwellSolver(curve, settings).solve()
+    if model is None:
+        return guess
+    membrane_model(model)
+    return exact_coexistence(model, guess, settings)
+
+
+def _exact_pair(model, phi_hat: float, guess, settings: SolverSettings):
+    """Newton on exactly shot states for the pole stretches ``(λu, λb)`` of a coexisting pair at ``phi_hat``::
+
+        F1 = p̂b − p̂u = 0,      F2 = Ψ̂b − Ψ̂u − ½(p̂u + p̂b)(V̂b − V̂u) = 0
+
+    with the exact Jacobian (``∂Ψ̂/∂λ0 = p̂ ∂V̂/∂λ0``, so with ``ΔV̂ = V̂b − V̂u``)::
+
+        ∂F1/∂λu = −p̂u',   ∂F1/∂λb = p̂b',
+        ∂F2/∂λu = ½(p̂b − p̂u)V̂u' − ½p̂u'ΔV̂,   ∂F2/∂λb = ½(p̂b − p̂u)V̂b' − ½p̂b'ΔV̂
+
+    (primes: ``∂/∂λ0`` at fixed ``Φ̂``; its determinant at a solution is ``p̂u' p̂b' ΔV̂``, nonzero away from
+    the critical point). Converged when the residuals relative to ``p̂`` and ``p̂ΔV̂`` are below
+    ``inner_ftol`` or, once below ``residual_tol``, stop falling tenfold per step (the states' own noise).
+    Returns ``(states, residual, iterations)``, ``residual`` the larger absolute residual; raises SolverError."""
+    lam = np.array(guess, dtype=float)
+    pre = model.prestretch
+    best, previous = None, np.inf
+    for it in range(EXACT_NEWTON_ITERATIONS + 1):
+        s = solve_states(model, lam, phi_hat, settings, derivatives=True)
+        if not np.all(s.ok):
+            raise SolverError(
+                f"equal-free-energy solve on exact states at Φ̂ = {phi_hat:.6g}: no valid state at "
+                f"λ0 = {lam[~s.ok][0]:.10g}"
+            )
+        d = StateDerivatives.of(s)
+        (pu, pb), (vu, vb), (qu, qb) = s.p_hat, s.v_hat, s.psi_hat
+        dv, pm = vb - vu, 0.5 * (pu + pb)
+        F = np.array([pb - pu, (qb - qu) - pm * dv])
+        scaled = float(np.max(np.abs(F) / np.array([abs(pm), abs(pm * dv)])))
+        if best is None or scaled < best[1]:
+            best = (s, scaled, float(np.max(np.abs(F))), it)
+        if scaled <= settings.inner_ftol or (scaled <= settings.residual_tol and scaled > 0.1 * previous):
+            break
+        previous = scaled
+        (dpu, dpb), (dvu, dvb) = d.dp_dl0, d.dv_dl0
+        J = np.array([[-dpu, dpb], [0.5 * (pb - pu) * dvu - 0.5 * dpu * dv, 0.5 * (pb - pu) * dvb - 0.5 * dpb * dv]])
+        try:
+            step = np.linalg.solve(J, -F)
+        except np.linalg.LinAlgError:
+            raise SolverError(
+                f"equal-free-energy solve on exact states at Φ̂ = {phi_hat:.6g}: singular Jacobian "
+                "(the two states merge: critical point)"
+            ) from None
+        lam = lam + step
+        if not (np.all(np.isfinite(lam)) and pre < lam[0] < lam[1]):
+            raise SolverError(
+                f"equal-free-energy solve on exact states at Φ̂ = {phi_hat:.6g} left the physical range "
+                f"(λ0 = {lam[0]:.6g}, {lam[1]:.6g})"
+            )
+    if best is None:  # the loop runs at least once
+        raise SolverError(f"equal-free-energy solve on exact states at Φ̂ = {phi_hat:.6g}: no iteration")
+    s, scaled, residual, it = best
+    if not scaled <= settings.residual_tol:
+        raise SolverError(
+            f"equal-free-energy solve on exact states at Φ̂ = {phi_hat:.6g} did not converge in "
+            f"{EXACT_NEWTON_ITERATIONS} Newton steps (relative residual {scaled:.1e}, "
+            f"needs {settings.residual_tol:.0e})"
+        )
+    d = StateDerivatives.of(s)
+    if np.any(d.dp_dl0 <= 0) or np.any(d.dv_dl0 <= 0):
+        raise SolverError(
+            f"equal-free-energy solve on exact states converged onto an unstable branch at Φ̂ = {phi_hat:.6g}"
+        )
+    return s, residual, it
+
+
+def exact_coexistence(model, guess: Coexistence, settings: SolverSettings | None = None) -> Coexistence:
+    """The coexisting pair of ``guess`` (e.g. the spline solution) converged on the exact equations.
+
+    At fixed ``Φ̂`` the pole stretches ``(λu, λb)`` solve, on states shot exactly at them,
+
+        p̂(λu) = p̂(λb) = p̂b,      Ψ̂(λb) − p̂b V̂(λb) = Ψ̂(λu) − p̂b V̂(λu)
+
+    (equal pressure, equal potential ``Ψ̂ − p̂V̂`` at fixed ``p`` and ``Φ``: the Maxwell equal-area rule), by
+    Newton with exact derivatives (:func:`_exact_pair`). The same solve is repeated from the solution at
+    ``rtol/100`` (at least 1e-13); the error of ``p̂b`` is :func:`measured_error` of the two.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane (with its pattern, if any).
+    guess : Coexistence
+        A first guess at the same voltage (its pole stretches are used).
+    settings : SolverSettings, optional
+        Tolerances; default ``SolverSettings()``.
+
+    Returns
+    -------
+    Coexistence
+        ``exact = True``; ``p_hat`` is the mean of the two states' pressures, every field from the shot
+        states, ``residual`` the larger absolute residual of the two equations there, ``p_hat_error`` the
+        measured error.
+
+    Raises
+    ------
+    SolverError
+        If Newton does not converge (or the states fail) at either tolerance, or converges onto a branch with
+        ``∂p̂/∂λ0 ≤ 0`` or ``∂V̂/∂λ0 ≤ 0``.
+    """
+    settings = settings_or_default(settings)
+    membrane_model(model)
+    instance(guess, Coexistence, "guess", "a Coexistence (maxwell_coexistence(curve))")
+    phi = guess.phi_hat
+    s, residual, it = _exact_pair(model, phi, (guess.pole_stretch_unbulged, guess.pole_stretch_bulged), settings)
+    tight, _, _ = _exact_pair(model, phi, s.pole_stretch, tight_settings(settings))
+    p = float(np.mean(s.p_hat))
+    return Coexistence(
+        phi_hat=float(phi),
+        p_hat=p,
+        pole_stretch_unbulged=float(s.pole_stretch[0]),
+        pole_stretch_bulged=float(s.pole_stretch[1]),
+        v_unbulged=float(s.v_hat[0]),
+        v_bulged=float(s.v_hat[1]),
+        q_unbulged=float(s.q_hat[0]),
+        q_bulged=float(s.q_hat[1]),
+        psi_unbulged=float(s.psi_hat[0]),
+        psi_bulged=float(s.psi_hat[1]),
+        residual=residual,
+        iterations=it,
+        exact=True,
+        p_hat_error=measured_error(p, float(np.mean(tight.p_hat)), settings.rtol),
+    )
 
 
 @dataclass
@@ -329,6 +517,11 @@ class PhaseDiagram:
     Maxwell coexistence pressure; ``critical_point`` the ``(Φ̂, p̂, λ0)`` where the maximum and
     minimum truly merge (None if they merge nowhere in the range, e.g. where the minimum only crosses
     the end of the pole-stretch range searched); ``notes`` where and why lines end.
+
+    Every pressure is converged on the exact equations (the spinodals exact limit points of ``p̂(λ0)``,
+    the binodal :func:`exact_coexistence`); ``spinodal_max_error``, ``spinodal_min_error`` and
+    ``binodal_error`` are their errors, measured by solving again at ``rtol/100`` (:func:`measured_error`;
+    NaN where the pressure is NaN).
     """
 
     phi_hat: np.ndarray
@@ -338,6 +531,9 @@ class PhaseDiagram:
     coexistence: list
     critical_point: tuple | None
     notes: list
+    spinodal_max_error: np.ndarray | None = None
+    spinodal_min_error: np.ndarray | None = None
+    binodal_error: np.ndarray | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dict (NaN as None).
@@ -345,19 +541,30 @@ class PhaseDiagram:
         Returns
         -------
         dict
-            ``phi_hat``, ``spinodal_max_p_hat``, ``spinodal_min_p_hat``, ``binodal_p_hat`` (lists),
-            ``coexisting_states`` (their :meth:`Coexistence.to_dict`), ``critical_point`` (a dict of
-            ``phi_hat``, ``p_hat``, ``pole_stretch``, or None) and ``notes``.
+            ``phi_hat``, ``spinodal_max_p_hat``, ``spinodal_min_p_hat``, ``binodal_p_hat`` and their
+            ``..._error`` (lists; the error lists only when set), ``coexisting_states`` (their
+            :meth:`Coexistence.to_dict`), ``critical_point`` (a dict of ``phi_hat``, ``p_hat``,
+            ``pole_stretch``, or None) and ``notes``.
         """
 
         def clean(a):
             return [None if not np.isfinite(x) else float(x) for x in a]
 
+        errors = {
+            f"{name}_p_hat_error": clean(e)
+            for name, e in (
+                ("spinodal_max", self.spinodal_max_error),
+                ("spinodal_min", self.spinodal_min_error),
+                ("binodal", self.binodal_error),
+            )
+            if e is not None
+        }
         return {
             "phi_hat": clean(self.phi_hat),
             "spinodal_max_p_hat": clean(self.spinodal_max),
             "spinodal_min_p_hat": clean(self.spinodal_min),
             "binodal_p_hat": clean(self.binodal),
+            **errors,
             "coexisting_states": [c.to_dict() for c in self.coexistence],
             "critical_point": (
                 None
@@ -375,6 +582,61 @@ def _loop(curve: ZoneCurve):
         if curve.dp(ext[i] - 1e-9) > 0 and curve.dp(ext[i + 1] + 1e-9) > 0:
             return ext[i], ext[i + 1]
     return None
+
+
+def _limit_pressures(model, phi_hat: float, lo, hi, settings: SolverSettings) -> tuple[np.ndarray, np.ndarray]:
+    """The pressure maximum in ``[lo[0], hi[0]]`` and minimum in ``[lo[1], hi[1]]`` (pole stretches) at
+    ``phi_hat``, located on exact states as :func:`~coexist.curves.pressure_volume_curve` locates limit points
+    (:func:`chebyshev_extremum` of ``p̂(λ0)``, value settled to ``rtol/2``, location to ``limit_point_xtol``)
+    and shot there: ``(λ0, p̂)``. NaN where the extremum lies at an end of its bracket (none inside) or no state
+    is valid there."""
+    lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+
+    def p_of(x):
+        s = solve_states(model, x, phi_hat, settings)
+        return np.where(s.ok, s.p_hat, np.nan)
+
+    x, _ = chebyshev_extremum(
+        p_of,
+        lo,
+        hi,
+        [True, False],
+        ftol=0.5 * settings.rtol,
+        xtol=settings.limit_point_xtol,
+        nodes=settings.limit_point_nodes,
+    )
+    s = solve_states(model, x, phi_hat, settings)
+    inside = s.ok & (x > lo) & (x < hi)
+    return x, np.where(inside, s.p_hat, np.nan)
+
+
+def _exact_spinodals(model, curve: ZoneCurve, loop, settings: SolverSettings):
+    """The spinodal pressures of ``curve``'s loop (``(u_max, u_min)`` on its splines) as exact limit points,
+    each in a bracket of one grid spacing either side of its spline location (within the curve, not past the
+    midpoint between the two), and their errors located again at ``rtol/100``: ``(p̂, error)`` arrays of the
+    maximum and the minimum, NaN where a limit point is not found on the exact states (a note says why)."""
+    ua, ub = (float(x) for x in loop)
+    h = float(np.max(np.diff(curve.grid)))
+    span_lo, span_hi = curve.span
+    mid = 0.5 * (ua + ub)
+    u_lo = np.array([max(ua - h, span_lo), max(ub - h, mid)])
+    u_hi = np.array([min(ua + h, mid), min(ub + h, span_hi)])
+    lo, hi = curve.to_stretch(u_lo), curve.to_stretch(u_hi)
+    try:
+        x, p = _limit_pressures(model, curve.phi_hat, lo, hi, settings)
+        _, pt = _limit_pressures(model, curve.phi_hat, lo, hi, tight_settings(settings))
+    except ValueError as exc:
+        return np.full(2, np.nan), np.full(2, np.nan), f"a spinodal was not located on the exact states: {exc}"
+    err = np.array([measured_error(a, b, settings.rtol) for a, b in zip(p, pt)])
+    note = None
+    if not np.all(np.isfinite(err)):
+        missing = " and ".join(k for k, e in zip(("maximum", "minimum"), err) if not np.isfinite(e))
+        note = (
+            f"the pressure {missing} of the curve's loop is not an interior limit point of the exact states near "
+            f"λ0 = {float(curve.to_stretch(ua)):.6g}..{float(curve.to_stretch(ub)):.6g} (at the end of its bracket, "
+            "or no valid state there): its spinodal is left out"
+        )
+    return np.where(np.isfinite(err), p, np.nan), err, note
 
 
 #: a loop at the bisected voltage counts as merging when its maximum and minimum lie within this many
@@ -474,8 +736,10 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     """Spinodals, binodal and critical point of one zone over the voltages ``phi_values``.
 
     Each voltage gets its own directly shot curve (``settings.phase_diagram_points`` states in
-    ``u = √(λ0 − λpre)``);
-    the binodal is :func:`maxwell_coexistence` on it. Where the curve gains or loses its loop (a
+    ``u = √(λ0 − λpre)``), which gives the first guesses only: the spinodals are the pressure maximum
+    and minimum located again on exact states (:func:`_exact_spinodals`, ``∂p̂/∂λ0 = 0``), the binodal
+    is :func:`maxwell_coexistence` on the curve polished on exact states (:func:`exact_coexistence`),
+    each with its error measured at ``rtol/100``. Where the curve gains or loses its loop (a
     pressure maximum followed by a minimum) between neighbouring voltages, the change is bisected on
     the curves (to 1e-8 in ``Φ̂``) and classified: a critical point only if the maximum and minimum
     merge there (within ``MERGE_SPACINGS`` grid spacings of each other, inside the curve's range), not
@@ -508,7 +772,9 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     SceneError
         For a negative voltage, or a voltage on a model without electrostatics.
     SolverError
-        If a Maxwell solve fails numerically (a :class:`ModelRangeError` is recorded in ``notes``).
+        If a Maxwell solve on the splines fails numerically (a :class:`ModelRangeError` is recorded in
+        ``notes``; so is a spline solution that does not converge on the exact states, e.g. next to the
+        critical point, and a spinodal not found on them: their pressures stay NaN).
     """
     settings = settings_or_default(settings)
     membrane_model(model)
@@ -522,7 +788,7 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     phi_values = np.asarray(phi_values, dtype=float)
     pre = model.prestretch
     u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), settings.phase_diagram_points)
-    smax, smin, bino = (np.full(phi_values.size, np.nan) for _ in range(3))
+    smax, smin, bino, emax, emin, ebino = (np.full(phi_values.size, np.nan) for _ in range(6))
     states, notes = [], []
     loops: list = [None] * phi_values.size
 
@@ -539,13 +805,23 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
         if loop is None:
             continue
         loops[i] = tuple(float(c.to_stretch(x)) for x in loop)
-        smax[i], smin[i] = float(c.p(loop[0])), float(c.p(loop[1]))
+        (smax[i], smin[i]), (emax[i], emin[i]), why = _exact_spinodals(model, c, loop, settings)
+        if why is not None:
+            notes.append(f"Φ̂ = {phi:.6g}: {why}")
         try:
-            co = maxwell_coexistence(c, settings)
-            bino[i] = co.p_hat
-            states.append(co)
+            guess = maxwell_coexistence(c, settings)
         except ModelRangeError as exc:
             notes.append(f"Φ̂ = {phi:.6g}: {exc}")
+            continue
+        try:
+            co = exact_coexistence(model, guess, settings)
+        except SolverError as exc:  # e.g. next to the critical point: no number rather than the spline's
+            notes.append(
+                f"Φ̂ = {phi:.6g}: the binodal is left out, its spline solution not converged on exact states: {exc}"
+            )
+            continue
+        bino[i], ebino[i] = co.p_hat, co.p_hat_error
+        states.append(co)
     has_loop = np.array([lp is not None for lp in loops], dtype=bool)
     if not has_loop.any():
         notes.append(
@@ -595,4 +871,4 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
             f"exact equations: dp̂/dλ0 = {slope:.1e} there, its minimum over λ0); coexistence ends there"
         )
         break
-    return PhaseDiagram(phi_values, smax, smin, bino, states, critical, notes)
+    return PhaseDiagram(phi_values, smax, smin, bino, states, critical, notes, emax, emin, ebino)

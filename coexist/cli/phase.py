@@ -81,13 +81,14 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     if as_json:
         write_json(data)
         return
-    click.echo(f"{'phi_hat':>8} {'p_spinodal_max':>15} {'p_binodal':>12} {'p_spinodal_min':>15}")
+    click.echo(f"{'phi_hat':>8} {'p_spinodal_max':>15} {'p_binodal':>15} {'p_spinodal_min':>15}")
+    # the voltages are the input grid: as many decimals (4 to 10) as keep neighbours apart
+    places = next((k for k in range(4, 11) if np.unique(np.round(d.phi_hat, k)).size == d.phi_hat.size), 10)
+    nan = np.full(d.phi_hat.size, np.nan)
+    errs = [nan if e is None else e for e in (d.spinodal_max_error, d.binodal_error, d.spinodal_min_error)]
     for i, phi in enumerate(d.phi_hat):
-
-        def f(x):
-            return "-" if not np.isfinite(x) else f"{x:.6f}"
-
-        click.echo(f"{phi:>8.4f} {f(d.spinodal_max[i]):>15} {f(d.binodal[i]):>12} {f(d.spinodal_min[i]):>15}")
+        cells = (pressure_cell(x[i], e[i]) for x, e in zip((d.spinodal_max, d.binodal, d.spinodal_min), errs))
+        click.echo(f"{phi:>8.{places}f} " + " ".join(f"{c:>15}" for c in cells))
     if d.critical_point:
         click.echo(
             f"critical point: Φ̂ = {d.critical_point[0]:.8f}, p̂ = {d.critical_point[1]:.6f}, "
@@ -95,7 +96,34 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
         )
     for n in d.notes:
         info(f"note: {n}")
-    click.echo(
-        f"(solver rtol {settings.rtol:.0e}; binodal solved on splines of {settings.phase_diagram_points} shot "
-        "states per voltage; a critical point solved on the exact shooting equations, its error in the notes)"
+    largest = [float(np.nanmax(e)) if np.isfinite(e).any() else None for e in errs]
+    errors = ", ".join(
+        f"{name} {e:.0e}" for name, e in zip(("spinodal max", "binodal", "spinodal min"), largest) if e is not None
     )
+    click.echo(
+        f"(solver rtol {settings.rtol:.0e}; every pressure converged on the exact shooting equations, first guesses "
+        f"from splines of {settings.phase_diagram_points} shot states per voltage; errors measured at rtol/100"
+        + (f", largest: {errors}" if errors else "")
+        + ", digits printed as they support; a critical point's error in the notes)"
+    )
+
+
+def pressure_cell(p_hat: float, error: float) -> str:
+    """A pressure with the decimals its measured error supports (``⌈−log10 error⌉``, 3 to 12), or ``-``.
+
+    Parameters
+    ----------
+    p_hat, error : float
+        The pressure and its error (NaN: no value).
+
+    Returns
+    -------
+    str
+        E.g. ``1.3194320301`` for an error of 1.6e-10.
+    """
+    import math
+
+    if not (math.isfinite(p_hat) and math.isfinite(error)):
+        return "-"
+    digits = 12 if error <= 0 else int(min(12, max(3, math.ceil(-math.log10(error)))))
+    return f"{p_hat:.{digits}f}"
