@@ -670,6 +670,12 @@ class Tracer:
                 # of another branch); the short step then meets the pull-in (a failed state) and ends the segment
                 h *= 0.5
                 continue
+            if h > SHORT_STEP and any(_wrinkled(cur)) and self._hides_invalid(cur, new):
+                # a wrinkled band's states can stop being valid inside a step whose ends are both valid (a
+                # pressure-controlled zone at 17.8235 mbar: invalid, pulled in, over 2e-3 in Φ̂ within a step of
+                # 5e-3, valid again past it): a shorter step meets the invalid states and ends the segment there
+                h *= 0.5
+                continue
             new.s = cur.s + float(np.linalg.norm(new.z - cur.z))
             found = self._events_between(cur, new)
             if new.stable != cur.stable and not found and h > SHORT_STEP:
@@ -779,6 +785,27 @@ class Tracer:
             p is not None and (np.sign(p.tangent[self.M]) != fa or p.stable != a.stable)
             for p in self._points_at(a, b, sig_b, sigmas, loose=True)
         )
+
+    def _hides_invalid(self, a: Point, b: Point) -> bool:
+        """Whether the step ``a -> b`` (both valid) crosses states that are not valid: converged points at
+        ``DIP_SAMPLES`` of the step (one batched corrector, loose) are examined, and the step hides invalid
+        states when the corrector refuses one of them as an invalid state (a pull-in, a wrinkled segment
+        without a natural width, ...). A probe that fails otherwise is no evidence either way. The samples
+        are a heuristic: an invalid stretch shorter than a quarter of the step can still pass between them.
+
+        Parameters
+        ----------
+        a, b : Point
+            The step's ends, both valid.
+
+        Returns
+        -------
+        bool
+            True when a probe inside the step is an invalid state.
+        """
+        sig_b = float(a.tangent @ (b.z - a.z))
+        self._points_at(a, b, sig_b, sig_b * np.array(DIP_SAMPLES), loose=True)
+        return any(c[2] is not None for c in self._last_failure.failed_states.values())
 
     def _points_at(self, a: Point, b: Point | None, sig_b, sigmas, loose, formal=False, chord=False) -> list:
         """Converged points at arclength offsets ``sigmas`` from ``a`` (one batched corrector); None where
@@ -1740,13 +1767,17 @@ class StableSegment:
         z[-1] = phi * self.tracer.w
         return z
 
-    def states(self, phis) -> list:
+    def states(self, phis, coincident: bool = True) -> list:
         """Converged equilibria at the voltages ``phis`` (one batched Newton at fixed voltage).
 
         Parameters
         ----------
         phis : float or array_like, shape (K,)
             Voltages ``Φ̂`` within the segment.
+        coincident : bool, optional
+            Where Newton's method fails within a merge end's uncertainty, give the coincident state
+            (:meth:`_coincident_state`; default True). False: such a voltage raises like any other (the
+            equal-free-energy search, for which the coincident state is the other segment's own state).
 
         Returns
         -------
@@ -1787,12 +1818,75 @@ class StableSegment:
                 eq = make_equilibrium(self.tracer.system, retry.res, retry.rows[k], index)
                 if not min(eq.min_tension) > 0:
                     eq = None
+            if eq is None and coincident:
+                eq = self._coincident_state(float(phis[i]), index)
             if eq is None:
                 raise SolverError(
                     f"{self.label}: no converged state at Φ̂ = {phis[i]:.10g} on its stable segment ({corr.reason[i]})"
                 )
             out.append(eq)
         return out
+
+    def _coincident_state(self, phi: float, index) -> Equilibrium | None:
+        """The state at ``Φ̂`` where it lies at a merge end of the segment within that end's uncertainty:
+        the coincident state (the merging groups equal), or None elsewhere.
+
+        At a symmetric branch point (a pitchfork) the segment's groups ``j``, ``j + 1`` meet: with
+        ``x = uj − uj+1``, ``Φ̂ − Φ̂bp ≈ c x²`` and the antisymmetric eigenvalue of the Jacobian vanishes like
+        ``Φ̂ − Φ̂bp``, so Newton's method at fixed voltage cannot converge there, and within the uncertainty
+        ``ε = max(error of the merge, 10 rtol Φ̂bp)`` (:func:`error_floor`) of ``Φ̂bp`` it is not even known
+        on which side of the branch point ``Φ̂`` lies. There the coincident state, solved by Newton's method
+        at ``Φ̂`` exactly in the coarser configuration (regular there) and evaluated in this one
+        (``r(u, Φ̂) = 0`` holds in both), is the segment's state; it differs from the split one by
+        ``|x| ≲ (2ε / c)^½``, which the solver's tolerance does not resolve. A note on the state says so.
+
+        Parameters
+        ----------
+        phi : float
+            The voltage ``Φ̂``.
+        index : tuple
+            The segment's zone index (given to the state).
+
+        Returns
+        -------
+        Equilibrium or None
+            The coincident state, or None when ``Φ̂`` is not within a merge end's uncertainty or the coarse
+            Newton does not converge.
+        """
+        system = self.tracer.system
+        M, w = self.tracer.M, self.tracer.w
+        for e in (self.low, self.high):
+            if not (isinstance(e, Event) and e.kind == "merge" and e.group is not None and e.z is not None):
+                continue
+            if abs(phi - e.phi_hat) > max(float(e.error), error_floor(e.phi_hat, system.settings.rtol)):
+                continue
+            j = int(e.group)
+            counts = list(system.configuration.counts)
+            coarse = GroupSystem(
+                system.model,
+                system.gas,
+                Configuration(tuple(counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2 :])),
+                system.settings,
+            )
+            z = np.concatenate([e.z[: j + 1], e.z[j + 2 :]])  # the merged groups once
+            z[-1] = phi * w
+            n = np.zeros((1, M))
+            n[0, M - 1] = 1.0
+            corr = correct(coarse, z[None], n, np.array([phi * w]), w)
+            if not corr.ok[0]:
+                return None
+            u = np.insert(corr.z[0, : M - 1], j + 1, corr.z[0, j])
+            res = system.residual(u[None], np.array([phi]))
+            tol = system.settings.residual_tol * (1 + abs(float(res.gas_pressure[0])))
+            if not (res.states.ok.all() and np.max(np.abs(res.r[0])) <= tol):
+                return None
+            eq = make_equilibrium(system, res, 0, index)
+            eq.notes.append(
+                f"within {abs(phi - e.phi_hat):.1e} of the symmetric branch point at Φ̂ = {e.phi_hat:.10g} "
+                "(inside its uncertainty): the coincident state"
+            )
+            return eq
+        return None
 
     def matches(self, eq: Equilibrium, tol: float = 1e-6) -> bool:
         """Is ``eq`` (a stable equilibrium) the state of this segment at its voltage? The segment's state

@@ -671,7 +671,7 @@ class Ramp:
                 assert land.segment is not None  # a landing with a state has its segment
                 if land.segment.contains(phi_end):  # the landing state at the transition voltage itself
                     try:
-                        after = land.segment.states([phi_end])[0]
+                        after = land.segment.states([phi_end], coincident=False)[0]
                     except SolverError:
                         pass
                 transitions.append(
@@ -799,12 +799,12 @@ def _exact_g(seg: StableSegment, xs, known: dict):
             G[i], dG[i] = eq.free_energy, -eq.total_charge
     if missing:
         try:
-            eqs: list = seg.states(xs[missing])
+            eqs: list = seg.states(xs[missing], coincident=False)
         except SolverError:  # one at a time, to keep those that converge
             eqs = []
             for i in missing:
                 try:
-                    eqs.append(seg.states([xs[i]])[0])
+                    eqs.append(seg.states([xs[i]], coincident=False)[0])
                 except SolverError:
                     eqs.append(None)
         for i, eq in zip(missing, eqs):
@@ -1023,8 +1023,8 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
     phi0 = lo - dlo * (hi - lo) / (dhi - dlo)
     try:
         phi, step, ea, eb = equal_free_energy_voltage(
-            lambda x: A.states([x])[0],
-            lambda x: B.states([x])[0],
+            lambda x: A.states([x], coincident=False)[0],
+            lambda x: B.states([x], coincident=False)[0],
             phi0,
             lo,
             hi,
@@ -1033,7 +1033,7 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
         )
     except SolverError as exc:
         try:
-            one = _same_state(A.states([phi0])[0], B.states([phi0])[0])
+            one = _same_state(A.states([phi0], coincident=False)[0], B.states([phi0], coincident=False)[0])
         except SolverError:
             one = False
         if one:
