@@ -963,7 +963,8 @@ class RampReport:
             ``pressure_mbar``, ``zone_volumes_ml`` and ``pole_stretches`` (per zone, least inflated first),
             ``groups`` (the same per group of identical zones: ``zones``, ``volume_ml``, ``pole_stretch``; its
             size does not grow with the number of zones), ``configuration``, ``bulged_zones``, ``stable`` and
-            ``residual_p_hat``; for a tension-field scene ``wrinkled_area_fraction`` (per zone, the reference
+            ``residual_p_hat``; ``state_notes`` where the state carries notes (e.g. taken at a branch point within
+            its uncertainty); for a tension-field scene ``wrinkled_area_fraction`` (per zone, the reference
             area fraction of its hoop-wrinkled region); without a state the values are None, ``"none"`` and
             False, and there is no ``residual_p_hat``.
         """
@@ -989,6 +990,7 @@ class RampReport:
             "bulged_zones": st.k,
             "stable": bool(st.stable),
             "residual_p_hat": float(st.residual),
+            **({"state_notes": list(st.notes)} if st.notes else {}),
             **(
                 {
                     "wrinkled_area_fraction": [

@@ -58,6 +58,9 @@ def test_path_voltage_on_a_pitchfork(tmp_path):
         assert 0 < rep.voltage_kV(t.phi_hat_error) < 2e-8
     # no equal-free-energy voltage at the pitchfork (the two segments hold one state there)
     assert all(abs(rep.voltage_kV(t.phi_hat) - 3.9) > 1e-3 for t in rep.result.equal_free_energy)
+    # and the output says which state it is (JSON and table)
+    (row,) = [d for d in rep.to_dict()["steps"] if d["direction"] == "down" and d["voltage_kV"] == 3.9]
+    assert any("symmetric branch point" in n for n in row["state_notes"])
 
 
 def test_pull_in_inside_a_continuation_step(tmp_path):

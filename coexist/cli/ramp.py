@@ -168,6 +168,8 @@ def _table(data):
         wrinkled = [f"{100 * f:.0f}%" if f > 0 else "taut" for f in s.get("wrinkled_area_fraction") or []]
         if any(w != "taut" for w in wrinkled):  # a tension-field scene: which zones are wrinkled, how much
             mark += "  wrinkled: " + " ".join(wrinkled)
+        for note in s.get("state_notes", []):  # what the state itself says (e.g. taken at a branch point)
+            mark += f"  [{note}]"
         click.echo(
             f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {_volumes(s):<28} {s['configuration']:<18} "
             f"{'yes' if s['stable'] else 'no'}{mark}" + (f"  {_apex(s)}" if shapes else "")
