@@ -12,7 +12,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from . import validation
-from .errors import CoexistError, ModelRangeError, SceneError
+from .errors import CoexistError, ModelRangeError, SceneError, SolverError
 from .numerics.roots import bracketed_root
 from .scene import Scene
 from .settings import SolverSettings
@@ -54,6 +54,27 @@ class Shared:
 #: the transitions a zone radius can be fitted to
 TRANSITION_KINDS = ("spinodal", "equal_free_energy")
 
+#: first step of the trial radii away from the scene's own radius, in ``ln A``; it doubles every step
+FIRST_STEP = 0.01
+#: without any radius that has a transition, gaps between trial radii are halved down to this, in ``ln A``
+FILL_GAP = 0.04
+
+
+def voltage_top_field(scene: Scene) -> str:
+    """The scene field that sets the highest voltage of its path: ``[voltage].stop_kV`` for a ramp,
+    ``[voltage].values_kV`` for a list.
+
+    Parameters
+    ----------
+    scene : Scene
+        A scene with a ``[voltage]`` section.
+
+    Returns
+    -------
+    str
+    """
+    return "[voltage].stop_kV" if scene.voltage is not None and scene.voltage.kind == "ramp" else "[voltage].values_kV"
+
 
 def transition_voltage(
     scene: Scene, kind: str = "spinodal", shared: Shared | None = None, measure: bool = False
@@ -89,7 +110,9 @@ def transition_voltage(
         If ``kind`` is unknown, or the zones cannot hold the closing pressure
         (:meth:`~coexist.simulation.Simulation.from_scene`).
     ModelRangeError
-        If there is no such transition in the scene's voltage window (``reason="no_transition"``).
+        If there is no such transition in the scene's voltage window (``reason="no_transition"``), also when
+        the continuation locates one beyond the highest voltage of the scene's path ``Φtop``: a ramp of the
+        scene never reaches it.
     """
     if kind not in TRANSITION_KINDS:
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
@@ -97,7 +120,14 @@ def transition_voltage(
     settings = shared.settings if measure else replace(shared.settings, error_estimates=False)
     sim = Simulation.from_scene(scene, settings, model=shared.model, snap=shared.snap)
     t = sim.first_transition(kind)
-    return float(scene.voltage_of(t.phi_hat)), float(scene.voltage_of(t.phi_hat_error))
+    volts = float(scene.voltage_of(t.phi_hat))
+    if scene.voltage is not None and volts > scene.voltage.peak:
+        raise ModelRangeError(
+            f"the first {kind} transition lies at {volts / 1e3:.6g} kV, above the scene's highest voltage "
+            f"{scene.voltage.peak / 1e3:.6g} kV: a ramp of the scene does not reach it",
+            "no_transition",
+        )
+    return volts, float(scene.voltage_of(t.phi_hat_error))
 
 
 def fit_zone_radius(
@@ -105,15 +135,25 @@ def fit_zone_radius(
 ) -> float:
     """The zone radius ``A`` (m) that puts the first transition of the ramp at ``target_voltage`` (V).
 
-    The admissible radii are those whose closing pressure the zones can hold (``p̂close < p̂max``). The
-    transition is evaluated at ``settings.fit_samples`` radii; a radius at which it does not exist (no
-    stable start, or no transition below the scene's top voltage) is left out, never scored. The Illinois
-    method (:func:`~coexist.numerics.roots.bracketed_root`) then solves between the first two
-    neighbouring radii whose transitions lie on either side of the target (to 1e-9 mm).
+    The admissible radii are those whose closing pressure the zones can hold, ``p̂close = p_close A/(μH) <
+    p̂max``, i.e. ``A < A_max = p̂max μH / p_close`` (``p̂max`` the snap-through pressure at zero voltage, or
+    for a curve without one, e.g. a stiff Gent material, the pressure at the end of the model's range). A
+    radius at which the transition does not exist (no stable start, or no transition up to the scene's
+    highest voltage ``Φtop``) is left out, never scored. The Illinois method
+    (:func:`~coexist.numerics.roots.bracketed_root`) solves ``Φt(A) − Φtarget = 0`` between two
+    neighbouring trial radii whose transitions lie on either side of the target, until
+    ``|Φt(A) − Φtarget| ≤ rtol·Φtarget`` or the bracket is as narrow as the radius's floating-point resolution
+    (the transition's own noise is about ``10 rtol Φt``).
 
-    With ``A_max = p̂max μH / p_close`` the radius at which the closing pressure is the snap-through, the
-    trial radii crowd geometrically towards ``A_max``; without a bracket, up to three rounds resample
-    around the radii where the transition starts to exist.
+    The trial radii start at the scene's own radius ``A0`` (clipped into the bracket) and widen
+    geometrically in both directions, ``A_k+1 = A_k e^{±0.01·2^k}`` (steps of 1 %, 2 %, 4 % ...), upwards
+    never more than 3/4 of the remaining way to ``A_max`` (they crowd there, where the transition moves
+    fastest), until a pair brackets the target. A direction stops at the end of the bracket, or where
+    the transition stops existing after it existed (the radii that give a transition may form a narrow
+    band: a material without a snap-through at zero voltage transitions only in a band a few per cent
+    wide). Without a bracket then, up to three rounds resample between neighbouring radii with and without
+    a transition (where the transitions run furthest); if no radius had a transition, the widest gaps
+    are halved (geometrically) down to 4 %. At most ``6·settings.fit_samples`` radii are tried.
 
     Parameters
     ----------
@@ -126,7 +166,7 @@ def fit_zone_radius(
     shared : Shared, optional
         Model and snap-through shared between trials (default: built from ``scene``).
     bracket_mm : (float, float), optional
-        Smallest and largest trial radius in mm (default ``(0.5 A_max, (1 − 1e-6) A_max)``).
+        Smallest and largest trial radius in mm (default ``(min(0.5 A_max, A0)/8, (1 − 1e-6) A_max)``).
 
     Returns
     -------
@@ -136,10 +176,14 @@ def fit_zone_radius(
     Raises
     ------
     SceneError
-        If the scene has no ``[chamber]`` or no ``[voltage]``, or ``kind`` is unknown.
+        If the scene has no ``[chamber]`` or no ``[voltage]``, ``kind`` is unknown, ``target_voltage`` is
+        above the highest voltage of the scene's path (no ramp of the scene reaches it), or the bracket is
+        not inside ``(0, A_max)``.
     ModelRangeError
-        If no radius in the bracket puts the transition at ``target_voltage`` (``reason="no_fit"``; the
-        message gives the range of transitions the radii reach).
+        If no trial radius puts the transition at ``target_voltage`` (``reason="no_fit"``; the message gives
+        the radii tried and the range of transitions they reach, all at most ``Φtop``).
+    SolverError
+        If the root between two bracketing radii does not converge.
     """
     validation.scene(scene)
     if scene.chamber is None or scene.voltage is None:
@@ -147,10 +191,18 @@ def fit_zone_radius(
     target_voltage = validation.real(target_voltage, "target_voltage", lo=0.0, lo_open=True)
     if kind not in TRANSITION_KINDS:
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
+    top_volts = scene.voltage.peak
+    if target_voltage > top_volts:
+        raise SceneError(
+            f"the target {target_voltage / 1e3:.6g} kV is above the highest voltage of the scene's path, "
+            f"{top_volts / 1e3:.6g} kV ({voltage_top_field(scene)}): no ramp of the scene reaches it",
+            "target_voltage",
+        )
     shared = shared or Shared.of(scene)
     mu_h = scene.shear_modulus * scene.thickness
-    a_max = shared.snap[0] * mu_h / scene.chamber.closing_pressure  # closing pressure = snap-through
-    lo_mm, hi_mm = bracket_mm or (0.5 * a_max * 1e3, a_max * 1e3 * (1 - 1e-6))
+    a_max = shared.snap[0] * mu_h / scene.chamber.closing_pressure  # closing pressure = p̂max
+    a_own = scene.zone_radius * 1e3
+    lo_mm, hi_mm = bracket_mm or (min(0.5 * a_max * 1e3, a_own) / 8, a_max * 1e3 * (1 - 1e-6))
     if not (0 < lo_mm < hi_mm < a_max * 1e3):
         raise SceneError(
             f"the radius bracket must satisfy 0 < low < high < {a_max * 1e3:.6g} mm (the largest radius whose "
@@ -162,54 +214,102 @@ def fit_zone_radius(
         trial = replace(scene, zone_radius=a_mm / 1e3)
         return transition_voltage(trial, kind, shared)[0] - target_voltage
 
-    # the transitions move fastest as the closing pressure nears the snap-through (a → a_max): the
-    # trial radii crowd there, geometrically in the distance from it
     top = a_max * 1e3
-    gaps = np.geomspace(top - lo_mm, max(top - hi_mm, 1e-12), shared.settings.fit_samples)
-    radii = top - gaps
-    tried = {}
-    why = []
+    budget = 6 * shared.settings.fit_samples
+    tried: dict[float, float | None] = {}
+    why: list[str] = []
 
     def value(a):
-        if a not in tried:
+        if a not in tried and len(tried) < budget:
             try:
                 tried[a] = f(a)
             except CoexistError as exc:
                 tried[a] = None
-                why.append(f"{a:.4g} mm: {exc}")
-        return tried[a]
+                why.append(f"{a:.6g} mm: {exc}")
+        return tried.get(a)
 
-    for a in radii:
-        value(a)
-    for _ in range(3):
-        valid = sorted((a, v) for a, v in tried.items() if v is not None)
-        for (a0, v0), (a1, v1) in zip(valid[:-1], valid[1:]):
-            if v0 == 0:
-                return a0 / 1e3
-            if v0 * v1 < 0:
-                root = bracketed_root(lambda a, _: np.array([f(float(a[0]))]), a0, a1, v0, v1, xtol=1e-9)
-                return float(root.x[0]) / 1e3
-        # no bracket yet: where the transition starts to exist (a radius without one next to a radius
-        # with one), the transitions run furthest; sample there, closer each round
+    def bracket():
+        """Two neighbouring trial radii (none between them left out) whose transitions straddle the target."""
         order = sorted(tried)
-        edges = [(a, b) for a, b in zip(order[:-1], order[1:]) if (tried[a] is None) != (tried[b] is None)]
-        if not edges:
-            break
-        for a, b in edges:
-            for frac in (0.25, 0.5, 0.75):
-                value(a + frac * (b - a))
-    valid = sorted((a, v) for a, v in tried.items() if v is not None)
+        for a, b in zip(order[:-1], order[1:]):
+            va, vb = tried[a], tried[b]
+            if va is not None and vb is not None and va * vb <= 0:
+                return a, b
+        return next(((a, a) for a in order if tried[a] == 0), None)
+
+    def solve(pair):
+        a, b = pair
+        if tried[a] == 0 or a == b:
+            return a / 1e3
+        if tried[b] == 0:
+            return b / 1e3
+        # converged in the voltage, |Φt(A) − Φtarget| ≤ rtol Φtarget, or where the radii run out of digits (a
+        # tolerance in the radius would not do: near A_max the transition moves by 3e-5 V for 1e-9 mm)
+        ftol = shared.settings.rtol * target_voltage
+        root = bracketed_root(lambda x, _: np.array([f(float(x[0]))]), a, b, tried[a], tried[b], ftol=ftol)
+        if not bool(root.converged.all()):
+            raise SolverError(
+                f"the fitted radius between {a:.9g} and {b:.9g} mm did not converge: the transition is "
+                f"{float(root.f[0]):.3g} V from the target after {root.iterations} evaluations"
+            )
+        return float(root.x[0]) / 1e3
+
+    # widen geometrically from the scene's own radius, both ways (see the docstring)
+    start = min(max(a_own, lo_mm), hi_mm)
+    value(start)
+    paths = {+1: [start], -1: [start]}
+    open_ = {+1: start < hi_mm, -1: start > lo_mm}
+    k = 0
+    while any(open_.values()) and len(tried) < budget:
+        if (pair := bracket()) is not None:
+            return solve(pair)
+        for sign in (+1, -1):
+            if not open_[sign]:
+                continue
+            a = paths[sign][-1]
+            if sign > 0:  # never more than 3/4 of the way left to a_max: the radii crowd there
+                nxt = min(a * np.exp(FIRST_STEP * 2**k), a + 0.75 * (top - a), hi_mm)
+                open_[sign] = nxt < hi_mm
+            else:
+                nxt = max(a * np.exp(-FIRST_STEP * 2**k), lo_mm)
+                open_[sign] = nxt > lo_mm
+            nxt = float(nxt)
+            paths[sign].append(nxt)
+            if value(nxt) is None and any(tried.get(r) is not None for r in paths[sign][:-1]):
+                open_[sign] = False  # the transition stopped existing on this side: beyond the band
+            if (pair := bracket()) is not None:
+                return solve(pair)
+        k += 1
+    # no bracket yet: resample between radii with and without a transition (where the transitions run
+    # furthest), closer each round; if no radius had one, halve the widest gaps until one does
+    rounds = 0
+    while len(tried) < budget:
+        order = sorted(tried)
+        if any(v is not None for v in tried.values()):
+            edges = [(a, b) for a, b in zip(order[:-1], order[1:]) if (tried[a] is None) != (tried[b] is None)]
+            if rounds == 3 or not edges:
+                break
+            rounds += 1
+            new = [a + frac * (b - a) for a, b in edges for frac in (0.25, 0.5, 0.75)]
+        else:
+            new = [float(np.sqrt(a * b)) for a, b in zip(order[:-1], order[1:]) if np.log(b / a) > FILL_GAP]
+            if not new:
+                break
+        for a in new:
+            value(a)
+            if (pair := bracket()) is not None:
+                return solve(pair)
+    values = [v for v in tried.values() if v is not None]
     reach = (
-        (
-            f"transitions between {min(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} and "
-            f"{max(v for _, v in valid) / 1e3 + target_voltage / 1e3:.4g} kV"
-        )
-        if valid
-        else "no transition at all"
+        f"transitions between {(min(values) + target_voltage) / 1e3:.4g} and "
+        f"{(max(values) + target_voltage) / 1e3:.4g} kV"
+        if values
+        else f"no transition up to the scene's {top_volts / 1e3:.4g} kV"
     )
     raise ModelRangeError(
-        f"no zone radius in {lo_mm:.4g}..{hi_mm:.4g} mm puts the {kind} transition at "
-        f"{target_voltage / 1e3:.4g} kV: the radii give {reach}" + (f"; without one: {why[0]}" if why else ""),
+        f"no zone radius in {min(tried):.4g}..{max(tried):.4g} mm ({len(tried)} trial radii from the scene's "
+        f"{a_own:.6g} mm; the zones hold the closing pressure below {top:.6g} mm) puts the {kind} transition "
+        f"at {target_voltage / 1e3:.4g} kV: the radii give {reach}" + (f"; without one: {why[0]}" if why else ""),
         "no_fit",
     )
 

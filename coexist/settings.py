@@ -85,7 +85,7 @@ class SolverSettings:
     discovery_voltages : int
         Voltages at which every configuration is searched for when the coexistence table is asked for.
     fit_samples : int
-        Trial zone radii on which a fit first brackets its root (:func:`~coexist.fit.fit_zone_radius`).
+        A fit tries at most ``6·fit_samples`` zone radii to bracket its root (:func:`~coexist.fit.fit_zone_radius`).
     locking_margin : float
         The pole-stretch range of the zone curves ends at this fraction of the Gent locking stretch.
     stretch_max_factor : float

@@ -3,7 +3,9 @@
 A sweep varies scene fields named by their key path, units in the key as in a scene file
 (``chamber.closing_pressure_mbar``, ``membrane.zone_radius_mm``, ``zones.count``, ``membrane.material``),
 over the Cartesian product of the values given per key. At every point the scene is rebuilt from its
-TOML document with the point's values (so every scene rule is checked again), and its ramp is run on the
+TOML document with the point's values (so every scene rule is checked again; one rule of the sweep's own: a
+``membrane.material`` other than ``gent`` drops the scene's ``jlim`` at its points, which the command line
+notes, and sweeping it together with ``membrane.jlim`` is refused), and its ramp is run on the
 exact continuation layer (:meth:`coexist.simulation.Simulation.ramp`); the point keeps what a designer
 needs (:data:`FLOAT_FIELDS`):
 
@@ -450,10 +452,35 @@ def scene_from_document(doc: dict, source: str = "<sweep>") -> Scene:
     return Scene(**fields)
 
 
+def user_field_names(scene: Scene, axes) -> Scene:
+    """``scene`` (built from a sweep's SI document) with the pressure fields an error names spelled as in a scene
+    file and a ``--vary`` key: ``[chamber].closing_pressure_mbar`` and ``[zones].pressure_mbar``, not the
+    document's ``closing_pressure_Pa`` (a swept pressure keeps the spelling of its key). Only the names change.
+
+    Parameters
+    ----------
+    scene : Scene
+    axes : sequence of Axis
+        The swept keys.
+
+    Returns
+    -------
+    Scene
+    """
+    swept = {(ax.section, ax.name) for ax in axes}
+    if scene.chamber is not None and ("chamber", "closing_pressure") not in swept:
+        chamber = dataclasses.replace(scene.chamber, closing_pressure_field="[chamber].closing_pressure_mbar")
+        scene = dataclasses.replace(scene, chamber=chamber)
+    if scene.controlled_pressure is not None and ("zones", "pressure") not in swept:
+        scene = dataclasses.replace(scene, controlled_pressure_field="[zones].pressure_mbar")
+    return scene
+
+
 def vary_document(doc: dict, axes, values) -> dict:
     """A copy of ``doc`` with each axis's field set to its value (any other spelling of that field removed).
 
-    Setting ``membrane.material`` to a material other than Gent drops ``jlim`` (unless ``jlim`` is swept too).
+    Setting ``membrane.material`` to a material other than Gent drops ``jlim`` (only Gent takes it; a sweep of
+    both is refused by :func:`make_spec`, and :func:`spec_notes` says where jlim is dropped).
 
     Parameters
     ----------
@@ -549,7 +576,7 @@ class SweepSpec:
             If the point's values break a scene rule.
         """
         doc = vary_document(self.document, self.axes, self.values_at(index))
-        return scene_from_document(doc, f"{self.source} at {self.describe(index)}")
+        return user_field_names(scene_from_document(doc, f"{self.source} at {self.describe(index)}"), self.axes)
 
     def describe(self, index: int) -> str:
         """``"membrane.zone_radius_mm=21.2, zones.count=3"``: the point's swept values.
@@ -603,15 +630,25 @@ def make_spec(scene, vary, settings: SolverSettings | None = None) -> SweepSpec:
     ------
     SceneError
         For a bad key or value, a scene with no voltage (and none swept), or when the scene cannot be built at
-        any corner of the grid (the first corner's error). A patterned scene is swept like any other (its
-        ``[electrodes]`` and ``[layers]`` keys too: ``electrodes.inner_fraction=0.4,0.6``); a pattern key on a
-        scene without a pattern is an error of the corners, naming the field.
+        any corner of the grid (the first corner's error), or when ``membrane.material`` with a material other than
+        gent is swept together with ``membrane.jlim`` (only gent takes jlim). A patterned scene is swept like any
+        other (its ``[electrodes]`` and ``[layers]`` keys too: ``electrodes.inner_fraction=0.4,0.6``); a pattern key
+        on a scene without a pattern is an error of the corners, naming the field.
     """
     from . import validation
 
     sc = scene if isinstance(scene, Scene) else load_scene(scene)
     settings = validation.settings_or_default(settings)
     axes = make_axes(vary)
+    swept = {(ax.section, ax.name): ax for ax in axes}
+    material = swept.get(("membrane", "material"))
+    others = [] if material is None else [v for v in material.values if v != "gent"]
+    if material is not None and others and ("membrane", "jlim") in swept:
+        raise SceneError(
+            f"{swept['membrane', 'jlim'].key} with {material.key}={','.join(others)}: only the gent material takes "
+            "jlim (as in a scene file); sweep the other materials without membrane.jlim",
+            "--vary",
+        )
     spec = SweepSpec(scene_document(sc), sc.source, axes, settings)
     if spec.size > MAX_POINTS:
         raise SceneError(f"{spec.size:,} points; a sweep takes at most {MAX_POINTS:,}", "--vary")
@@ -628,6 +665,31 @@ def make_spec(scene, vary, settings: SolverSettings | None = None) -> SweepSpec:
         first = errors[0]
         raise SceneError(f"no corner of the grid is a valid scene: {first}", "--vary")
     return spec
+
+
+def spec_notes(spec: SweepSpec) -> list[str]:
+    """What the sweep's rules change at some points beyond the swept values: a ``membrane.material`` other than
+    Gent drops the scene's ``jlim`` there (:func:`vary_document`; only the Gent material takes it).
+
+    Parameters
+    ----------
+    spec : SweepSpec
+
+    Returns
+    -------
+    list of str
+        One line per rule that applies (empty if none).
+    """
+    jlim = spec.document.get("membrane", {}).get("jlim")
+    notes = []
+    for ax in spec.axes:
+        others = [v for v in ax.values if v != "gent"] if (ax.section, ax.name) == ("membrane", "material") else []
+        if others and jlim is not None:
+            notes.append(
+                f"{ax.key}={','.join(others)}: the scene's jlim = {jlim:g} is dropped at those points (only the "
+                "gent material takes jlim)"
+            )
+    return notes
 
 
 def _corners(spec: SweepSpec) -> list[int]:
@@ -878,6 +940,15 @@ def _missing_reasons(rec: dict, sim, report) -> list:
         out.append(f"no breakdown_kV: {why}")
     if rec["range_end_kV"] is None:
         out.append("no range_end_kV: the ramp stays in the model's range")
+    for way in ("up", "down"):
+        if rec[f"jump_{way}_kV"] is None:
+            moves = [s for s in result.steps if s.direction == way]
+            why = (
+                f"the path does not go {way}"
+                if not moves
+                else f"on the way {way} no transition moves a zone's volume by more than {JUMP_VOLUME:.0%}"
+            )
+            out.append(f"no jump_{way}_kV (nor jump_hysteresis_kV): {why}")
     return out
 
 

@@ -37,9 +37,11 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     at --transition-kV, then show how the prediction moves with radius, μ, closing pressure and chamber.
 
     Every trial radius is solved on the exact equations (its own gas, its own continuation); radii at
-    which the transition does not exist are left out of the bracket, never scored.
+    which the transition does not exist are left out of the bracket, never scored. The trial radii start at
+    the scene's own radius and widen geometrically both ways (1 %, 2 %, 4 % ...) up to the largest radius
+    whose zones hold the closing pressure. --transition-kV must not exceed the scene's highest voltage.
     """
-    from coexist.fit import Shared, fit_zone_radius, sensitivity, transition_voltage
+    from coexist.fit import Shared, fit_zone_radius, sensitivity, transition_voltage, voltage_top_field
 
     if not (target_kv > 0 and math.isfinite(target_kv)):
         raise InputError(f"--transition-kV: must be a positive finite number, got {target_kv:g}")
@@ -47,6 +49,11 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     settings = settings_from(accuracy, rtol)
     if sc.chamber is None or sc.voltage is None:
         raise InputError(f"{sc.name}: fitting needs a scene with [chamber] and [voltage]")
+    if target_kv * 1e3 > sc.voltage.peak:
+        raise InputError(
+            f"--transition-kV: {target_kv:g} kV is above the highest voltage of {sc.name}'s path, "
+            f"{sc.voltage.peak / 1e3:g} kV ({voltage_top_field(sc)}): no ramp of the scene reaches it"
+        )
     info("fitting the zone radius on the exact equilibria ...")
     shared = Shared.of(sc, settings)
     radius = fit_zone_radius(sc, target_kv * 1e3, kind, shared)

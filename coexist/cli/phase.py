@@ -23,7 +23,9 @@ from .common import (
 @click.option(
     "--scene",
     default=None,
-    help="Take material, Jlim and prestretch from this scene (name or file), and its electrode pattern and layers.",
+    help="Take [membrane] material, jlim and prestretch from this scene (name or file; --material/--jlim win), and "
+    "its [electrodes] pattern and [layers]; nothing else (the diagram is normalised: no radius, thickness, "
+    'modulus, chamber or voltage path), and not its wrinkling: the states are taut (wrinkling = "refuse").',
 )
 @click.option("--material", default=None, help="neo-hookean or gent (default gent).")
 @click.option("--jlim", type=float, default=None, help="Gent Jlim (default 40, where the critical point is in range).")
@@ -37,7 +39,10 @@ from .common import (
 def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overwrite, accuracy, rtol):
     """The (Φ̂, p̂) phase diagram of one clamped zone under pressure control: where bulged and unbulged
     states coexist (binodal, equal free energy), where each stops being stable (spinodals), and the
-    critical point where they merge."""
+    critical point where they merge.
+
+    The zone is taut everywhere (wrinkling = "refuse", whatever the scene says): a state whose hoop tension
+    would turn compressive is no state and is left out; a tension-field scene gets a note saying so."""
     import numpy as np
 
     from coexist.coexistence import phase_diagram as compute
@@ -59,6 +64,11 @@ def phase_diagram(scene, material, jlim, phi_range, points, plot, as_json, overw
     pattern = None
     if scene is not None:
         sc = load_scene_arg(scene)
+        if sc.wrinkling != "refuse":
+            info(
+                f'note: {sc.name or scene} asks for wrinkling = "{sc.wrinkling}"; the phase diagram is of taut zones '
+                '(wrinkling = "refuse"): states that would wrinkle are left out'
+            )
         if sc.patterned:  # the zone's own regions: shot region by region (coexist.patterned)
             from coexist.patterned import PatternedModel
 

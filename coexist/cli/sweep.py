@@ -15,7 +15,8 @@ from .common import InputError, Outputs, accuracy_option, info, library_errors, 
     multiple=True,
     metavar="KEY=START:STOP:N|KEY=v1,v2,...",
     help="A scene field and its values, units in the key as in a scene file, e.g. "
-    "chamber.closing_pressure_mbar=19.5:20.5:5 or membrane.material=gent,neo-hookean (repeat for a grid).",
+    "chamber.closing_pressure_mbar=19.5:20.5:5 or membrane.material=gent,neo-hookean (repeat for a grid; a "
+    "material other than gent drops the scene's jlim at its points, and is refused with membrane.jlim swept).",
 )
 @click.option("-o", "--output", "output", default=None, help="Write the sweep to this netCDF file (.nc).")
 @click.option("--plot", "plot", default=None, help="Design-map figure (.png/.svg/.pdf) over the last two swept keys.")
@@ -60,6 +61,8 @@ def sweep(scene, vary, output, plot, variable, workers, scheduler, resume, overw
     sc = load_scene_arg(scene)
     settings = settings_from(accuracy, rtol)
     spec = sw.make_spec(sc, list(vary), settings)
+    for note in sw.spec_notes(spec):
+        info(f"note: {note}")
     if variable not in sw.FLOAT_FIELDS:
         raise InputError(f"--map: unknown quantity {variable!r}; use one of {', '.join(sw.FLOAT_FIELDS)}")
     with Outputs(overwrite) as out:

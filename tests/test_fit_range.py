@@ -1,0 +1,118 @@
+"""The radii a fit searches: from the scene's own radius, for zones with and without a snap-through at 0 V; a
+target the scene's path cannot reach is bad input; no transition beyond the path's top voltage is reported."""
+
+import re
+from dataclasses import replace
+
+import pytest
+from click.testing import CliRunner
+
+from coexist.cli.main import cli
+from coexist.errors import ModelRangeError, SceneError
+from coexist.fit import Shared, fit_zone_radius, transition_voltage
+from coexist.scene import builtin_scene_text, load_scene
+from coexist.simulation import Simulation
+
+
+@pytest.fixture(scope="module")
+def tricircle():
+    scene = load_scene("tricircle")
+    return scene, Shared.of(scene)
+
+
+@pytest.fixture(scope="module")
+def jlim60():
+    """The default scene with Gent Jlim = 60: the zone's p̂–V̂ curve at 0 V rises to the end of the model's
+    range (no snap-through, p̂ = 6.594 there), so A_max = p̂ μH/p_close = 74.19 mm, yet the transitions lie
+    in a band of radii around 21–23 mm (the scene's own 21.4165 mm jumps at 4.767310 kV)."""
+    scene = replace(load_scene("tricircle"), jlim=60.0)
+    return scene, Shared.of(scene)
+
+
+@pytest.mark.parametrize("target_kV, radius_mm", [(4.2, 21.91186), (4.5, 21.66050), (4.767, 21.41679)])
+def test_fit_without_a_snap_through(jlim60, target_kV, radius_mm):
+    """Jlim = 60 has no snap-through at 0 V: the fit still finds the radius (the old search, 0.5–1 A_max =
+    37–74 mm, held none), and the fitted radius reproduces the target to the transition's measured error
+    (re-evaluated independently of the fit's iterations, at rtol 1e-10: about 5e-6 V); radii this code's
+    (1e-4 mm)."""
+    scene, shared = jlim60
+    assert not shared.snap.maximum
+    a_max_mm = shared.snap.p_hat * scene.shear_modulus * scene.thickness / scene.chamber.closing_pressure * 1e3
+    radius = fit_zone_radius(scene, target_kV * 1e3, "spinodal", shared)
+    assert radius * 1e3 == pytest.approx(radius_mm, abs=1e-4)
+    assert radius * 1e3 < 0.5 * a_max_mm
+    volts, err = transition_voltage(replace(scene, zone_radius=radius), "spinodal", shared, measure=True)
+    assert abs(volts - target_kV * 1e3) <= err + 1e-6  # V
+
+
+def test_the_fitted_radius_ramps_to_the_target(jlim60):
+    """The fitted radius put back into the scene: its full ramp (an independent route through the same
+    exact equilibria) jumps up first at 4.5 kV, to its measured error."""
+    scene, shared = jlim60
+    radius = fit_zone_radius(scene, 4.5e3, "spinodal", shared)
+    report = Simulation.from_scene(replace(scene, zone_radius=radius), shared.settings).ramp()
+    first = next(t for t in report.result.transitions if t.direction == "up")
+    assert first.event in ("split", "fold")
+    assert abs(report.voltage_kV(first.phi_hat) - 4.5) <= report.voltage_kV(first.phi_hat_error) + 1e-9  # kV
+
+
+def test_the_default_fit_is_unchanged(tricircle):
+    """README: 3.9 kV needs A = 21.4165 mm (the radius stored in the scene)."""
+    scene, shared = tricircle
+    assert fit_zone_radius(scene, 3.9e3, "spinodal", shared) * 1e3 == pytest.approx(21.4165, abs=5e-5)
+
+
+def test_a_low_target_near_a_max_is_met_in_volts(tricircle):
+    """0.5 kV needs a radius 2.3e-4 mm below A_max = 22.1934 mm, where 1e-9 mm moves the jump by about 3e-5 V:
+    the fit converges in the voltage, so the fitted radius reproduces 0.5 kV to the transition's measured error
+    (the old tolerance of 1e-9 mm in the radius left it 8.1e-5 V off, 25× its error)."""
+    scene, shared = tricircle
+    radius = fit_zone_radius(scene, 0.5e3, "spinodal", shared)
+    assert radius * 1e3 == pytest.approx(22.192966, abs=1e-5)
+    volts, err = transition_voltage(replace(scene, zone_radius=radius), "spinodal", shared, measure=True)
+    assert abs(volts - 0.5e3) <= err + 1e-6  # V
+
+
+def test_a_target_above_the_path_is_bad_input(tricircle):
+    """The scene's path stops at 5 kV: a 5.5 kV target is refused before any trial, naming the target."""
+    scene, shared = tricircle
+    with pytest.raises(SceneError, match=r"above the highest voltage of the scene's path, 5 kV") as info:
+        fit_zone_radius(scene, 5.5e3, "spinodal", shared)
+    assert info.value.field == "target_voltage"
+
+
+def test_no_transition_beyond_the_path_top(tricircle):
+    """At A = 20.43962571 mm the continuation locates the homogeneous state's loss at 5.149 kV, beyond the
+    path's 5 kV (the ramp never gets there): that is no transition of the scene."""
+    scene, shared = tricircle
+    with pytest.raises(ModelRangeError) as info:
+        transition_voltage(replace(scene, zone_radius=20.43962571e-3), "spinodal", shared)
+    assert info.value.reason == "no_transition"
+
+
+def test_an_unreachable_target_states_only_reachable_voltages(tricircle):
+    """4.99 kV is below the stop but above every transition the radii give (the band's lower edge runs into
+    the path's top): the message's range stays within the 5 kV the scene reaches (the old search bracketed the
+    target with the 5.149 kV beyond the path and returned a radius)."""
+    scene, shared = tricircle
+    with pytest.raises(ModelRangeError, match="the radii give transitions between") as info:
+        fit_zone_radius(scene, 4.99e3, "spinodal", shared)
+    lo, hi = map(float, re.search(r"transitions between (\S+) and (\S+) kV", str(info.value)).groups())
+    assert 0 < lo < hi <= 5.0
+
+
+def test_cli_fit_without_a_snap_through(tmp_path):
+    """The audit's command: `coexist fit j60.toml --transition-kV 4.5` fits (it exited 1)."""
+    path = tmp_path / "j60.toml"
+    path.write_text(builtin_scene_text("tricircle").replace("jlim = 97", "jlim = 60"))
+    r = CliRunner().invoke(cli, ["fit", str(path), "--transition-kV", "4.5", "--no-sensitivity"])
+    assert r.exit_code == 0, r.output
+    assert re.search(r"fitted zone radius: 21\.6605\d* mm", r.output)
+
+
+def test_cli_target_above_the_stop_exits_2(tmp_path):
+    """A target above the scene's stop is bad input: exit 2, one line naming --transition-kV and the stop."""
+    r = CliRunner().invoke(cli, ["fit", "tricircle", "--transition-kV", "50", "--no-sensitivity"])
+    assert r.exit_code == 2
+    assert "--transition-kV" in r.output and "5 kV ([voltage].stop_kV)" in r.output
+    assert "Traceback" not in r.output
