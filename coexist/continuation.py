@@ -48,9 +48,10 @@ from .equilibria import (
     Residual,
     failure_reason,
     make_equilibrium,
+    shoot_groups,
 )
 from .errors import SolverError
-from .numerics.roots import newton
+from .numerics.roots import bracketed_root, newton
 from .shooting import STEP_LIMIT, WRINKLED
 
 # The driver's step control and tolerances are in SolverSettings (initial_step, max_step, min_step,
@@ -1778,6 +1779,9 @@ class StableSegment:
             Where Newton's method fails within a merge end's uncertainty, give the coincident state
             (:meth:`_coincident_state`; default True). False: such a voltage raises like any other (the
             equal-free-energy search, for which the coincident state is the other segment's own state).
+            Beyond that uncertainty, next to a symmetric branch point, a failed fixed-voltage Newton is
+            followed by the solve parametrised by the split (:meth:`_pitchfork_state`), whatever
+            ``coincident`` says (its state is this segment's own).
 
         Returns
         -------
@@ -1820,6 +1824,8 @@ class StableSegment:
                     eq = None
             if eq is None and coincident:
                 eq = self._coincident_state(float(phis[i]), index)
+            if eq is None:
+                eq = self._pitchfork_state(float(phis[i]), index)
             if eq is None:
                 raise SolverError(
                     f"{self.label}: no converged state at Φ̂ = {phis[i]:.10g} on its stable segment ({corr.reason[i]})"
@@ -1887,6 +1893,176 @@ class StableSegment:
             )
             return eq
         return None
+
+    def _split_residual(self, u, phi: float, j: int):
+        """The equilibrium residual at ``(u, Φ̂)`` with the row of groups ``j``, ``j + 1`` (their divided
+        difference of ``p̂``) evaluated as the mean of ``dp̂/du`` by 3-point Gauss–Legendre quadrature,
+
+        ``r_{j+1} = [p̂(u_{j+1}) − p̂(u_j)] / x = ∫₀¹ p̂′(u_j + t x) dt ≈ Σₖ wₖ p̂′(m + ξₖ x / 2)``,
+
+        ``m`` the midpoint, ``x = u_{j+1} − u_j``, ``ξ = 0, ±√(3/5)``, ``w = 4/9, 5/18, 5/18`` (error
+        ``x⁶ p̂⁽⁷⁾ / 2016000``). Both are the same equation; the divided difference of two pressures of
+        order one, each rounded to ``ε |p̂|``, carries ``≈ 10 ε |p̂| / |x|`` (``2e-11 · (1 + |p̂|)`` at
+        ``x = 1.5e-5``, the rtol 1e-12 solver tolerance), the quadrature of the exact slopes ``≈ 10 ε``.
+
+        Returns
+        -------
+        tuple
+            ``(r, res)``: the residual (shape ``(M,)``, row ``j + 1`` by quadrature) and the system's own
+            :class:`~coexist.equilibria.Residual` at the point (its Jacobian, exact, is used as is), or
+            None where a state is invalid.
+        """
+        system = self.tracer.system
+        res = system.residual(u[None], np.array([phi]))
+        m, x = 0.5 * (u[j] + u[j + 1]), u[j + 1] - u[j]
+        nodes = m + 0.5 * x * np.array([[0.0, -np.sqrt(0.6), np.sqrt(0.6)]])
+        st = shoot_groups(system.model, nodes, np.array([phi]), system.settings)
+        if not (res.states.ok.all() and st.ok.all()):
+            return None
+        r = res.r[0].copy()
+        r[j + 1] = float(st.dp_du[0] @ np.array([4 / 9, 5 / 18, 5 / 18]))
+        return r, res
+
+    def _pitchfork_state(self, phi: float, index) -> Equilibrium | None:
+        """The state at ``Φ̂`` next to a symmetric branch point that ends the segment, beyond that point's
+        uncertainty, solved with the split as the parameter; None where no such end is next to ``Φ̂``.
+
+        At a pitchfork (groups ``j``, ``j + 1`` of equal counts merge at ``Φ̂bp``) the split branch is
+        ``Φ̂ − Φ̂bp ≈ c x²``, ``x = |u_{j+1} − u_j|``; Newton's method at fixed ``Φ̂`` is singular there (the
+        antisymmetric eigenvalue vanishes like ``Φ̂ − Φ̂bp``). At fixed ``x`` the equations
+        ``r(u, Φ̂) = 0`` in the unknowns (the other ``u``, ``Φ̂``), with ``u_{j+1} = u_j ± x``, are regular
+        (the branch point's own extended system at ``x = 0``); their solution ``Φ̂(x)`` is smooth and even
+        in ``x``, so ``Φ̂(√s) − Φ̂target`` is a regular 1-D root in ``s = x²``, bracketed by the branch point
+        (``s = 0``, ``Φ̂bp``) and the segment's point nearest it, found by the Illinois method. The row of
+        the two groups is evaluated by quadrature (:meth:`_split_residual`: the divided difference of the
+        pressures is rounding at ``x ~ 1e-5``). The final state is shot at exactly ``Φ̂target`` and must
+        have every residual below ``residual_tol (1 + |p̂|)`` and be stable; its ``residual`` is the largest of
+        them (the pair's row by quadrature: the divided difference's own is its rounding, ``≈ 10 ε |p̂| / x``).
+        Its note gives ``x``.
+
+        Parameters
+        ----------
+        phi : float
+            The voltage ``Φ̂``.
+        index : tuple
+            The segment's zone index (given to the state).
+
+        Returns
+        -------
+        Equilibrium or None
+            The split state, or None where ``Φ̂`` is not between a pitchfork end (beyond its uncertainty)
+            and the segment's point nearest it, or a solve fails (the caller then raises).
+        """
+        system = self.tracer.system
+        settings = system.settings
+        counts = system.configuration.counts
+        for e in (self.low, self.high):
+            if not (isinstance(e, Event) and e.kind == "merge" and e.group is not None and e.z is not None):
+                continue
+            j = int(e.group)
+            if counts[j] != counts[j + 1]:
+                continue  # not a symmetric pitchfork (Φ̂ − Φ̂bp is then linear in x)
+            if abs(phi - e.phi_hat) <= max(float(e.error), error_floor(e.phi_hat, settings.rtol)):
+                continue  # inside the branch point's uncertainty: which side is unknown
+            near = min(self.points, key=lambda p: abs(p.phi - e.phi_hat))
+            if not (
+                (phi - e.phi_hat) * (near.phi - e.phi_hat) > 0 and abs(phi - e.phi_hat) < abs(near.phi - e.phi_hat)
+            ):
+                continue  # not between the branch point and the segment's point nearest it
+            return self._split_state(e, near, phi, index)
+        return None
+
+    def _split_state(self, e: Event, near: Point, phi: float, index) -> Equilibrium | None:
+        """The solve of :meth:`_pitchfork_state` for the merge end ``e``, bracketed by it and the point
+        ``near``: the split state at ``Φ̂ = phi``, or None where a solve fails or the state is not converged
+        or not stable."""
+        system = self.tracer.system
+        settings = system.settings
+        M = self.tracer.M
+        j = int(e.group)  # type: ignore[arg-type]  # a merge end has its group
+        x_near = float(near.z[j + 1] - near.z[j])
+        sign = 1.0 if x_near > 0 else -1.0  # the segment's orientation
+        free = [i for i in range(M) if i != j + 1]
+        guess_u, guess_phi = np.array(e.z[:M], dtype=float), float(e.phi_hat)
+
+        def at_split(x: float):
+            """Newton's method at fixed split ``x`` in (the other ``u``, ``Φ̂``): ``(u, Φ̂, r, res)`` or None."""
+            nonlocal guess_u, guess_phi
+            u, ph = guess_u.copy(), guess_phi
+            prev = np.inf
+            for it in range(settings.max_newton):
+                u[j + 1] = u[j] + sign * x
+                out = self._split_residual(u, ph, j)
+                if out is None:
+                    return None
+                r, res = out
+                J = res.J[0]
+                A = np.concatenate([J[:, free], J[:, M : M + 1]], axis=1)
+                A[:, j] += J[:, j + 1]  # u_{j+1} moves with u_j
+                try:
+                    step = np.linalg.solve(A, -r)
+                except np.linalg.LinAlgError:
+                    return None
+                size = float(np.max(np.abs(step)))
+                small_r = np.max(np.abs(r)) <= settings.residual_tol * (1 + abs(float(res.gas_pressure[0])))
+                if (size <= settings.newton_tol and small_r) or (
+                    it >= 2 and size >= 0.5 * prev and size <= 1e3 * settings.newton_tol
+                ):
+                    guess_u, guess_phi = u.copy(), ph  # the next solve starts here
+                    return u, ph, r, res
+                if it >= 2 and size > 2 * prev:
+                    return None
+                prev = size
+                u[free] += step[: M - 1]
+                ph += float(step[M - 1])
+            return None
+
+        class _Failed(Exception):
+            pass
+
+        def gap(s, _):
+            x = float(np.sqrt(s[0]))
+            if x <= 10 * settings.merge_tolerance:  # the system's residual merges the groups below it
+                raise _Failed
+            sol = at_split(x)
+            if sol is None:
+                raise _Failed
+            return np.array([sol[1] - phi])
+
+        try:
+            root = bracketed_root(
+                gap,
+                0.0,
+                x_near**2,
+                e.phi_hat - phi,
+                near.phi - phi,
+                ftol=1e-3 * settings.residual_tol,  # Φ̂(s) this close to the target: shot at the target below
+                max_iter=60,
+            )
+        except _Failed:
+            return None
+        if not root.converged[0]:
+            return None
+        x = float(np.sqrt(root.x[0]))
+        sol = at_split(x)
+        if sol is None:
+            return None
+        out = self._split_residual(sol[0], phi, j)  # exactly at the target voltage
+        if out is None:
+            return None
+        r, res = out
+        tol = settings.residual_tol * (1 + abs(float(res.gas_pressure[0])))
+        if not np.max(np.abs(r)) <= tol:
+            return None
+        eq = make_equilibrium(system, res, 0, index)
+        if not _is_stable(eq, eq.zone_index):
+            return None
+        eq.residual = float(np.max(np.abs(r)))
+        eq.notes.append(
+            f"{abs(phi - e.phi_hat):.1e} from the symmetric branch point at Φ̂ = {e.phi_hat:.10g}: solved "
+            f"with the split |Δu| = {x:.6e} as the parameter (fixed-voltage Newton is singular there)"
+        )
+        return eq
 
     def matches(self, eq: Equilibrium, tol: float = 1e-6) -> bool:
         """Is ``eq`` (a stable equilibrium) the state of this segment at its voltage? The segment's state
