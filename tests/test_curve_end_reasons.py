@@ -9,12 +9,12 @@ import re
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import one_line_error
 
 from coexist.cli.main import cli
 from coexist.curves import voltage_charge_curve
 from coexist.model import build_model
 from coexist.shooting import solve_states
-from tests.conftest import one_line_error
 
 GRID = np.linspace(1.01, 4.0, 200)
 
