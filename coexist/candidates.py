@@ -38,6 +38,65 @@ def _refine(residual, lo, hi):
     return bracketed_root(residual, lo, hi, xtol=1e-12, rtol=1e-12).x
 
 
+def _near_misses(y):
+    """Interior samples ``(row, i)`` where ``|y|`` dips without a sign change: a pair of roots may hide there.
+
+    Next to a fold two roots of ``y`` approach each other (their distance ``∝ √(Φ̂ − Φ̂fold)``) and
+    can both lie between two samples, so that no sign change shows them. A sample ``i`` is kept when
+    ``y[i − 1]``, ``y[i]`` and ``y[i + 1]`` share one sign, ``|y[i]|`` is the smallest of the three, and
+    (heuristic threshold) ``|y[i]| < max(|y[i − 1] − y[i]|, |y[i + 1] − y[i]|)``: the dip is shallower
+    than the change from one sample to the next, so the extremum between them may reach zero.
+    """
+    a, b, c = y[..., :-2], y[..., 1:-1], y[..., 2:]
+    same = (a * b > 0) & (b * c > 0)
+    dip = (np.abs(b) <= np.abs(a)) & (np.abs(b) <= np.abs(c))
+    shallow = np.abs(b) < np.maximum(np.abs(a - b), np.abs(c - b))
+    rows, i = np.nonzero(np.atleast_2d(same & dip & shallow))
+    return rows, i + 1
+
+
+def _roots(f, x, y):
+    """Roots of the rows of ``f`` sampled as ``y`` (shape ``(R, n)``) on the grid ``x``: first guesses only.
+
+    ``f(xv, rows)`` evaluates the rows ``rows`` at the points ``xv``. Every sign change is refined
+    (:func:`_refine`). At every near miss (:func:`_near_misses`) the extremum of ``f`` (towards zero) between the
+    neighbouring samples is located by golden-section search (to ``1e-12`` of the bracket); if ``f``
+    changes sign there, both roots are refined, otherwise the extremum itself is returned: the exact
+    equations may still have a pair of equilibria there (the curve's interpolation error is larger
+    than the dip), which :func:`coexist.simulation.equilibria_on_gas` looks for around it.
+
+    Returns
+    -------
+    rows, roots : numpy.ndarray
+        The row and the location of each root (or near miss).
+    """
+    y = np.atleast_2d(y)
+    rows, cols = _sign_changes(y)
+    out_rows, out_x = [rows], [_refine(lambda xv, idx: f(xv, rows[idx]), x[cols], x[cols + 1]) if rows.size else x[:0]]
+    nr, ni = _near_misses(y)
+    if nr.size:
+        lo, hi = x[ni - 1].astype(float), x[ni + 1].astype(float)
+        g = (np.sqrt(5.0) - 1.0) / 2.0
+        width0 = hi - lo
+        sign = np.sign(y[nr, ni])  # the dip goes towards zero: minimise sign · f
+        while np.any(hi - lo > 1e-12 * width0):
+            x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
+            left = sign * f(x1, nr) < sign * f(x2, nr)
+            hi = np.where(left, x2, hi)
+            lo = np.where(left, lo, x1)
+        xm = 0.5 * (lo + hi)
+        fm = f(xm, nr)
+        cross = np.sign(fm) != np.sign(y[nr, ni])
+        out_rows.append(nr[~cross])
+        out_x.append(xm[~cross])
+        if np.any(cross):
+            cr, cm, ci = nr[cross], xm[cross], ni[cross]
+            for a, b in ((x[ci - 1], cm), (cm, x[ci + 1])):
+                out_rows.append(cr)
+                out_x.append(_refine(lambda xv, idx, cr=cr: f(xv, cr[idx]), a, b))
+    return np.concatenate(out_rows), np.concatenate(out_x)
+
+
 class _BranchInverse:
     """``u(P)`` on one monotone piece of the curve, by linear interpolation of dense samples."""
 
@@ -56,7 +115,10 @@ def candidate_equilibria(curve: ZoneCurve, gas, zones: int, bulged=None, samples
 
     Homogeneous: ``p̂(u) = p̂_gas(N V̂(u))`` on each piece that is stable at fixed volume. Two groups:
     for each pair of such pieces with overlapping pressures and each ``k`` in ``bulged`` (default
-    ``1..N−1``), the pressure ``P = p̂_gas((N−k)V̂(u_a(P)) + kV̂(u_b(P)))``.
+    ``1..N−1``), the pressure ``P = p̂_gas((N−k)V̂(u_a(P)) + kV̂(u_b(P)))``. Roots are bracketed by
+    sign changes on the samples; where the residual dips towards zero between samples without a sign
+    change (a pair of roots next to a fold may hide there, :func:`_roots`), the extremum of the dip is a
+    candidate too (or both roots, if the dip crosses zero on the splines).
 
     Parameters
     ----------
@@ -93,10 +155,8 @@ def candidate_equilibria(curve: ZoneCurve, gas, zones: int, bulged=None, samples
         def hom(x, idx=None):
             return curve.p(x) - gas.pressure(zones * curve.v(x))
 
-        idx = _sign_changes(hom(u))[0]
-        if idx.size:
-            for r in _refine(hom, u[idx], u[idx + 1]):
-                out.append(Candidate((zones,), (float(r),), curve.phi_hat))
+        for r in _roots(hom, u, hom(u))[1]:
+            out.append(Candidate((zones,), (float(r),), curve.phi_hat))
     if zones < 2:
         return out
     ks = np.arange(1, zones) if bulged is None else np.asarray(sorted(set(int(k) for k in bulged)), dtype=int)
@@ -114,15 +174,12 @@ def candidate_equilibria(curve: ZoneCurve, gas, zones: int, bulged=None, samples
             P = np.linspace(lo, hi, samples)
             va, vb = curve.v(ua_of(P)), curve.v(ub_of(P))
             R = P[None, :] - gas.pressure((zones - ks) * va[None, :] + ks * vb[None, :])
-            rows, cols = _sign_changes(R)
-            if rows.size == 0:
-                continue
-            kk = ks[rows, 0]
 
-            def mixed(Pv, idx, kk=kk, ua_of=ua_of, ub_of=ub_of):
-                k = kk[idx]
+            def mixed(Pv, rows, ua_of=ua_of, ub_of=ub_of):
+                k = ks[rows, 0]
                 return Pv - gas.pressure((zones - k) * curve.v(ua_of(Pv)) + k * curve.v(ub_of(Pv)))
 
-            for k, Pr in zip(kk, _refine(mixed, P[cols], P[cols + 1])):
+            rows, roots = _roots(mixed, P, R)
+            for k, Pr in zip(ks[rows, 0], roots):
                 out.append(Candidate((zones - int(k), int(k)), (float(ua_of(Pr)), float(ub_of(Pr))), curve.phi_hat))
     return out

@@ -720,8 +720,10 @@ def equilibria_on_gas(
 
     First guesses come from the zone curve shot at ``Φ̂`` (:func:`coexist.candidates.candidate_equilibria`);
     each is converged on the exact equations, its Hessian's eigenvalues are in closed form and each
-    zone's own index is counted on the curve. States that converge onto a coarser configuration are
-    dropped (that configuration is found on its own), as are duplicates.
+    zone's own index is counted on the curve. Next to a fold Newton's method finds one state of the
+    pair (or none): from every candidate (or the state it converged to) the partners predicted by
+    :func:`fold_partner_guesses` are converged too. States that converge onto a coarser configuration
+    are dropped (that configuration is found on its own), as are duplicates.
 
     Parameters
     ----------
@@ -747,7 +749,7 @@ def equilibria_on_gas(
     list of Equilibrium
         Sorted by the number of bulged zones, then by free energy ``Ĝ``.
     """
-    from .candidates import candidate_equilibria
+    from .candidates import Candidate, candidate_equilibria
     from .zone_curves import ZoneCurve
 
     validation.membrane_model(model)
@@ -763,16 +765,81 @@ def equilibria_on_gas(
     u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(lam_max - pre), settings.zone_curve_points)
     curve = ZoneCurve.compute(model, phi, pre + u**2, settings)
     out: list[Equilibrium] = []
-    for cand in candidate_equilibria(curve, gas, zones, bulged, settings.candidate_samples):
-        eq = converge_candidate(emap, cand, curve)
-        if eq is None:
-            continue
-        if any(
+
+    def keep(eq):
+        if eq is None or any(
             e.configuration == eq.configuration and np.allclose(e.pole_stretch, eq.pole_stretch, rtol=1e-7) for e in out
         ):
-            continue
+            return
         out.append(eq)
+
+    for cand in candidate_equilibria(curve, gas, zones, bulged, settings.candidate_samples):
+        eq = converge_candidate(emap, cand, curve)
+        keep(eq)
+        # next to a fold Newton finds one state of the pair (or none): look for the other along the soft direction
+        u0 = np.asarray(cand.u, dtype=float) if eq is None else np.sqrt(np.asarray(eq.pole_stretch) - pre)
+        for guess in fold_partner_guesses(emap.tracer(cand.counts).system, u0, phi):
+            keep(converge_candidate(emap, Candidate(cand.counts, tuple(float(x) for x in guess), phi), curve))
     return sorted(out, key=lambda e: (e.configuration.bulged, e.free_energy))
+
+
+# heuristic threshold: the largest step (in u = √(λ0 − λpre), along the soft direction) to which the
+# quadratic fold model of fold_partner_guesses is trusted; farther partners are the curve's own candidates
+FOLD_STEP_MAX = 0.05
+
+
+def fold_partner_guesses(system, u, phi: float) -> list[np.ndarray]:
+    """First guesses of the equilibria of a pair next to a fold, from a quadratic model at ``u``.
+
+    Next to a fold the Jacobian ``J = ∂r/∂u`` (at fixed ``Φ̂``) has a small singular value ``σ`` with
+    right and left singular vectors ``v``, ``w``; the two states of the pair lie about
+    ``√(Φ̂ − Φ̂fold)`` apart along ``v``, so Newton's method from one guess finds one of them (or
+    fails). Writing ``δ = s v + Σk tk Vk`` (``Vk``, ``Uk``, ``Sk``: the other singular triplets),
+    ``r(u + δ) ≈ 0`` gives ``tk = −Uk·r / Sk`` and, along ``w``,
+
+        ``w·r + σ s + ½ g2 s² = 0``,   ``g2 = d(w·J v)/ds``,
+
+    ``g2`` by a difference of the Jacobian at ``u + h v`` (``h = 1e-4``). Each real root ``s`` with
+    ``1e-9 < |s| ≤`` :data:`FOLD_STEP_MAX` (heuristic threshold) gives a guess; at a converged state
+    (``r = 0``) that is the mirror image ``s = −2σ / g2`` of the state across the fold. Guesses only:
+    each is converged on the exact equations by the caller.
+
+    Parameters
+    ----------
+    system : GroupSystem
+        The configuration's equations.
+    u : array_like, shape (M,)
+        ``u = √(λ0 − λpre)`` of each group: a converged state or a first guess.
+    phi : float
+        The voltage ``Φ̂``.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Zero, one or two guesses of ``u``.
+    """
+    u = np.asarray(u, dtype=float)
+    M = u.size
+    h = 1e-4
+    res = system.residual(u[None, :], np.array([phi]), derivatives=True)
+    if not (res.states.ok[0] and np.all(np.isfinite(res.J[0, :, :M])) and np.all(np.isfinite(res.r[0]))):
+        return []
+    U, S, Vt = np.linalg.svd(res.J[0, :, :M])
+    v, w, sigma = Vt[-1], U[:, -1], S[-1]
+    res_h = system.residual((u + h * v)[None, :], np.array([phi]), derivatives=True)
+    if not (res_h.states.ok[0] and np.all(np.isfinite(res_h.J[0, :, :M]))):
+        return []
+    g2 = (w @ res_h.J[0, :, :M] @ v - sigma) / h
+    g0 = w @ res.r[0]
+    disc = sigma**2 - 2.0 * g2 * g0
+    if not (np.isfinite(disc) and disc >= 0.0 and g2 != 0.0):
+        return []
+    perp = u - sum((((U[:, k] @ res.r[0]) / S[k]) * Vt[k] for k in range(M - 1)), np.zeros(M))
+    out = []
+    for s in ((-sigma + np.sqrt(disc)) / g2, (-sigma - np.sqrt(disc)) / g2):
+        if 1e-9 < abs(s) <= FOLD_STEP_MAX:
+            out.append(perp + s * v)
+    return out
 
 
 def converge_candidate(emap: EquilibriumMap, cand, curve) -> Equilibrium | None:
