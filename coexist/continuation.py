@@ -1371,10 +1371,11 @@ PULL_IN_BRACKET = 1e-7
 
 def _is_pull_in(code_or_note) -> bool:
     """Is an end of this kind (a failure code, or an event's note) the pull-in of a wrinkled band?"""
-    from .shooting import PULL_IN, reason_tag
+    from .shooting import PULL_IN
 
-    tag = reason_tag(int(code_or_note)) if isinstance(code_or_note, (int, np.integer)) else str(code_or_note)
-    return bool(code_or_note == PULL_IN or tag.startswith("electromechanical_instability: a wrinkled"))
+    if isinstance(code_or_note, (int, np.integer)):  # any code, -1 (outside the physical range) included
+        return int(code_or_note) == PULL_IN
+    return str(code_or_note).startswith("electromechanical_instability: a wrinkled")
 
 
 def _note_reason(note: str) -> tuple:
