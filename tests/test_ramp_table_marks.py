@@ -28,3 +28,24 @@ def test_a_jump_within_one_configuration_is_marked(tmp_path):
     assert len(same) == 2 and all("(another branch of the same configuration)" in ln for ln in same)
     up = [ln for ln in same if " up " in ln][0]
     assert re.search(r"4\.1060489\d* kV", up), up
+
+
+def test_a_path_without_transitions_says_so(tmp_path):
+    """A chamber closed at 10 mbar: the zones stay equal up to 5 kV; the transitions list says 'none' instead of
+    an empty list (audit helper-48)."""
+    scene = tmp_path / "low.toml"
+    text = builtin_scene_text("tricircle")
+    scene.write_text(re.sub(r"(?m)^closing_pressure_mbar = .*$", "closing_pressure_mbar = 10", text))
+    r = CliRunner().invoke(cli, ["ramp", str(scene)])
+    assert r.exit_code == 0, r.output
+    assert "  none between 0 and 5 kV: the zones stay on one stable branch" in r.output
+
+
+def test_a_closing_pressure_too_high_is_refused_before_the_ramp_starts(tmp_path):
+    """Above the snap-through pressure the refusal (exit 2) comes before 'following the stable states ...'."""
+    scene = tmp_path / "high.toml"
+    text = builtin_scene_text("tricircle")
+    scene.write_text(re.sub(r"(?m)^closing_pressure_mbar = .*$", "closing_pressure_mbar = 25", text))
+    r = CliRunner().invoke(cli, ["ramp", str(scene)])
+    assert r.exit_code == 2 and "snap-through" in r.output
+    assert "following the stable states" not in r.output

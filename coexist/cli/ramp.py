@@ -68,8 +68,8 @@ def ramp(scene, plot, states_plot, as_json, every, shapes, overwrite, accuracy, 
             cost = ramp_cost(sc, every)
             cost.check(every)
             info(f"estimated cost: {cost.describe()}")
+        sim = Simulation.from_scene(sc, settings)  # refuses a closing pressure the zones cannot hold, first
         info("following the stable states along the voltage path ...")
-        sim = Simulation.from_scene(sc, settings)
         n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
         with stderr_progress(n, "ramp") as bar:
             report = sim.ramp(progress=lambda i: bar.update(1))
@@ -176,6 +176,13 @@ def _table(data):
         )
     click.echo("")
     click.echo("transitions (voltage ± its error, measured by locating it again at rtol/100):")
+    if not data["transitions"]:
+        kv = [s["voltage_kV"] for s in data["steps"]]
+        click.echo(
+            f"  none between {min(kv):g} and {max(kv):g} kV: the zones stay on one stable branch"
+            if kv
+            else "  none: the path has no voltage"
+        )
     for t in data["transitions"]:
         click.echo(
             f"  {t['kind']:<18} {t['direction']:<6} {format_voltage(t['voltage_kV'], t['voltage_error_kV']):<26}"
