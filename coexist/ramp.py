@@ -494,8 +494,8 @@ class Ramp:
                 return Landing(
                     None,
                     None,
-                    f"a zone of {seg.label} reaches its largest volume (a volume fold of "
-                    "its curve): past it no axisymmetric state is stable",
+                    f"on the jump from {seg.label} an inflating zone reaches its largest volume (a volume fold of "
+                    "its curve) before the zones find a stable state: past it no axisymmetric state is stable",
                     mode,
                 )
             if status == "range_end":
