@@ -391,7 +391,10 @@ class Ramp:
         if key not in self._curves:
             pre = self.emap.model.prestretch
             u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), self.emap.settings.jump_curve_points)
-            self._curves[key] = ZoneCurve.compute(self.emap.model, abs(phi), pre + u**2, self.emap.settings)
+            # the flow moves zones continuously: a curve whose states jump (wrinkling) ends at the jump
+            self._curves[key] = ZoneCurve.compute(
+                self.emap.model, abs(phi), pre + u**2, self.emap.settings, stop_at_jumps=True
+            )
         return self._curves[key]
 
     def _push(self, end: Event, seg: StableSegment):

@@ -563,7 +563,9 @@ class Simulation:
         homogeneous state, with the coexisting states there.
 
         Every segment a slow ramp over :attr:`phi_window` (up and back, unless the window is one voltage)
-        reaches is traced first, then :meth:`discover` seeds the others.
+        reaches is traced first, then :meth:`discover` seeds the others. A jump of that ramp that finds no
+        landing (a :class:`SolverError`) stops it without ending this: the segments traced before it stay,
+        and every entry's ``note`` names the failure (the ``ramp`` command still reports it as an error).
 
         Parameters
         ----------
@@ -593,8 +595,17 @@ class Simulation:
             # 0 and N are the homogeneous states (their own configurations), not coexistence
             ks = sorted({validation.integer(k, "bulged", lo=1, hi=N - 1) for k in bulged})
         # every segment a slow ramp can reach (up to the top of the window and back) ...
+        # (a jump that finds no landing stops that ramp: the segments traced before it stay in the map, the
+        # discovery below seeds the others, and every entry's note says what the ramp did not reach)
+        unreached = None
         if self.phi_window[1] > self.phi_window[0]:
-            Ramp(self.emap, self.lam_max).run([self.phi_window[1], self.phi_window[0]], self.start)
+            try:
+                Ramp(self.emap, self.lam_max).run([self.phi_window[1], self.phi_window[0]], self.start)
+            except SolverError as exc:
+                unreached = (
+                    f"the ramp over the window stopped ({exc}): the stable states past that jump were found only "
+                    "by seeding at discrete voltages, and a segment that none of them lies on is missing"
+                )
         # ... and every other one the first guesses find
         self.discover(ks)
         # the homogeneous state the valves closed in (other homogeneous ones, e.g. all zones bulged
@@ -622,6 +633,8 @@ class Simulation:
                 f"{self.scene.voltage_of(self.phi_window[0]) / 1e3:.4g} and "
                 f"{self.scene.voltage_of(self.phi_window[1]) / 1e3:.4g} kV"
             )
+            if unreached is not None:
+                note = unreached if note is None else f"{note}; {unreached}"
             out.append(CoexistenceEntry(k, segs, crossings, note))
         return out
 
@@ -910,7 +923,8 @@ class CoexistenceEntry:
     crossings : list of Transition
         Its equal-free-energy voltages against the homogeneous state.
     note : str or None
-        Why there is no stable segment in the window; None when there is one.
+        Why there is no stable segment in the window, and what the preliminary ramp did not reach if a jump of
+        it failed; None when there is a segment and the ramp went through.
     """
 
     k: int

@@ -180,7 +180,14 @@ class ZoneCurve:
         )
 
     @classmethod
-    def compute(cls, model: MembraneModel, phi_hat: float, pole_stretch, settings: SolverSettings | None = None):
+    def compute(
+        cls,
+        model: MembraneModel,
+        phi_hat: float,
+        pole_stretch,
+        settings: SolverSettings | None = None,
+        stop_at_jumps: bool = False,
+    ):
         """Shoot the states on ``pole_stretch`` and build the curve.
 
         Parameters
@@ -193,6 +200,11 @@ class ZoneCurve:
             Increasing pole stretches ``λ0 > λpre``.
         settings : SolverSettings, optional
             Shooting tolerances.
+        stop_at_jumps : bool, optional
+            End the curve where its states jump (:func:`_wrinkling_jump`: the wrinkled fraction changes
+            discontinuously in ``λ0``, so the pole stretch does not parametrise the family there and a spline
+            through the jump is meaningless); ``stopped_because`` then names the jump. Default False (the
+            states past the jump are kept: each is a valid state).
 
         Returns
         -------
@@ -208,8 +220,15 @@ class ZoneCurve:
         ModelRangeError
             If fewer than 5 consecutive states are valid.
         """
-        states = solve_states(model, pole_stretch, phi_hat, settings)
-        return cls.from_states(_refined_end(model, states, phi_hat, settings), phi_hat, model.prestretch)
+        states = _refined_end(model, solve_states(model, pole_stretch, phi_hat, settings), phi_hat, settings)
+        if stop_at_jumps:
+            cut = _wrinkling_jump(model, states, phi_hat, settings)
+            if cut is not None:
+                kept, why = cut
+                curve = cls.from_states(kept, phi_hat, model.prestretch)
+                curve.stopped_because = why
+                return curve
+        return cls.from_states(states, phi_hat, model.prestretch)
 
     @property
     def span(self):
@@ -363,6 +382,64 @@ def _refined_end(model, states, phi_hat, settings):
     parts += [_take(st, slice(0, k)) for _, st, k in extra]
     parts.append(_take(states, slice(last + 1, None)))
     return _concatenate(parts)
+
+
+#: heuristic threshold: a change of the wrinkled fraction (reference area fraction of the zone) between neighbouring
+#: states that, narrowed by :data:`END_ROUNDS` rounds of :data:`END_SAMPLES` states to ``(9)⁻³`` of a grid spacing,
+#: still exceeds it is a jump of the family (a continuous onset changes it by ``O(Δλ0)`` there)
+WRINKLE_JUMP = 0.05
+
+
+def _wrinkling_jump(model, states, phi_hat, settings):
+    """Where the first valid run of ``states`` jumps: the first pair of neighbouring states whose wrinkled fraction
+    ``w`` differs by more than :data:`WRINKLE_JUMP` after :data:`END_ROUNDS` rounds of :data:`END_SAMPLES` states
+    between them (each round keeps the first pair that still differs by more). A ring electrode under tension-field
+    theory: the taut state at ``λ0 = 1.65068`` has ``w = 0``, the next one ``w = 0.6`` (the whole electroded
+    annulus 0.2–0.8 wrinkled) and 3.5 → 20.8 in volume; the states with ``λ0`` there and the volumes between are
+    not reached by shooting from the pole, and a spline through the jump rings (false volume folds on which a
+    jump's gradient flow snapped and stalled).
+
+    Returns
+    -------
+    tuple or None
+        ``(states, reason)``: the states up to the last one before the jump (with the narrowing's valid states
+        below it inserted) and the reason; None where the run has no jump.
+    """
+    ok = states.ok
+    if not ok.any():
+        return None
+    run = first_valid_run(ok)
+    w = states.wrinkled_fraction
+    lam = states.pole_stretch
+    from .curves import _take
+
+    for i in range(run.start, run.stop - 1):
+        wa, wb = float(w[i]), float(w[i + 1])
+        if not (np.isfinite(wa) and np.isfinite(wb)) or abs(wb - wa) <= WRINKLE_JUMP:
+            continue
+        a, b = float(lam[i]), float(lam[i + 1])
+        extra = []
+        for _ in range(END_ROUNDS):
+            pts = np.linspace(a, b, END_SAMPLES + 2)[1:-1]
+            st = solve_states(model, pts, phi_hat, settings)
+            ws = np.concatenate([[wa], st.wrinkled_fraction, [wb]])
+            gaps = np.flatnonzero(~(np.abs(np.diff(ws)) <= WRINKLE_JUMP))  # NaN (a failed state) counts as a gap
+            if not gaps.size:
+                break
+            k = int(gaps[0])  # the pair (ws[k], ws[k + 1]); pts[k − 1] is the last sample below it
+            if k > 0:
+                extra.append(_take(st, slice(0, k)))
+                a, wa = float(pts[k - 1]), float(ws[k])
+            if k < pts.size:
+                b, wb = float(pts[k]), float(ws[k + 1])
+        else:
+            kept = _concatenate([_take(states, slice(0, i + 1)), *extra]) if extra else _take(states, slice(0, i + 1))
+            why = (
+                f"the states jump at pole stretch {a:.6g}: the wrinkled fraction {wa:.3g} -> {wb:.3g} within "
+                f"{b - a:.2g} in λ0 (shooting from the pole does not reach the states between)"
+            )
+            return kept, why
+    return None
 
 
 def _concatenate(parts):

@@ -107,6 +107,8 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
         click.echo(f"{o['bulged_zones']} of {o['zones']} bulged:")
         if not o["stable_ranges"]:
             click.echo(f"  never stable: {o.get('note', '')}")
+        elif o.get("note"):  # e.g. the ramp over the window stopped at a jump: what was not reached
+            click.echo(f"  note: {o['note']}")
         for g in o["stable_ranges"]:
             plain = f"{o['bulged_zones']} of {o['zones']} bulged"
             which = "" if g["configuration"] == plain else f" [{g['configuration']}]"
