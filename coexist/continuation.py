@@ -1275,6 +1275,35 @@ class Tracer:
         self._end_points = big._end_points
         return end
 
+    def _formal_onset(self, cur: Point, h):
+        """The onset of wrinkling within the step ``h`` beyond ``cur`` (taut): the root of the smallest tension
+        ``T̂min(σ)`` of formally continued states (:func:`coexist.shooting.solve_states`, ``formal``), smooth
+        through zero, bracketed from ``cur`` (``T̂min > 0``) and a formal state at ``σ ≤ h`` (``T̂min < 0``; the
+        offset is halved, up to 8 times, where that state does not converge).
+
+        Returns
+        -------
+        tuple or None
+            ``(best, lo, hi)`` as :meth:`_root`: the tight state on the taut side of the final bracket and its
+            offsets; None where the formal states do not wrinkle within the step or the root is not bracketed.
+        """
+        tmin = lambda p: min(p.eq.min_tension)  # noqa: E731
+        sig = float(h)
+        for _ in range(8):
+            far = self._points_at(cur, None, sig, [sig], True, formal=True)[0]
+            if far is None:
+                sig *= 0.5
+                continue
+            if tmin(far) >= 0:
+                return None  # valid there after all: the step failed for another reason
+            best, lo, hi = self._root(
+                cur, far, float(cur.tangent @ (far.z - cur.z)), tmin(cur), tmin(far), tmin, formal=True
+            )
+            if best is None or tmin(best) < 0:
+                return None
+            return best, lo, hi
+        return None
+
     def _range_end(self, prev, cur: Point, h, failure):
         """Locate where the states stop being valid between ``cur`` (valid) and ``cur + h t`` (not), or
         return None when the failure was the corrector's (the caller then shortens the step).
@@ -1288,24 +1317,39 @@ class Tracer:
         if not codes:
             return None
         code = codes[0]
-        tmin = lambda p: min(p.eq.min_tension)  # noqa: E731
-        if code == WRINKLED:
-            sig = float(h)
-            for _ in range(8):
-                far = self._points_at(cur, None, sig, [sig], True, formal=True)[0]
-                if far is None:
-                    sig *= 0.5
-                    continue
-                if tmin(far) >= 0:
-                    return None  # valid there after all: the step failed for another reason
-                best, lo, hi = self._root(
-                    cur, far, float(cur.tangent @ (far.z - cur.z)), tmin(cur), tmin(far), tmin, formal=True
-                )
-                if best is None or tmin(best) < 0:
-                    return None
-                break
-            else:
+        onset = None
+        if code != WRINKLED and self.system.model.tension_field and not any(_wrinkled(cur)):
+            # a taut tension-field branch that ends within the step: where the formally continued taut states
+            # wrinkle inside it and the states just past that onset are no continuation of the branch, the end
+            # is the onset itself (the wrinkled side's stiffness is negative there: _WRINKLE_PULL_IN)
+            onset = self._formal_onset(cur, h)
+            if onset is not None:
+                # states past the onset (one within the bracket's tolerance of it may converge taut, its smallest
+                # tension of the order of rtol: no evidence) continue the branch when they carry a band
+                past = [onset[2], onset[2] + 0.125 * (float(h) - onset[2])]
+                if any(
+                    p is not None and p.tangent @ cur.tangent > 0 and any(_wrinkled(p))
+                    for p in self._points_at(cur, None, h, past, False)
+                ):
+                    onset = None  # the tension-field states go on past the onset: not this end
+        if code == WRINKLED or onset is not None:
+            found = onset if onset is not None else self._formal_onset(cur, h)
+            if found is None:
                 return None
+            best, lo, hi = found
+            tag, text = failure_reason(WRINKLED) if onset is None else _WRINKLE_PULL_IN
+            return Event(
+                kind="range_end",
+                phi_hat=best.phi,
+                eq=best.eq,
+                z=best.z,
+                s=best.s,
+                error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w,
+                note=f"{tag}: {text}",
+                stable_before=best.stable,
+                stable_after=False,
+                tangent=best.tangent.copy(),
+            )
         else:
             if _is_pull_in(code):
                 # a wrinkled band's pull-in: a smooth function of the states falls to zero there
@@ -1387,7 +1431,22 @@ def _note_reason(note: str) -> tuple:
 def _is_formal_end(note: str) -> bool:
     """Is a range end of this note the onset of wrinkling between pole and clamp (located as the root of the
     formally continued states' smallest tension, not by validity)?"""
-    return _note_reason(note) == tuple(failure_reason(WRINKLED))
+    return _note_reason(note) in (tuple(failure_reason(WRINKLED)), _WRINKLE_PULL_IN)
+
+
+#: the reason of a tension-field branch's end at the onset of wrinkling (:meth:`Tracer._range_end`): the taut
+#: states wrinkle there (located as the root of the formally continued states' smallest tension) and no
+#: tension-field state continues the branch past it. Where the hoop tension ``T̂2`` first vanishes the band would
+#: start at its natural width ``λ2*(λ1) = ρ``; with a positive wrinkled stiffness ``K = T̂11 − T̂12²/T̂22`` there the
+#: relaxed equations continue the taut states with a growing band, so a branch that stops is one whose ``K`` is
+#: negative at the band's start: the band is past its pull-in as it forms (a ring electrode's side of its inner
+#: edge, whose ``λ1`` jumps past the maximum of ``T̂1ʷ``: ``K = −1.85`` in one zone of ring 0.4/0.9 at 6.365 kV,
+#: ``−2.25`` for ring 0.2/0.8 at 4.040 kV; tests/test_patterned_tf_ends.py)
+_WRINKLE_PULL_IN = (
+    "wrinkling_pull_in",
+    "a hoop tension reaches zero and the membrane wrinkles, and no tension-field state continues the branch: "
+    "the band would start past its pull-in (dT1/dλ1 along its natural width negative where it forms)",
+)
 
 
 def _validity_tol(code_or_note) -> float | None:
