@@ -1337,19 +1337,7 @@ class Tracer:
             if found is None:
                 return None
             best, lo, hi = found
-            tag, text = failure_reason(WRINKLED) if onset is None else _WRINKLE_PULL_IN
-            return Event(
-                kind="range_end",
-                phi_hat=best.phi,
-                eq=best.eq,
-                z=best.z,
-                s=best.s,
-                error=abs(best.tangent[self.M]) * abs(hi - lo) / self.w,
-                note=f"{tag}: {text}",
-                stable_before=best.stable,
-                stable_after=False,
-                tangent=best.tangent.copy(),
-            )
+            return self._end_at(best, lo, hi, *(failure_reason(WRINKLED) if onset is None else _WRINKLE_PULL_IN))
         else:
             if _is_pull_in(code):
                 # a wrinkled band's pull-in: a smooth function of the states falls to zero there
@@ -1382,7 +1370,11 @@ class Tracer:
                 return self._budget_end(prev, cur, h, best.phi)
             if best is cur:
                 return None
-        tag, text = failure_reason(code)
+        return self._end_at(best, lo, hi, *failure_reason(code))
+
+    def _end_at(self, best: Point, lo: float, hi: float, tag: str, text: str) -> Event:
+        """The range end at the last valid point ``best`` of the bracket ``(lo, hi)`` (arclength offsets), its
+        error the bracket's width in voltage ``|dΦ̂/ds| (hi − lo)``, its note ``"tag: text"``."""
         return Event(
             kind="range_end",
             phi_hat=best.phi,
