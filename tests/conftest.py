@@ -157,3 +157,37 @@ def one_line_error(result, *fragments):
     for fragment in fragments:
         assert fragment in errors[0], errors[0]
     return errors[0]
+
+
+RING_SCENE = """
+name = "{name}"
+[membrane]
+material = "gent"
+jlim = 97
+shear_modulus_kPa = 45
+relative_permittivity = 4.7
+thickness_mm = 0.5
+zone_radius_mm = 21.4165
+prestretch = 1.0
+wrinkling = "{wrinkling}"
+[electrodes]
+pattern = "ring"
+inner_fraction = {fi}
+outer_fraction = {fo}
+[layers]
+passive = 2
+[zones]
+count = {count}
+[chamber]
+volume_ml = 300
+closing_pressure_mbar = {mbar}
+atmospheric_pressure_kPa = 101.325
+[voltage]
+values_kV = {path}
+"""
+
+
+def ring_scene(wrinkling, name="ring", fi=0.4, fo=0.9, count=1, mbar=25, path="[0, 6.3, 6.4, 6.3]"):
+    """TOML text of the default membrane with a ring electrode (R/A ``fi`` to ``fo``, two-layer passive regions) on
+    a 300 ml chamber, on the voltage path ``path`` (the audit scenes of the ring tests)."""
+    return RING_SCENE.format(name=name, wrinkling=wrinkling, fi=fi, fo=fo, count=count, mbar=mbar, path=path)

@@ -14,36 +14,10 @@ import json
 
 import numpy as np
 from click.testing import CliRunner
+from conftest import ring_scene
 from scipy.optimize import brentq
 
 from coexist.cli.main import cli
-
-SCENE = """
-name = "{name}"
-[membrane]
-material = "gent"
-jlim = 97
-shear_modulus_kPa = 45
-relative_permittivity = 4.7
-thickness_mm = 0.5
-zone_radius_mm = 21.4165
-prestretch = 1.0
-wrinkling = "{wrinkling}"
-[electrodes]
-pattern = "ring"
-inner_fraction = {fi}
-outer_fraction = {fo}
-[layers]
-passive = 2
-[zones]
-count = {count}
-[chamber]
-volume_ml = 300
-closing_pressure_mbar = {mbar}
-atmospheric_pressure_kPa = 101.325
-[voltage]
-values_kV = {path}
-"""
 
 ONE_RING = dict(name="one_ring", fi=0.4, fo=0.9, count=1, mbar=25, path="[0, 6.3, 6.4, 6.3]")
 RING_28 = dict(name="r28_p23", fi=0.2, fo=0.8, count=3, mbar=23, path="[0, 3.2, 4.1, 3.2]")
@@ -51,7 +25,7 @@ RING_28 = dict(name="r28_p23", fi=0.2, fo=0.8, count=3, mbar=23, path="[0, 3.2, 
 
 def _end(tmp_path, scene, wrinkling):
     path = tmp_path / f"{scene['name']}_{wrinkling}.toml"
-    path.write_text(SCENE.format(wrinkling=wrinkling, **scene))
+    path.write_text(ring_scene(wrinkling, **scene))
     r = CliRunner().invoke(cli, ["ramp", str(path), "--json"])
     assert r.exit_code == 0, r.output
     (t,) = [t for t in json.loads(r.stdout)["transitions"] if t["kind"] == "no_stable_state"]
@@ -82,7 +56,7 @@ def test_the_ring_side_of_the_inner_edge_is_past_its_pull_in_at_the_onset(tmp_pa
     from coexist.shooting import solve_states
 
     path = tmp_path / "one_ring.toml"
-    path.write_text(SCENE.format(wrinkling="tension-field", **ONE_RING))
+    path.write_text(ring_scene("tension-field", **ONE_RING))
     scene = load_scene(path)
     model, phi = scene.model(), 0.3871181757
     zone = PatternedModel.of(model, scene.zone_pattern())

@@ -4,37 +4,11 @@ crashed the ramp with an internal KeyError (audit helper-48). The ramp ends ther
 same scene with wrinkling refused ends (the hoop tension at the ring's inner edge vanishing: 6.36497247 kV)."""
 
 from click.testing import CliRunner
+from conftest import ring_scene
 
 from coexist.cli.main import cli
 from coexist.continuation import _is_pull_in
 from coexist.shooting import PULL_IN
-
-SCENE = """
-name = "one_ring"
-[membrane]
-material = "gent"
-jlim = 97
-shear_modulus_kPa = 45
-relative_permittivity = 4.7
-thickness_mm = 0.5
-zone_radius_mm = 21.4165
-prestretch = 1.0
-wrinkling = "{wrinkling}"
-[electrodes]
-pattern = "ring"
-inner_fraction = 0.4
-outer_fraction = 0.9
-[layers]
-passive = 2
-[zones]
-count = 1
-[chamber]
-volume_ml = 300
-closing_pressure_mbar = 25
-atmospheric_pressure_kPa = 101.325
-[voltage]
-values_kV = [0, 6.3, 6.4, 6.3]
-"""
 
 
 def test_status_minus_one_is_no_pull_in():
@@ -47,7 +21,7 @@ def test_ring_on_tension_field_ends_where_the_refused_scene_ends(tmp_path):
     ends = {}
     for mode in ("tension-field", "refuse"):
         path = tmp_path / f"{mode}.toml"
-        path.write_text(SCENE.format(wrinkling=mode))
+        path.write_text(ring_scene(mode, "one_ring"))
         r = CliRunner().invoke(cli, ["ramp", str(path), "--json"])
         assert r.exit_code == 0, r.output
         (t,) = [t for t in json.loads(r.stdout)["transitions"] if t["kind"] == "no_stable_state"]

@@ -13,43 +13,17 @@ import re
 
 import numpy as np
 import pytest
+from conftest import ring_scene
 
 from coexist import load_scene
 from coexist.errors import SolverError
 from coexist.ramp import Ramp
 from coexist.simulation import Simulation
 
-SCENE = """
-name = "r28_p22"
-[membrane]
-material = "gent"
-jlim = 97
-shear_modulus_kPa = 45
-relative_permittivity = 4.7
-thickness_mm = 0.5
-zone_radius_mm = 21.4165
-prestretch = 1.0
-wrinkling = "{wrinkling}"
-[electrodes]
-pattern = "ring"
-inner_fraction = 0.2
-outer_fraction = 0.8
-[layers]
-passive = 2
-[zones]
-count = 3
-[chamber]
-volume_ml = 300
-closing_pressure_mbar = 22
-atmospheric_pressure_kPa = 101.325
-[voltage]
-values_kV = [0, 4.9, 4.95]
-"""
-
 
 def _sim(tmp_path, wrinkling):
     path = tmp_path / f"r28_{wrinkling}.toml"
-    path.write_text(SCENE.format(wrinkling=wrinkling), encoding="utf-8")
+    path.write_text(ring_scene(wrinkling, "r28_p22", 0.2, 0.8, 3, 22, "[0, 4.9, 4.95]"), encoding="utf-8")
     return Simulation.from_scene(load_scene(str(path)))
 
 
