@@ -399,6 +399,9 @@ def _wrinkling_jump(model, states, phi_hat, settings):
     not reached by shooting from the pole, and a spline through the jump rings (false volume folds on which a
     jump's gradient flow snapped and stalled).
 
+    Every candidate pair is narrowed at once, one shot of all their samples per round (a steep but continuous
+    onset, as where a grid starts next to the prestretch, is cleared by its first round).
+
     Returns
     -------
     tuple or None
@@ -413,32 +416,40 @@ def _wrinkling_jump(model, states, phi_hat, settings):
     lam = states.pole_stretch
     from .curves import _take
 
+    pairs = []  # per candidate pair: [grid index, a, wa, b, wb, extra states below the jump, still a jump]
     for i in range(run.start, run.stop - 1):
         wa, wb = float(w[i]), float(w[i + 1])
-        if not (np.isfinite(wa) and np.isfinite(wb)) or abs(wb - wa) <= WRINKLE_JUMP:
-            continue
-        a, b = float(lam[i]), float(lam[i + 1])
-        extra = []
-        for _ in range(END_ROUNDS):
-            pts = np.linspace(a, b, END_SAMPLES + 2)[1:-1]
-            st = solve_states(model, pts, phi_hat, settings)
-            ws = np.concatenate([[wa], st.wrinkled_fraction, [wb]])
+        if np.isfinite(wa) and np.isfinite(wb) and abs(wb - wa) > WRINKLE_JUMP:
+            pairs.append([i, float(lam[i]), wa, float(lam[i + 1]), wb, [], True])
+    for _ in range(END_ROUNDS):
+        live = [c for c in pairs if c[6]]
+        if not live:
+            return None
+        pts = np.concatenate([np.linspace(c[1], c[3], END_SAMPLES + 2)[1:-1] for c in live])
+        shot = solve_states(model, pts, phi_hat, settings)
+        for j, c in enumerate(live):
+            part = slice(j * END_SAMPLES, (j + 1) * END_SAMPLES)
+            st, p = _take(shot, part), pts[part]
+            ws = np.concatenate([[c[2]], st.wrinkled_fraction, [c[4]]])
             gaps = np.flatnonzero(~(np.abs(np.diff(ws)) <= WRINKLE_JUMP))  # NaN (a failed state) counts as a gap
             if not gaps.size:
-                break
-            k = int(gaps[0])  # the pair (ws[k], ws[k + 1]); pts[k − 1] is the last sample below it
+                c[6] = False
+                continue
+            k = int(gaps[0])  # the pair (ws[k], ws[k + 1]); p[k − 1] is the last sample below it
             if k > 0:
-                extra.append(_take(st, slice(0, k)))
-                a, wa = float(pts[k - 1]), float(ws[k])
-            if k < pts.size:
-                b, wb = float(pts[k]), float(ws[k + 1])
-        else:
-            kept = _concatenate([_take(states, slice(0, i + 1)), *extra]) if extra else _take(states, slice(0, i + 1))
-            why = (
-                f"the states jump at pole stretch {a:.6g}: the wrinkled fraction {wa:.3g} -> {wb:.3g} within "
-                f"{b - a:.2g} in λ0 (shooting from the pole does not reach the states between)"
-            )
-            return kept, why
+                c[5].append(_take(st, slice(0, k)))
+                c[1], c[2] = float(p[k - 1]), float(ws[k])
+            if k < p.size:
+                c[3], c[4] = float(p[k]), float(ws[k + 1])
+    for i, a, wa, b, wb, extra, jump in pairs:
+        if not jump:
+            continue
+        kept = _concatenate([_take(states, slice(0, i + 1)), *extra]) if extra else _take(states, slice(0, i + 1))
+        why = (
+            f"the states jump at pole stretch {a:.6g}: the wrinkled fraction {wa:.3g} -> {wb:.3g} within "
+            f"{b - a:.2g} in λ0 (shooting from the pole does not reach the states between)"
+        )
+        return kept, why
     return None
 
 

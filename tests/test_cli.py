@@ -33,6 +33,24 @@ def test_python_dash_m(tmp_path):
     assert r.returncode == 0 and __version__ in r.stdout
 
 
+@pytest.mark.parametrize("user_setting", [None, "3"])
+def test_command_line_blas_threads(tmp_path, user_setting):
+    """The command line runs OpenBLAS on one thread (its matrices have a few rows; the thread pool only cost CPU),
+    set before numpy loads; a user's own OPENBLAS_NUM_THREADS is kept."""
+    import os
+
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if user_setting is not None:
+        env["OPENBLAS_NUM_THREADS"] = user_setting
+    code = (
+        "import sys, os; import coexist.cli.main; assert 'numpy' not in sys.modules; import numpy; "
+        "print(os.environ['OPENBLAS_NUM_THREADS'])"
+    )
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60, cwd=tmp_path, env=env)
+    assert r.returncode == 0, r.stderr
+    assert r.stdout.strip() == (user_setting or "1")
+
+
 def test_curves_json(tmp_path):
     png = tmp_path / "c.png"
     r = run(
