@@ -336,10 +336,11 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
     """The lens figure of one patterned zone along the voltage: side views (left) and its apex numbers (right).
 
     Left: the meridians ``(r, z)`` in mm, mirrored about the axis, at ``side_views`` voltages spread over those
-    reached (the first and the last among them), to scale, the electrode edge marked. Right: the apex curvature
-    ``κ0`` (1/m, left axis) and the apex height (mm, twin axis) against the voltage (kV), every point a converged
-    state; where the states end early, a dotted line at the end voltage with its kind. Each side view's label
-    carries :func:`coexist.shapes.lens_ratio`, ``κ0/κring`` (how far the centre bulges ahead of the ring).
+    reached (the first and the last among them), to scale, every electrode edge marked (a ring: inner and outer).
+    Right: the apex curvature ``κ0`` (1/m, left axis) and the apex height (mm, twin axis) against the voltage (kV),
+    every point a converged state; where the states end early, a dotted line at the end voltage with its kind. Each
+    side view's label carries :func:`coexist.shapes.lens_ratio`, ``κ0/κring`` (how far the centre bulges ahead of the
+    ring).
 
     Parameters
     ----------
@@ -381,8 +382,8 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
         except SceneError:
             label = f"{v[i]:g} kV"
         ax.plot(np.concatenate([-r[::-1], r]), np.concatenate([z[::-1], z]), color=color, lw=1.6, label=label)
-        er, ez = (x * 1e3 for x in p.electrode_edge)
-        ax.plot([-er, er], [ez, ez], "o", color=color, ms=4.5, mec="k", mew=0.5)
+        for er, ez in ((r_e * 1e3, z_e * 1e3) for r_e, z_e in p.electrode_edges):  # a ring: inner and outer
+            ax.plot([-er, er], [ez, ez], "o", color=color, ms=4.5, mec="k", mew=0.5)
     if picks:
         a = profiles[0].prestretch * scene.zone_radius * 1e3
         ax.plot([-1.08 * a, -a], [0, 0], color="0.3", lw=3)
@@ -391,7 +392,8 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
     ax.set_xlabel("r (mm)")
     ax.set_ylabel("z (mm)")
     ax.grid(alpha=0.25)
-    ax.legend(fontsize=8, loc="lower center", title="● electrode edge", title_fontsize=8)
+    several = any(len(profiles[i].electrode_edges_hat) > 1 for i in picks)  # a ring: inner and outer edge
+    ax.legend(fontsize=8, loc="lower center", title=f"● electrode edge{'s' if several else ''}", title_fontsize=8)
     ax.set_title("side views (to scale)", fontsize=9)
     kappa = np.array([p.apex_curvature for p in profiles])
     height = np.array([p.apex_height * 1e3 for p in profiles])

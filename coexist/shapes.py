@@ -19,9 +19,10 @@ zone this module gives
 - the **apex height** ``h``: :attr:`MembraneStates.apex_height` of the converged state;
 - the **apex curvature** ``κ0``, exact at the pole from the Laplace law of the equibiaxial pole
   (docs/physics.md, section 11): ``κ0 A = p̂ λ0 / (2 T̂0)``, ``T̂0 = T̂1(λ0, λ0; Φ̂)`` — never fitted to points;
-- the **electrode edge**: where the electrode ends on the deformed membrane. A uniform electrode covers
-  the whole zone, so its edge is the clamp, ``R̂ = 1``: ``(r, z) = (λpre A, 0)``. The field is there so
-  that patterned electrodes can fill it with an interior point later.
+- the **electrode edges**: where the electrode begins or ends on the deformed membrane, from the pole out.
+  A uniform electrode covers the whole zone, so its one edge is the clamp, ``R̂ = 1``: ``(r, z) = (λpre A, 0)``;
+  an inner circle has one edge (its disc's rim), a ring two (its inner and its outer edge, the latter the clamp
+  when the ring reaches it) (:func:`patterned_profiles`).
 
 A state is checked against the shooting: the re-integration must land on the clamp at the shooting's
 clamp radius, with its apex height and volume (to ``10⁴ rtol``), else :class:`~coexist.errors.SolverError`.
@@ -76,13 +77,19 @@ class Profile:
     apex_curvature_hat : float
         ``κ0 A = p̂ λ0 / (2 T̂0)`` (Laplace law at the equibiaxial pole; 0 for the flat membrane).
     electrode_edge_R_hat : float
-        Reference radius of the electrode's edge (1: a uniform electrode, whose edge is the clamp).
+        Reference radius of the electrode's first edge from the pole (1: a uniform electrode, whose edge is the
+        clamp; a ring's inner edge).
     electrode_edge_hat : tuple of float
-        ``(r/A, z/A)`` of the electrode's edge on the deformed membrane.
+        ``(r/A, z/A)`` of that edge on the deformed membrane.
     wrinkled_radii : tuple of (float, float)
         Hoop-wrinkled intervals ``(R̂start, R̂end)`` of a tension-field state (empty when taut). Its points are
         computed as a taut state's; inside these intervals ``r_hat`` is the *geometric* radius ``ρR̂`` of the
         wrinkled surface (shorter than the material across the wrinkles, docs/physics.md section 11).
+    electrode_edges_hat : tuple of (float, float, float)
+        Every edge of the electrode, from the pole out, as ``(R̂, r/A, z/A)``: one for a uniform electrode (the
+        clamp) and an inner circle, two for a ring (inner and outer edge; the outer one is the clamp when the
+        ring reaches it). The first is ``(electrode_edge_R_hat, *electrode_edge_hat)``; left empty, it is filled
+        with that one edge.
     """
 
     pole_stretch: float
@@ -99,6 +106,11 @@ class Profile:
     electrode_edge_R_hat: float
     electrode_edge_hat: tuple
     wrinkled_radii: tuple = ()
+    electrode_edges_hat: tuple = ()
+
+    def __post_init__(self) -> None:
+        if not self.electrode_edges_hat:
+            self.electrode_edges_hat = ((self.electrode_edge_R_hat, *self.electrode_edge_hat),)
 
     @property
     def r(self) -> np.ndarray:
@@ -130,6 +142,11 @@ class Profile:
         """``(r, z)`` of the electrode's edge in metres."""
         return (self.electrode_edge_hat[0] * self.zone_radius, self.electrode_edge_hat[1] * self.zone_radius)
 
+    @property
+    def electrode_edges(self) -> tuple:
+        """``(r, z)`` of every edge of the electrode in metres, from the pole out (:attr:`electrode_edges_hat`)."""
+        return tuple((r * self.zone_radius, z * self.zone_radius) for _, r, z in self.electrode_edges_hat)
+
     def to_dict(self, points: bool = True) -> dict:
         """The shape, JSON-ready, in mm and 1/m.
 
@@ -142,9 +159,11 @@ class Profile:
         -------
         dict
             ``pole_stretch``, ``apex_height_mm``, ``apex_curvature_per_m``, ``radius_of_curvature_mm``
-            (None for the flat membrane), ``electrode_edge_mm`` (``[r, z]``), ``wrinkled_radii`` (the
-            hoop-wrinkled ``[R̂start, R̂end]`` intervals, empty when taut) and, with ``points``, ``profile``
-            (in a wrinkled interval ``r_mm`` is the geometric radius; None for a profile without points).
+            (None for the flat membrane), ``electrode_edge_mm`` (``[r, z]`` of the first edge from the pole),
+            ``electrode_edges_mm`` (``[r, z]`` of every edge, from the pole out: a ring's inner and outer edge),
+            ``wrinkled_radii`` (the hoop-wrinkled ``[R̂start, R̂end]`` intervals, empty when taut) and, with
+            ``points``, ``profile`` (in a wrinkled interval ``r_mm`` is the geometric radius; None for a profile
+            without points).
         """
         roc = self.radius_of_curvature
         out: dict = {
@@ -153,6 +172,7 @@ class Profile:
             "apex_curvature_per_m": float(self.apex_curvature),
             "radius_of_curvature_mm": None if math.isinf(roc) else float(roc * 1e3),
             "electrode_edge_mm": [float(x * 1e3) for x in self.electrode_edge],
+            "electrode_edges_mm": [[float(r * 1e3), float(z * 1e3)] for r, z in self.electrode_edges],
         }
         out["wrinkled_radii"] = [[float(a), float(b)] for a, b in self.wrinkled_radii]
         if points:
@@ -732,8 +752,11 @@ def patterned_profiles(
     ``r̂ = λ2 R/R*`` and ``ẑ = (z(R*) − z(R))/R*``.
 
     The apex curvature is the Laplace law of the pole's stack (:func:`patterned_apex_curvature_hat`); the
-    electrode edge is the solver's interface point where the electrode ends (for an inner circle its disc's
-    rim; for a ring its inner edge; the clamp when the outermost region carries the electrode).
+    electrode edges (``electrode_edges_hat``, from the pole out) are the solver's interface points where the
+    electrode begins or ends, the clamp when the outermost region carries the electrode: for an inner circle
+    one, its disc's rim; for a ring two, its inner and its outer edge. An edge's ``R̂`` is the pattern's
+    fraction ``fi`` (the solver puts the interface there to its tolerance), its ``(r̂, ẑ)`` the solver's.
+    ``electrode_edge_R_hat`` and ``electrode_edge_hat`` are the first edge (a ring's inner edge).
 
     Parameters
     ----------
@@ -786,8 +809,8 @@ def patterned_profiles(
             if i < 0:
                 edges.append((1.0, lam, 0.0))
             else:
-                R_i, r_i, z_i = (float(x) for x in st.interfaces[j, i, 0, :3])
-                edges.append((R_i, r_i, float(st.apex_height[j]) - z_i))
+                r_i, z_i = (float(x) for x in st.interfaces[j, i, 0, 1:3])
+                edges.append((float(f[i]), r_i, float(st.apex_height[j]) - z_i))
         first = edges[0] if edges else (1.0, lam, 0.0)
         R_hat, r_hat, z_hat = pts[j]
         out.append(
@@ -805,6 +828,7 @@ def patterned_profiles(
                 apex_curvature_hat=float(kappa[j]),
                 electrode_edge_R_hat=first[0],
                 electrode_edge_hat=(first[1], first[2]),
+                electrode_edges_hat=tuple(edges) or (first,),
             )
         )
     return out

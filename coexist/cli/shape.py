@@ -64,10 +64,11 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
     stable state, so after the transition one zone is bulged and the others not), and per zone its
     apex height (mm), apex curvature (1/m: the curvature of the meridian at the pole, a lens's focal
     figure of merit, exact from the Laplace law p = 2 t κ0 of the equibiaxial pole) with its radius
-    of curvature (mm), and the electrode edge (mm; the clamp for a uniform electrode). -o draws the
-    zones side by side at each voltage, to scale. A hoop-wrinkled zone (a tension-field scene) has its
-    profile too, integrated through the wrinkled band on the relaxed equations; there r is the geometric
-    radius of the wrinkled surface (docs/physics.md section 11), and -o marks the band.
+    of curvature (mm), and the electrode edges (mm, from the pole out: the clamp for a uniform electrode,
+    both edges of a ring). -o draws the zones side by side at each voltage, to scale, every edge marked.
+    A hoop-wrinkled zone (a tension-field scene) has its profile too, integrated through the wrinkled band
+    on the relaxed equations; there r is the geometric radius of the wrinkled surface (docs/physics.md
+    section 11), and -o marks the band.
 
     One patterned zone (e.g. the inner-circle scene): the states on its gas (or at its controlled pressure)
     continued from the closing state, each a converged patterned state; the states stop where none exists
@@ -271,10 +272,20 @@ def _zones(entry):
     return [(f"{g['zones']}×", g) for g in groups]
 
 
+def _edges_text(group) -> str:
+    """Every electrode edge of a zone, from the pole out, as ``(r, z) (r, z)`` in mm (a ring: inner, outer)."""
+    edges = group.get("electrode_edges_mm") or [group["electrode_edge_mm"]]
+    return " ".join(f"({r:.4f}, {z:.4f})" for r, z in edges)
+
+
 def _table(data):
+    rows = [(e, label, g) for e in data["voltages"] for label, g in _zones(e)]
+    several = any(len(g.get("electrode_edges_mm") or ()) > 1 for _, _, g in rows)
+    head = "electrode_edges_mm (r, z), from the pole out" if several else "electrode_edge_mm (r, z)"
+    width = max([len(head)] + [len(_edges_text(g)) for _, _, g in rows])
     click.echo(
         f"{'voltage_kV':>10} {'zone':>5} {'pole_stretch':>12} {'apex_height_mm':>14} {'apex_curvature_per_m':>20} "
-        f"{'radius_of_curvature_mm':>22} {'electrode_edge_mm (r, z)':>24}  configuration"
+        f"{'radius_of_curvature_mm':>22} {head:>{width}}  configuration"
     )
     for e in data["voltages"]:
         if not e["groups"]:
@@ -282,12 +293,12 @@ def _table(data):
             continue
         for label, g in _zones(e):
             roc = "inf" if g["radius_of_curvature_mm"] is None else f"{g['radius_of_curvature_mm']:.4f}"
-            edge = f"({g['electrode_edge_mm'][0]:.4f}, {g['electrode_edge_mm'][1]:.4f})"
+            edge = _edges_text(g)
             bands = g.get("wrinkled_radii") or []
             wrinkled = "".join(f"; wrinkled for R/A {a:.4f}-{b:.4f}" for a, b in bands)
             click.echo(
                 f"{e['voltage_kV']:>10.3f} {label:>5} {g['pole_stretch']:>12.6f} {g['apex_height_mm']:>14.6f} "
-                f"{g['apex_curvature_per_m']:>20.6f} {roc:>22} {edge:>24}  {e['configuration']}{wrinkled}"
+                f"{g['apex_curvature_per_m']:>20.6f} {roc:>22} {edge:>{width}}  {e['configuration']}{wrinkled}"
             )
     click.echo(
         f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e}; "
@@ -304,8 +315,12 @@ def _figure(sc, rows, path):
 
     plt = pyplot()
     A = sc.zone_radius * 1e3
-    pitch = 2 * sc.prestretch * A * 1.15
-    zmax = max([max(p.apex_height * 1e3 for _, p in g) for _, _, g in rows if g] + [0.2 * A])
+    # a bulged zone may stand out past its clamp (r > λpre A): the pitch makes room for the widest one drawn, so that
+    # no zone overlaps its neighbour or is cut off by the panel's edge
+    widest = max([float(p.r.max()) * 1e3 for _, _, g in rows for _, p in g if p.r_hat.size] + [sc.prestretch * A])
+    pitch = max(2 * sc.prestretch * A * 1.15, 2 * widest * 1.08)
+    tops = [max(p.apex_height, float(p.z.max()) if p.z_hat.size else 0.0) * 1e3 for _, _, g in rows for _, p in g]
+    zmax = max(tops + [0.2 * A])
     if sc.zone_count <= MAX_DRAWN_ZONES:
         span = sc.zone_count
     else:  # one drawing per group of identical zones
@@ -336,8 +351,8 @@ def _figure(sc, rows, path):
             ax.plot(xs, zs, color=color, lw=1.6)
             if mark_wrinkled_bands(ax, p, c, label=None if wrinkle_label else "hoop-wrinkled band (r: geometric)"):
                 wrinkle_label = True
-            er, ez = (x * 1e3 for x in p.electrode_edge)
-            ax.plot([c - er, c + er], [ez, ez], "|", color="k", ms=9, mew=1.5)
+            for er, ez in ((r_e * 1e3, z_e * 1e3) for r_e, z_e in p.electrode_edges):  # a ring: inner and outer
+                ax.plot([c - er, c + er], [ez, ez], "|", color="k", ms=9, mew=1.5)
             label = f"h {p.apex_height * 1e3:.2f} mm\nκ0 {p.apex_curvature:.1f} /m"
             if n is not None:
                 label = f"{n} zones\n" + label
