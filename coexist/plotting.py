@@ -161,6 +161,9 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
 
     res = report.result
     fig, ax = plt.subplots(figsize=(7.2, 4.6))
+    path_kV = [report.voltage_kV(s.phi_hat) for s in res.steps]
+    # the branches are drawn over the path's voltages (a branch's last point lies a continuation step past them)
+    window = (min(path_kV), max(path_kV)) if path_kV else (-np.inf, np.inf)
     for br in branches:
         # the branch's points and, where stability changes between two of them, the exact event there
         nodes = [(p.s, p.eq, p.stable, p.stable) for p in br.points]
@@ -179,8 +182,11 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
                 if node[2] != node[3] or node is nodes[-1]:  # a stability change (or the end) closes the run
                     stable = run[0][3] if len(run) > 1 else run[0][2]
                     ax.plot(
-                        [report.voltage_kV(n[1].phi_hat) for n in run],
-                        [report.volume_ml(n[1].v_hat[g]) for n in run],
+                        *_clipped(
+                            [report.voltage_kV(n[1].phi_hat) for n in run],
+                            [report.volume_ml(n[1].v_hat[g]) for n in run],
+                            window,
+                        ),
                         "-" if stable else "--",
                         color="0.55" if stable else "0.72",
                         lw=1.0 if stable else 0.9,
@@ -240,6 +246,30 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
     if title:
         ax.set_title(title, fontsize=10)
     return save_figure(fig, path)
+
+
+def _clipped(x, y, window):
+    """The polyline ``(x, y)`` cut to ``window[0] ≤ x ≤ window[1]``: a piece that crosses an edge ends on it
+    (linear between its points), the pieces outside are left out (NaN breaks the line between pieces)."""
+    import numpy as np
+
+    lo, hi = window
+    xs, ys = [], []
+    for i in range(len(x)):
+        inside = lo <= x[i] <= hi
+        if i > 0:
+            for edge in (lo, hi):
+                if (x[i - 1] - edge) * (x[i] - edge) < 0:  # the piece crosses the edge
+                    t = (edge - x[i - 1]) / (x[i] - x[i - 1])
+                    xs.append(edge)
+                    ys.append(y[i - 1] + t * (y[i] - y[i - 1]))
+                    if not inside:
+                        xs.append(np.nan)
+                        ys.append(np.nan)
+        if inside:
+            xs.append(x[i])
+            ys.append(y[i])
+    return np.array(xs, dtype=float), np.array(ys, dtype=float)
 
 
 def _per_zone(values, counts):

@@ -408,7 +408,9 @@ class Simulation:
 
     def branches(self, segments) -> list:
         """The whole branch of each segment's configuration through it (stable and unstable pieces, through
-        folds, over the window): what a figure draws around the ramp. Tracing only; nothing reported.
+        folds, over the window): what a figure draws around the ramp. The segment as traced, continued past its
+        ends where the branch goes on (:meth:`~coexist.continuation.Tracer.extend`). Tracing only; nothing
+        reported.
 
         Parameters
         ----------
@@ -422,10 +424,8 @@ class Simulation:
         """
         out = []
         for seg in segments:
-            mid = seg.points[len(seg.points) // 2]
-            tr = seg.tracer
             try:
-                out.append(tr.trace(mid, stable_only=False))
+                out.append(seg.tracer.extend(seg.branch))
             except SolverError:
                 continue
         return out

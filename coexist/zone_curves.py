@@ -12,7 +12,7 @@ fold (``dV̂/dλ0 < 0``) are unstable even under volume control and are marked u
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -390,6 +390,21 @@ def _refined_end(model, states, phi_hat, settings):
 WRINKLE_JUMP = 0.05
 
 
+@dataclass
+class _JumpCandidate:
+    """A pair of neighbouring grid states whose wrinkled fractions differ by more than :data:`WRINKLE_JUMP`, as
+    :func:`_wrinkling_jump` narrows it: grid index of its lower state, the bracket ``(a, wa)``–``(b, wb)`` in
+    ``(λ0, w)``, the narrowing's valid states below the jump, and whether it still is one."""
+
+    index: int
+    a: float
+    wa: float
+    b: float
+    wb: float
+    extra: list = field(default_factory=list)
+    jump: bool = True
+
+
 def _wrinkling_jump(model, states, phi_hat, settings):
     """Where the first valid run of ``states`` jumps: the first pair of neighbouring states whose wrinkled fraction
     ``w`` differs by more than :data:`WRINKLE_JUMP` after :data:`END_ROUNDS` rounds of :data:`END_SAMPLES` states
@@ -416,38 +431,39 @@ def _wrinkling_jump(model, states, phi_hat, settings):
     lam = states.pole_stretch
     from .curves import _take
 
-    pairs = []  # per candidate pair: [grid index, a, wa, b, wb, extra states below the jump, still a jump]
-    for i in range(run.start, run.stop - 1):
-        wa, wb = float(w[i]), float(w[i + 1])
-        if np.isfinite(wa) and np.isfinite(wb) and abs(wb - wa) > WRINKLE_JUMP:
-            pairs.append([i, float(lam[i]), wa, float(lam[i + 1]), wb, [], True])
+    pairs = [
+        _JumpCandidate(i, float(lam[i]), float(w[i]), float(lam[i + 1]), float(w[i + 1]))
+        for i in range(run.start, run.stop - 1)
+        if np.isfinite(w[i]) and np.isfinite(w[i + 1]) and abs(w[i + 1] - w[i]) > WRINKLE_JUMP
+    ]
     for _ in range(END_ROUNDS):
-        live = [c for c in pairs if c[6]]
+        live = [c for c in pairs if c.jump]
         if not live:
             return None
-        pts = np.concatenate([np.linspace(c[1], c[3], END_SAMPLES + 2)[1:-1] for c in live])
+        pts = np.concatenate([np.linspace(c.a, c.b, END_SAMPLES + 2)[1:-1] for c in live])
         shot = solve_states(model, pts, phi_hat, settings)
         for j, c in enumerate(live):
             part = slice(j * END_SAMPLES, (j + 1) * END_SAMPLES)
             st, p = _take(shot, part), pts[part]
-            ws = np.concatenate([[c[2]], st.wrinkled_fraction, [c[4]]])
+            ws = np.concatenate([[c.wa], st.wrinkled_fraction, [c.wb]])
             gaps = np.flatnonzero(~(np.abs(np.diff(ws)) <= WRINKLE_JUMP))  # NaN (a failed state) counts as a gap
             if not gaps.size:
-                c[6] = False
+                c.jump = False
                 continue
             k = int(gaps[0])  # the pair (ws[k], ws[k + 1]); p[k − 1] is the last sample below it
             if k > 0:
-                c[5].append(_take(st, slice(0, k)))
-                c[1], c[2] = float(p[k - 1]), float(ws[k])
+                c.extra.append(_take(st, slice(0, k)))
+                c.a, c.wa = float(p[k - 1]), float(ws[k])
             if k < p.size:
-                c[3], c[4] = float(p[k]), float(ws[k + 1])
-    for i, a, wa, b, wb, extra, jump in pairs:
-        if not jump:
+                c.b, c.wb = float(p[k]), float(ws[k + 1])
+    for c in pairs:
+        if not c.jump:
             continue
-        kept = _concatenate([_take(states, slice(0, i + 1)), *extra]) if extra else _take(states, slice(0, i + 1))
+        below = _take(states, slice(0, c.index + 1))
+        kept = _concatenate([below, *c.extra]) if c.extra else below
         why = (
-            f"the states jump at pole stretch {a:.6g}: the wrinkled fraction {wa:.3g} -> {wb:.3g} within "
-            f"{b - a:.2g} in λ0 (shooting from the pole does not reach the states between)"
+            f"the states jump at pole stretch {c.a:.6g}: the wrinkled fraction {c.wa:.3g} -> {c.wb:.3g} within "
+            f"{c.b - c.a:.2g} in λ0 (shooting from the pole does not reach the states between)"
         )
         return kept, why
     return None
