@@ -565,7 +565,8 @@ class Simulation:
         Every segment a slow ramp over :attr:`phi_window` (up and back, unless the window is one voltage)
         reaches is traced first, then :meth:`discover` seeds the others. A jump of that ramp that finds no
         landing (a :class:`SolverError`) stops it without ending this: the segments traced before it stay,
-        and every entry's ``note`` names the failure (the ``ramp`` command still reports it as an error).
+        and every entry's ``note`` names the failure (the ``ramp`` command still reports it as an error). An
+        entry with stable segments but no equal free energy says why in its ``note``.
 
         Parameters
         ----------
@@ -633,10 +634,34 @@ class Simulation:
                 f"{self.scene.voltage_of(self.phi_window[0]) / 1e3:.4g} and "
                 f"{self.scene.voltage_of(self.phi_window[1]) / 1e3:.4g} kV"
             )
+            if segs and homog and not crossings:
+                note = self._no_equal_free_energy(homog, segs)
             if unreached is not None:
                 note = unreached if note is None else f"{note}; {unreached}"
             out.append(CoexistenceEntry(k, segs, crossings, note))
         return out
+
+    def _no_equal_free_energy(self, homog, segs) -> str:
+        """Why stable ``segs`` of a configuration have no equal free energy with the homogeneous segments
+        ``homog``: they are never stable at one voltage together, or where they are, their free energies do not
+        cross (:func:`~coexist.ramp.equal_free_energy` found no sign change of ``ΔĜ`` over the overlap)."""
+        kv = lambda phi: f"{self.scene.voltage_of(phi) / 1e3:.6g} kV"  # noqa: E731
+        overlaps = [
+            (max(a.phi_range[0], b.phi_range[0]), min(a.phi_range[1], b.phi_range[1])) for a in homog for b in segs
+        ]
+        # a common end (a configuration that branches from the homogeneous state at its split) is no overlap
+        overlaps = [(lo, hi) for lo, hi in overlaps if hi - lo > 1e-8 * max(abs(hi), 1e-3)]
+        if not overlaps:
+            ranges = lambda group: ", ".join(f"{kv(s.phi_range[0])} to {kv(s.phi_range[1])}" for s in group)  # noqa: E731
+            return (
+                "no equal free energy with the homogeneous state: the two are never stable at one voltage (the "
+                f"homogeneous state from {ranges(homog)}, {segs[0].label} from {ranges(segs)})"
+            )
+        where = ", ".join(f"{kv(lo)} to {kv(hi)}" for lo, hi in overlaps)
+        return (
+            f"no equal free energy with the homogeneous state: where both are stable ({where}) their free "
+            "energies do not cross"
+        )
 
     def first_transition(self, kind: str = "spinodal") -> Transition:
         """The first change on the way up from the closing state: where the homogeneous state is lost
@@ -923,8 +948,9 @@ class CoexistenceEntry:
     crossings : list of Transition
         Its equal-free-energy voltages against the homogeneous state.
     note : str or None
-        Why there is no stable segment in the window, and what the preliminary ramp did not reach if a jump of
-        it failed; None when there is a segment and the ramp went through.
+        Why there is no stable segment in the window, or why its stable segments have no equal free energy with
+        the homogeneous state (never stable at one voltage together, or their free energies do not cross where
+        they are); and what the preliminary ramp did not reach if a jump of it failed; None otherwise.
     """
 
     k: int
