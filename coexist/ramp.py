@@ -606,9 +606,12 @@ class Ramp:
                                 "none",
                                 esg.label,
                                 label_dir,
-                                "range_end",
+                                eev.kind,
                                 eev.error,
-                                "back inside the model's range where it left it",
+                                "back inside the model's range where it left it"
+                                if eev.kind == "range_end"
+                                else f"back over the {eev.kind} where it was lost (the jump from there found no stable "
+                                f"state): {esg.label} is stable again",
                                 state_after=eev.eq,
                                 source=eev,
                                 source_counts=esg.tracer.system.configuration.counts,

@@ -140,7 +140,8 @@ def test_a_small_electrode_ramp_ends_at_its_fold(tmp_path):
     assert r.exit_code == 0, r.output
     out = json.loads(r.stdout)
     kinds = [(t["kind"], t["event"]) for t in out["transitions"]]
-    assert kinds == [("no_stable_state", "fold"), ("re_entry", "range_end")], kinds
+    assert kinds == [("no_stable_state", "fold"), ("re_entry", "fold")], kinds  # back over the fold it left at
+    assert "back over the fold where it was lost" in out["transitions"][1]["reason"]
     up = out["transitions"][0]
     assert up["voltage_kV"] == pytest.approx(5.325835987, abs=5e-8)
     assert "largest volume" in up["reason"], up
