@@ -54,6 +54,21 @@ def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
     ax.legend(fontsize=8)
 
 
+def drawable(text: str) -> str:
+    """``text`` as a figure can draw it: control characters (from a scene's name, say) shown as ``\\xNN`` escapes
+    (no font has a glyph for them), line breaks kept.
+
+    Parameters
+    ----------
+    text : str
+
+    Returns
+    -------
+    str
+    """
+    return "".join(ch if ch.isprintable() or ch in " \n" else f"\\x{ord(ch):02x}" for ch in str(text))
+
+
 def save_figure(fig, path, title=None, title_size=10) -> Path:
     """Lay out ``fig`` and write it to ``path`` atomically: drawn into a temporary file in the same folder,
     then renamed over ``path``, so a failure leaves no half-written figure (and no old one destroyed)
@@ -75,6 +90,8 @@ def save_figure(fig, path, title=None, title_size=10) -> Path:
     pathlib.Path
         ``path``.
     """
+    from matplotlib.text import Text
+
     from .files import atomic
 
     plt = pyplot()
@@ -82,6 +99,10 @@ def save_figure(fig, path, title=None, title_size=10) -> Path:
     try:
         if title:
             fig.suptitle(title, fontsize=title_size)
+        for text in fig.findobj(Text):  # a scene's name may carry control characters: no font draws them
+            raw = text.get_text()
+            if not all(ch.isprintable() or ch in " \n" for ch in raw):
+                text.set_text(drawable(raw))
         fig.tight_layout()
         with atomic(path) as tmp:
             fig.savefig(tmp, dpi=130)

@@ -147,6 +147,16 @@ def test_control_characters_do_not_reach_the_terminal(tmp_path):
     assert "\\x1b" in result.stdout and "\\x07" in result.stdout
 
 
+def test_control_characters_in_a_figure_title_are_drawn_as_escapes(tmp_path):
+    """A scene named with an escape character, drawn: no font has its glyph (matplotlib warned, and under warnings as
+    errors the run ended in one), so the title shows it as ``\\x1b`` (found by the CLI fuzz test)."""
+    text = tricircle(stop_kV=0, step_kV=1).replace('name = "tricircle"', 'name = "fuzz\\u001b[1m"')
+    assert "\\u001b" in text
+    result, _, _ = run(["ramp", "-", "-o", "out.png"], tmp_path, stdin=text)
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "out.png").stat().st_size > 10_000
+
+
 def test_the_controlled_pressure_is_named_as_written():
     text = complete_scene("[zones]\ncount = 2\npressure_kPa = 10\n")
     from coexist.simulation import Simulation
