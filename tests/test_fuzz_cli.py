@@ -77,14 +77,18 @@ OUTPUTS = st.sampled_from([None] * 6 + ["out.png", "out.svg", "out.csv", "nofold
 @st.composite
 def invocations(draw):
     """``(args, stdin, requested files)`` of one command."""
-    command = draw(st.sampled_from(["check", "ramp", "coexistence", "curves", "phase-diagram"]))
+    command = draw(st.sampled_from(["check", "ramp", "coexistence", "curves", "phase-diagram", "shape"]))
     args, stdin, files = [command], None, set()
-    if command in ("check", "ramp", "coexistence"):
+    if command in ("check", "ramp", "coexistence", "shape"):
         args.append("-")
-        stdin = draw(scenes(voltage=True if command == "ramp" else None))
+        stdin = draw(scenes(voltage=True if command in ("ramp", "shape") else None))
+    if command == "shape":
+        args += ["--voltage-kV", draw(st.sampled_from(["0", "0,2", "0:4:1", "3", "-1", "x", "1e9", "0:5:0", "2,1"]))]
+        if draw(st.booleans()):
+            args += ["--points", draw(st.sampled_from(["3", "41", "2", "x", "100000"]))]
     if command == "check" and draw(st.booleans()):
         args.append("--no-solve")
-    if command in ("ramp", "curves", "phase-diagram"):
+    if command in ("ramp", "curves", "phase-diagram", "shape"):
         out = draw(OUTPUTS)
         if out is not None:
             args += ["-o", out]
