@@ -55,18 +55,11 @@ def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
 
 
 def drawable(text: str) -> str:
-    """``text`` as a figure can draw it: control characters (from a scene's name, say) shown as ``\\xNN`` escapes
-    (no font has a glyph for them), line breaks kept.
+    """``text`` as a figure can draw it (:func:`coexist.validation.escaped`, line breaks kept: no font has a glyph
+    for a control character)."""
+    from .validation import escaped
 
-    Parameters
-    ----------
-    text : str
-
-    Returns
-    -------
-    str
-    """
-    return "".join(ch if ch.isprintable() or ch in " \n" else f"\\x{ord(ch):02x}" for ch in str(text))
+    return escaped(text, keep="\n")
 
 
 def save_figure(fig, path, title=None, title_size=10) -> Path:

@@ -16,6 +16,25 @@ import numpy as np
 from .errors import SceneError
 
 
+def escaped(text, keep: str = "") -> str:
+    """``text`` (a scene's name, say) with every control character shown as a ``\\xNN`` escape: safe for a terminal
+    and drawable by a font. Spaces and the characters in ``keep`` (e.g. ``"\\n"`` for a figure's line breaks)
+    stay as they are.
+
+    Parameters
+    ----------
+    text : object
+        Converted with ``str``.
+    keep : str, optional
+        Further characters to leave unescaped.
+
+    Returns
+    -------
+    str
+    """
+    return "".join(ch if ch.isprintable() or ch == " " or ch in keep else f"\\x{ord(ch):02x}" for ch in str(text))
+
+
 def _describe(value) -> str:
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."

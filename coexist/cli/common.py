@@ -361,18 +361,11 @@ class Outputs:
 
 
 def printable(text: str) -> str:
-    """``text`` safe for a terminal: control characters (from a scene's name or description, say) shown as
-    ``\\xNN`` escapes instead of reaching the terminal raw.
+    """``text`` safe for a terminal (:func:`coexist.validation.escaped`: control characters from a scene's name or
+    description shown as ``\\xNN`` escapes instead of reaching the terminal raw)."""
+    from coexist.validation import escaped
 
-    Parameters
-    ----------
-    text : str
-
-    Returns
-    -------
-    str
-    """
-    return "".join(ch if ch.isprintable() or ch == " " else f"\\x{ord(ch):02x}" for ch in str(text))
+    return escaped(text)
 
 
 def info(message: str) -> None:
