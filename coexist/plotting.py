@@ -176,8 +176,9 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
     res = report.result
     fig, ax = plt.subplots(figsize=(7.2, 4.6))
     path_kV = [report.voltage_kV(s.phi_hat) for s in res.steps]
-    # the branches are drawn over the path's voltages (a branch's last point lies a continuation step past them)
-    window = (min(path_kV), max(path_kV)) if path_kV else (-np.inf, np.inf)
+    # the branches are drawn over the voltages they were traced over, from 0 V to the path's top (the last point of
+    # a direction lies a continuation step past them)
+    window = (min(0.0, *path_kV), max(path_kV)) if path_kV else (-np.inf, np.inf)
     for br in branches:
         # the branch's points and, where stability changes between two of them, the exact event there
         nodes = [(p.s, p.eq, p.stable, p.stable) for p in br.points]
@@ -272,17 +273,18 @@ def _clipped(x, y, window):
     for i in range(len(x)):
         inside = lo <= x[i] <= hi
         if i > 0:
-            for edge in (lo, hi):
-                if (x[i - 1] - edge) * (x[i] - edge) < 0:  # the piece crosses the edge
-                    t = (edge - x[i - 1]) / (x[i] - x[i - 1])
-                    xs.append(edge)
-                    ys.append(y[i - 1] + t * (y[i] - y[i - 1]))
-                    if not inside:
-                        xs.append(np.nan)
-                        ys.append(np.nan)
+            x0, x1 = x[i - 1], x[i]
+            # the edges this piece crosses, in the order it crosses them (one piece may cross both)
+            cuts = sorted(((e - x0) / (x1 - x0), e) for e in (lo, hi) if (x0 - e) * (x1 - e) < 0)
+            for t, edge in cuts:
+                xs.append(edge)
+                ys.append(y[i - 1] + t * (y[i] - y[i - 1]))
         if inside:
             xs.append(x[i])
             ys.append(y[i])
+        elif xs and not np.isnan(xs[-1]):  # left the window (also from a point on its edge): break the line
+            xs.append(np.nan)
+            ys.append(np.nan)
     return np.array(xs, dtype=float), np.array(ys, dtype=float)
 
 

@@ -69,3 +69,10 @@ def test_branch_lines_are_cut_at_the_path_voltages():
     assert x[0] == 0.0 and y[0] == pytest.approx(1.0 / 6.0)  # on the line from (-0.1, 0) to (0.5, 1)
     assert 5.0 in x[keep] and np.isnan(x).sum() == 1  # leaves at 5 kV once, comes back in once
     assert x[-1] == 4.0 and y[-1] == 5.0
+    # one piece across the whole window (a path that starts above 0 V: the branch is traced from 0 V), found in
+    # review: a line from edge to edge, not two lone points
+    x, y = _clipped([0.0, 2.0], [0.0, 2.0], (0.5, 1.0))
+    assert x[:2].tolist() == [0.5, 1.0] and y[:2].tolist() == [0.5, 1.0] and np.isnan(x[2:]).all()
+    # leaving from a point on an edge breaks the line: no false segment along the edge when it comes back
+    x, y = _clipped([0.5, 1.0, 1.5, 0.8], [0.0, 1.0, 5.0, 2.0], (0.0, 1.0))
+    assert np.isnan(x[2]) and x[:2].tolist() == [0.5, 1.0] and x[3] == 1.0 and x[-1] == 0.8
