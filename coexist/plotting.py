@@ -55,8 +55,19 @@ def _family_panel(ax, curves, x, y, label, xlabel, ylabel, title):
 
 
 def drawable(text: str) -> str:
-    """``text`` as a figure can draw it (:func:`coexist.validation.escaped`, line breaks kept: no font has a glyph
-    for a control character)."""
+    """``text`` as a figure can draw it: control characters shown as ``\\xNN`` escapes, line breaks kept (no font
+    has a glyph for a control character).
+
+    Parameters
+    ----------
+    text : str
+        E.g. a title with a scene's name.
+
+    Returns
+    -------
+    str
+        :func:`coexist.validation.escaped` of ``text``, keeping ``"\\n"``.
+    """
     from .validation import escaped
 
     return escaped(text, keep="\n")
