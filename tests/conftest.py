@@ -191,3 +191,48 @@ def ring_scene(wrinkling, name="ring", fi=0.4, fo=0.9, count=1, mbar=25, path="[
     """TOML text of the default membrane with a ring electrode (R/A ``fi`` to ``fo``, two-layer passive regions) on
     a 300 ml chamber, on the voltage path ``path`` (the audit scenes of the ring tests)."""
     return RING_SCENE.format(name=name, wrinkling=wrinkling, fi=fi, fo=fo, count=count, mbar=mbar, path=path)
+
+
+# --- an independent gas (tests/test_efe_variations.py, tests/test_transition_variations.py) ----------------------
+class IndependentGas:
+    """The chamber's isothermal ideal gas from scratch: ``(V̂c + V̂)(p̂atm + p̂) = n̂`` (nothing of coexist's gas)."""
+
+    def __init__(self, vc, patm, n):
+        self.vc, self.patm, self.n = vc, patm, n
+
+    def pressure(self, v):
+        return self.n / (self.vc + v) - self.patm
+
+    def stiffness(self, v):
+        """``−dp̂gas/dV̂``."""
+        return self.n / (self.vc + v) ** 2
+
+    def free_energy_difference(self, v1, v2):
+        """``F(v1) − F(v2)``, ``F = −n̂ ln(V̂c + V̂) + p̂atm V̂``, without the rounding of two large numbers."""
+        dv = v1 - v2
+        return -self.n * np.log1p(dv / (self.vc + v2)) + self.patm * dv
+
+
+def shoot_ok(model, lam, phi, settings, derivatives=False):
+    """Single-zone states at the pole stretches ``lam`` (every one must exist)."""
+    from coexist.shooting import solve_states
+
+    lam = np.atleast_1d(np.asarray(lam, dtype=float))
+    return solve_states(model, lam, phi, settings, derivatives=derivatives).require_ok()
+
+
+def independent_gas(scene, model, settings):
+    """The gas from the scene's fields: the zones at the closing pressure at 0 V on their rising branch."""
+    from scipy.optimize import brentq
+
+    from coexist.shooting import solve_states
+
+    ps, vs = scene.shear_modulus * scene.thickness / scene.zone_radius, scene.zone_radius**3
+    vc, patm = scene.chamber.volume / vs, scene.chamber.atmospheric_pressure / ps
+    pc = scene.chamber.closing_pressure / ps
+    grid = model.prestretch * (1 + np.linspace(1e-3, 1.5, 200))
+    s = solve_states(model, grid, 0.0, settings)
+    top = grid[int(np.argmax(np.where(s.status == 0, s.p_hat, -np.inf)))]
+    lam = brentq(lambda x: shoot_ok(model, x, 0.0, settings).p_hat[0] - pc, grid[0], top, xtol=1e-15)
+    v = shoot_ok(model, lam, 0.0, settings).v_hat[0]
+    return IndependentGas(vc, patm, (vc + scene.zone_count * v) * (patm + pc))

@@ -37,7 +37,7 @@ cannot hold the closing pressure (refused).
 
 import numpy as np
 import pytest
-from conftest import variant
+from conftest import independent_gas, shoot_ok, variant
 from scipy.optimize import brentq, root
 
 from coexist.errors import SceneError
@@ -50,38 +50,6 @@ EPS = np.finfo(float).eps
 
 
 # --- the independent calculation ----------------------------------------------------------------------------------
-class Gas:
-    """``(V̂c + V̂)(p̂atm + p̂) = n̂``."""
-
-    def __init__(self, vc, patm, n):
-        self.vc, self.patm, self.n = vc, patm, n
-
-    def pressure(self, v):
-        return self.n / (self.vc + v) - self.patm
-
-    def free_energy_difference(self, v1, v2):
-        """``F(v1) − F(v2)``, ``F = −n̂ ln(V̂c + V̂) + p̂atm V̂``, without the rounding of two large numbers."""
-        dv = v1 - v2
-        return -self.n * np.log1p(dv / (self.vc + v2)) + self.patm * dv
-
-
-def shoot(model, lam, phi, settings):
-    return solve_states(model, np.atleast_1d(np.asarray(lam, dtype=float)), phi, settings).require_ok()
-
-
-def own_gas(scene, model, settings):
-    """The gas from the scene's fields: the zones at the closing pressure at 0 V on their rising branch."""
-    ps, vs = scene.shear_modulus * scene.thickness / scene.zone_radius, scene.zone_radius**3
-    vc, patm = scene.chamber.volume / vs, scene.chamber.atmospheric_pressure / ps
-    pc = scene.chamber.closing_pressure / ps
-    grid = model.prestretch * (1 + np.linspace(1e-3, 1.5, 200))
-    s = solve_states(model, grid, 0.0, settings)
-    top = grid[int(np.argmax(np.where(s.status == 0, s.p_hat, -np.inf)))]
-    lam = brentq(lambda x: shoot(model, x, 0.0, settings).p_hat[0] - pc, grid[0], top, xtol=1e-15)
-    v = shoot(model, lam, 0.0, settings).v_hat[0]
-    return Gas(vc, patm, (vc + scene.zone_count * v) * (patm + pc))
-
-
 class Pair:
     """The homogeneous state and the state of ``N − k`` unbulged and ``k`` bulged zones at one voltage, solved afresh
     near the pole stretches ``lam_h`` and ``(lam_u, lam_b)`` (which follow the last solution)."""
@@ -92,21 +60,21 @@ class Pair:
 
     def homogeneous(self, phi):
         def f(lam):
-            s = shoot(self.model, lam, phi, self.settings)
+            s = shoot_ok(self.model, lam, phi, self.settings)
             return s.p_hat[0] - self.gas.pressure(self.N * s.v_hat[0])
 
         for w in (0.01, 0.05):
             a, b = self.lam_h - w, self.lam_h + w
             if f(a) * f(b) < 0:
                 self.lam_h = brentq(f, a, b, xtol=1e-15, rtol=4 * EPS)
-                return shoot(self.model, self.lam_h, phi, self.settings)
+                return shoot_ok(self.model, self.lam_h, phi, self.settings)
         raise AssertionError(f"no homogeneous state near λ0 = {self.lam_h} at Φ̂ = {phi}")
 
     def mixed(self, phi):
         N, k = self.N, self.k
 
         def f(x):
-            s = shoot(self.model, x, phi, self.settings)
+            s = shoot_ok(self.model, x, phi, self.settings)
             return [s.p_hat[0] - s.p_hat[1], s.p_hat[0] - self.gas.pressure((N - k) * s.v_hat[0] + k * s.v_hat[1])]
 
         sol = root(f, self.lam_ub, method="hybr", options={"xtol": 1e-14})
@@ -114,7 +82,7 @@ class Pair:
         assert np.max(np.abs(f(sol.x))) < 1e-10, (phi, sol.x)
         assert sol.x[1] - sol.x[0] > 1e-3, (phi, sol.x)  # still two distinct states
         self.lam_ub = sol.x
-        return shoot(self.model, sol.x, phi, self.settings)
+        return shoot_ok(self.model, sol.x, phi, self.settings)
 
     def delta_g(self, phi):
         """``ΔĜ = Ĝ(k bulged) − Ĝ(homogeneous)`` and both states."""
@@ -173,7 +141,7 @@ def test_equal_free_energy_agrees_with_an_independent_calculation(name):
     res = {}
     for rtol in (1e-12, 1e-11):
         settings = sim.settings.with_rtol(rtol)
-        gas = own_gas(scene, sim.model, settings)
+        gas = independent_gas(scene, sim.model, settings)
         res[rtol] = independent_efe(sim.model, gas, N, k, c.phi_hat, guesses, settings)
     assert gas.n == pytest.approx(sim.gas.gas_amount, rel=1e-9)  # the same gas
     phi, rounding, lam, m = res[1e-12]
@@ -212,7 +180,7 @@ def test_two_zones_have_no_equal_free_energy():
     assert "no equal free energy with the homogeneous state: the two are never stable at one voltage" in entry.note
     assert "homogeneous state from 0 kV to 3.85216 kV" in entry.note
     settings = sim.settings
-    gas = own_gas(scene, sim.model, settings)
+    gas = independent_gas(scene, sim.model, settings)
     kv = scene.voltage_scale / 1e3
     pair = Pair(sim.model, gas, 2, 1, settings, sim.closing_stretch, np.nan, np.nan)
     for phi in np.linspace(0, entry.segments[0].end_phi(-1), 40)[1:]:  # follow the homogeneous state up
@@ -224,7 +192,7 @@ def test_two_zones_have_no_equal_free_energy():
             st = seg.states([phi], coincident=False)[0]  # only the first guess: which branch
             pair.lam_ub = np.array([st.pole_stretch_unbulged, st.pole_stretch_bulged])
             dg, h, _ = pair.delta_g(phi)
-            s = shoot(sim.model, [pair.lam_h - 1e-6, pair.lam_h + 1e-6], phi, settings)
+            s = shoot_ok(sim.model, [pair.lam_h - 1e-6, pair.lam_h + 1e-6], phi, settings)
             slope = (s.p_hat[1] - s.p_hat[0]) / (s.v_hat[1] - s.v_hat[0])
             assert dg < 0 and slope < 0, (phi * kv, dg, slope)
 
@@ -292,12 +260,12 @@ def test_never_stable_configurations_have_no_stable_equilibrium(name):
     assert entry.segments == [] and entry.crossings == []
     assert entry.note == f"no stable state with {k} of {N} zones bulged between 0 and 5 kV"
     settings = sim.settings
-    gas = own_gas(scene, sim.model, settings)
+    gas = independent_gas(scene, sim.model, settings)
     lam_cap = 0.999 * np.sqrt((scene.jlim + 3) / 2)  # Gent locking at the pole: 2λ0² + λ0⁻⁴ − 3 < Jlim
     found = scan(sim.model, gas, N, k, np.linspace(0, scene.phi_hat(5000), 26), settings, lam_cap)
     assert len(found) == expected, found
     for phi, lu, lb in found:
-        s = shoot(sim.model, [lu - 1e-6, lu + 1e-6, lb - 1e-6, lb + 1e-6], phi, settings)
+        s = shoot_ok(sim.model, [lu - 1e-6, lu + 1e-6, lb - 1e-6, lb + 1e-6], phi, settings)
         a_u = (s.p_hat[1] - s.p_hat[0]) / (s.v_hat[1] - s.v_hat[0])
         a_b = (s.p_hat[3] - s.p_hat[2]) / (s.v_hat[3] - s.v_hat[2])
         unstable = (N - k >= 2 and a_u < 0) or (k >= 2 and a_b < 0) or zone_index(sim.model, lb, phi, settings) != 0

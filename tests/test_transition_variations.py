@@ -79,6 +79,7 @@ import re
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import independent_gas, shoot_ok
 from scipy.optimize import brentq, root
 
 from coexist.cli.main import cli
@@ -101,38 +102,6 @@ def variant_text(**changes):
 
 
 # --- the independent calculation ----------------------------------------------------------------------------------
-class Gas:
-    """``(V̂c + V̂)(p̂atm + p̂) = n̂``."""
-
-    def __init__(self, vc, patm, n):
-        self.vc, self.patm, self.n = vc, patm, n
-
-    def pressure(self, v):
-        return self.n / (self.vc + v) - self.patm
-
-    def stiffness(self, v):
-        """``−dp̂gas/dV̂``."""
-        return self.n / (self.vc + v) ** 2
-
-
-def shoot(model, lam, phi, settings, derivatives=False):
-    lam = np.atleast_1d(np.asarray(lam, dtype=float))
-    return solve_states(model, lam, phi, settings, derivatives=derivatives).require_ok()
-
-
-def own_gas(scene, model, settings):
-    """The gas from the scene's fields: the zones at the closing pressure at 0 V on their rising branch."""
-    ps, vs = scene.shear_modulus * scene.thickness / scene.zone_radius, scene.zone_radius**3
-    vc, patm = scene.chamber.volume / vs, scene.chamber.atmospheric_pressure / ps
-    pc = scene.chamber.closing_pressure / ps
-    grid = model.prestretch * (1 + np.linspace(1e-3, 1.5, 200))
-    s = solve_states(model, grid, 0.0, settings)
-    top = grid[int(np.argmax(np.where(s.status == 0, s.p_hat, -np.inf)))]
-    lam = brentq(lambda x: shoot(model, x, 0.0, settings).p_hat[0] - pc, grid[0], top, xtol=1e-15)
-    v = shoot(model, lam, 0.0, settings).v_hat[0]
-    return Gas(vc, patm, (vc + scene.zone_count * v) * (patm + pc))
-
-
 class Homogeneous:
     """All N zones at one ``λ0`` on the gas. The state continued from 0 V is the first root above the prestretch of
     ``r(λ) = p̂(λ) − p̂gas(N V̂(λ))`` (``r < 0`` at the flat membrane and ``r' > 0`` up to the branch's fold)."""
@@ -154,7 +123,7 @@ class Homogeneous:
 
     def slopes(self, phi):
         """``∂p̂/∂λ0|Φ̂`` of the homogeneous zone and the gas-coupled ``∂p̂/∂λ0 + cN ∂V̂/∂λ0``."""
-        s = shoot(self.model, self.stretch(phi), phi, self.settings, derivatives=True)
+        s = shoot_ok(self.model, self.stretch(phi), phi, self.settings, derivatives=True)
         d = s.derivatives
         c = self.gas.stiffness(self.N * s.v_hat[0])
         return d.dp_dl0[0], d.dp_dl0[0] + c * self.N * d.dv_dl0[0]
@@ -181,7 +150,7 @@ class Branch:
     def parts(self, lu, lb, phi):
         """Residuals ``F``, their Jacobian in ``(λu, Φ̂)`` and their derivative in ``λb``."""
         N = self.N
-        s = shoot(self.model, [lu, lb], phi, self.settings, derivatives=True)
+        s = shoot_ok(self.model, [lu, lb], phi, self.settings, derivatives=True)
         d = s.derivatives
         vt = (N - 1) * s.v_hat[0] + s.v_hat[1]
         c = self.gas.stiffness(vt)
@@ -279,7 +248,7 @@ def independent(scene, stop_kV, want_end, step=0.05):
     found = {}
     for rtol in OWN:
         st = SolverSettings(rtol=rtol)
-        gas = own_gas(scene, model, st)
+        gas = independent_gas(scene, model, st)
         hom, branch = Homogeneous(model, gas, N, st), Branch(model, gas, N, st)
         if rtol == OWN[0]:
             split, bracket = hom.split(np.arange(0.01, scene.phi_hat(stop_kV * 1e3), 0.01))
