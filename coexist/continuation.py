@@ -1913,6 +1913,17 @@ class StableSegment:
         out = []
         index = self.points[0].index
         failed = np.flatnonzero(~corr.ok)
+        alone: dict = {}
+        if failed.size and phis.size > 1:
+            # the corrector switches to chord steps for the whole batch at once: a row next to a pitchfork, whose
+            # steps stay large, kept a row 1e-8 kV below a fold on full Newton steps, which stop at the shooting's
+            # noise there and were taken to diverge (two zones, the path [0, 3.85215522, 4.10604894, 0] kV failed
+            # where each voltage alone converged). Each failed row alone first
+            for j in failed.tolist():
+                one = correct(self.tracer.system, Z[j : j + 1], n[j : j + 1], phis[j : j + 1] * w, w, chord=True)
+                if one.ok[0]:
+                    alone[j] = make_equilibrium(self.tracer.system, one.res, one.rows[0], index)
+            failed = np.array([j for j in failed.tolist() if j not in alone], dtype=int)
         retry = None
         if failed.size:
             # just inside an end at the onset of wrinkling a Newton iterate can step past the onset and be
@@ -1922,6 +1933,9 @@ class StableSegment:
         for i in range(phis.size):
             if corr.ok[i]:
                 out.append(make_equilibrium(self.tracer.system, corr.res, corr.rows[i], index))
+                continue
+            if i in alone:
+                out.append(alone[i])
                 continue
             k = int(np.searchsorted(failed, i))
             eq = None

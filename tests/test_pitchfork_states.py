@@ -5,6 +5,7 @@ voltage on the split configuration is singular; the ramp used to exit 1 there ("
 
 import numpy as np
 import pytest
+from conftest import variant
 
 from coexist.equilibria import shoot_groups
 from coexist.scene import load_scene
@@ -74,3 +75,25 @@ def test_split_state_next_to_the_pitchfork_at_high_accuracy(tmp_path):
     assert abs(res.r[0, 1]) < 20 * np.finfo(float).eps * abs(st.p[0, 0]) / x
     assert eq.residual < tol  # the pair's row by quadrature of the exact slopes (the solver's)
     assert rep.voltage_kV(eq.phi_hat) == pytest.approx(3.9, abs=1e-12)  # the path voltage (unit rounding)
+
+
+def test_a_path_next_to_a_pitchfork_and_a_fold_at_once():
+    """Two zones on the path [0, 3.85215522, 4.10604894, 0] kV: 7e-9 kV above the symmetric branch point and 1e-8 kV
+    below the bulged branch's fold, both on one stable segment. Solved in one batch, the row next to the pitchfork
+    kept the one next to the fold on full Newton steps (the corrector switches to chord steps for a whole batch),
+    which stop at the shooting's noise there and were taken to diverge: the ramp ended in an error although each
+    voltage alone converges (found in review). The state at 4.10604894 kV is the stable one next to the fold that
+    ``equilibria_at`` finds independently."""
+    scene = variant(count=2, values_kV="[0, 3.85215522, 4.10604894, 0]")
+    sim = Simulation.from_scene(scene)
+    report = sim.ramp()
+    (near_fold,) = [s for s in report.result.steps if abs(report.voltage_kV(s.phi_hat) - 4.10604894) < 1e-9]
+    assert near_fold.state is not None and near_fold.state.configuration.counts == (1, 1)
+    stable = [e for e in sim.equilibria_at(near_fold.phi_hat) if e.stable and e.configuration.counts == (1, 1)]
+    # 1e-8 kV below a fold a state is ill-conditioned (λ0 moves like the square root of the distance): two converged
+    # states differ by ~2e-7 there; the other stable pair of this configuration lies 0.2 and 2.4 away
+    assert near_fold.state.residual <= sim.settings.residual_tol * (1 + near_fold.state.p_hat)
+    assert any(np.allclose(e.pole_stretch, near_fold.state.pole_stretch, rtol=1e-5) for e in stable), (
+        near_fold.state.pole_stretch,
+        [e.pole_stretch for e in stable],
+    )
