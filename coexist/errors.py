@@ -37,11 +37,14 @@ class ModelRangeError(CoexistError):
     """The request lies outside the range where the membrane model holds.
 
     Raised for wrinkling (a tension turns negative), Gent locking, breakdown, or a voltage at
-    which no pressurised equilibrium exists. ``reason`` is a short machine-readable tag.
+    which no pressurised equilibrium exists. ``reason`` is a short machine-readable tag; ``above_top`` is True
+    where the thing asked for is known to lie above the scene's highest voltage (a transition that a ramp of the
+    scene does not reach: the states go on past the top of its path).
     """
 
-    def __init__(self, message: str, reason: str = "out_of_range"):
+    def __init__(self, message: str, reason: str = "out_of_range", above_top: bool = False):
         self.reason = reason
+        self.above_top = above_top
         super().__init__(message)
 
 

@@ -126,6 +126,7 @@ def transition_voltage(
             f"the first {kind} transition lies at {volts / 1e3:.6g} kV, above the scene's highest voltage "
             f"{scene.voltage.peak / 1e3:.6g} kV: a ramp of the scene does not reach it",
             "no_transition",
+            above_top=True,
         )
     return volts, float(scene.voltage_of(t.phi_hat_error))
 
@@ -217,6 +218,7 @@ def fit_zone_radius(
     top = a_max * 1e3
     budget = 6 * shared.settings.fit_samples
     tried: dict[float, float | None] = {}
+    above: set[float] = set()  # radii whose transition lies above the top of the scene's path (so above the target)
     why: list[str] = []
 
     def value(a):
@@ -225,6 +227,8 @@ def fit_zone_radius(
                 tried[a] = f(a)
             except CoexistError as exc:
                 tried[a] = None
+                if isinstance(exc, ModelRangeError) and exc.above_top:
+                    above.add(a)
                 why.append(f"{a:.6g} mm: {exc}")
         return tried.get(a)
 
@@ -285,6 +289,20 @@ def fit_zone_radius(
     rounds = 0
     while len(tried) < budget:
         order = sorted(tried)
+        # a radius whose transition lies below the target next to one whose transition lies above the top of the
+        # path (the zones stay homogeneous up to it) straddle the target: bisect between them until a radius with a
+        # transition above the target brackets it (a target 10 V below the top of a 5 kV path: the transition moves
+        # by 0.4 kV for 1 % of radius there, and three rounds of resampling had left the target unbracketed)
+        below = {a for a, v in tried.items() if v is not None and v < 0}
+        straddle = [(a, b) for a, b in zip(order[:-1], order[1:]) if {a, b} & below and {a, b} & above]
+        if straddle:
+            count = len(tried)
+            for a, b in straddle:
+                value(0.5 * (a + b))
+                if (pair := bracket()) is not None:
+                    return solve(pair)
+            if len(tried) > count:
+                continue  # (no new radius: the gap is down to the radius's resolution)
         if any(v is not None for v in tried.values()):
             edges = [(a, b) for a, b in zip(order[:-1], order[1:]) if (tried[a] is None) != (tried[b] is None)]
             if rounds == 3 or not edges:

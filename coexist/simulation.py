@@ -691,10 +691,12 @@ class Simulation:
         end = start.end(+1)
         if kind == "spinodal":
             if not isinstance(end, Event) or end.kind in ("window", "range_end", "breakdown"):
-                why = "the window ends" if not isinstance(end, Event) or end.kind == "window" else end.note
+                window = not isinstance(end, Event) or end.kind == "window"
+                why = "the window ends" if window else end.note
                 raise ModelRangeError(
                     f"the zones stay homogeneous up to {self.scene.voltage_of(start.end_phi(+1)) / 1e3:.6g} kV ({why})",
                     "no_transition",
+                    above_top=window,
                 )
             t = Transition(
                 end.phi_hat,

@@ -10,7 +10,7 @@ from click.testing import CliRunner
 from coexist.cli.main import cli
 from coexist.errors import ModelRangeError, SceneError
 from coexist.fit import Shared, fit_zone_radius, transition_voltage
-from coexist.scene import builtin_scene_text, load_scene
+from coexist.scene import builtin_scene_text, load_scene, parse_scene
 from coexist.simulation import Simulation
 
 
@@ -91,14 +91,15 @@ def test_no_transition_beyond_the_path_top(tricircle):
 
 
 def test_an_unreachable_target_states_only_reachable_voltages(tricircle):
-    """4.99 kV is below the stop but above every transition the radii give (the band's lower edge runs into
-    the path's top): the message's range stays within the 5 kV the scene reaches (the old search bracketed the
-    target with the 5.149 kV beyond the path and returned a radius)."""
+    """0.1 kV is below every transition the radii give (the lowest, 0.236 kV, next to the largest radius that
+    holds the closing pressure): no fit, and the message's range stays within the 5 kV the scene reaches (an old
+    search had bracketed a target with a 5.149 kV transition beyond the path and returned a radius; a target just
+    below the top is reachable: test_target_just_below_the_top_of_the_path)."""
     scene, shared = tricircle
     with pytest.raises(ModelRangeError, match="the radii give transitions between") as info:
-        fit_zone_radius(scene, 4.99e3, "spinodal", shared)
+        fit_zone_radius(scene, 0.1e3, "spinodal", shared)
     lo, hi = map(float, re.search(r"transitions between (\S+) and (\S+) kV", str(info.value)).groups())
-    assert 0 < lo < hi <= 5.0
+    assert 0.1 < lo < hi <= 5.0
 
 
 def test_cli_fit_without_a_snap_through(tmp_path):
@@ -116,3 +117,18 @@ def test_cli_target_above_the_stop_exits_2(tmp_path):
     assert r.exit_code == 2
     assert "--transition-kV" in r.output and "5 kV ([voltage].stop_kV)" in r.output
     assert "Traceback" not in r.output
+
+
+def test_target_just_below_the_top_of_the_path(tricircle):
+    """A spinodal target 10 V below the scene's top, 5 kV (found in review): radii just above the fit have no
+    transition up to 5 kV (it lies above the top, so above the target) and the transition moves by 0.4 kV per 1 % of
+    radius there; three rounds of resampling left the target unbracketed and the fit failed. The radius bisected
+    between one below the target and one whose transition lies above the top brackets it. The same fit with the
+    path taken to 6 kV (a window where radii on both sides have transitions) gives the same radius, and the ramp at
+    the fitted radius puts the transition at the target."""
+    scene, shared = tricircle
+    radius = fit_zone_radius(scene, 4990.0, shared=shared)
+    wider = parse_scene(builtin_scene_text("tricircle").replace("stop_kV = 5", "stop_kV = 6"))
+    assert radius * 1e3 == pytest.approx(fit_zone_radius(wider, 4990.0) * 1e3, abs=1e-6)
+    volts, _ = transition_voltage(replace(scene, zone_radius=radius), shared=shared)
+    assert volts == pytest.approx(4990.0, abs=1e-3)
