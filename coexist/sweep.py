@@ -1577,6 +1577,8 @@ def plot_design_map(
         if len(swept) < 2:
             raise SceneError("a design map needs two swept keys with more than one value each", "--plot")
         y, x = (y or swept[-2]), (x or swept[-1])
+    # the cells in the order of their values (--vary may list them in any order: unsorted centres misplaced cells)
+    dataset = dataset.sortby([y, x])
     da = dataset[variable]
     st = dataset["status"]
     rest = {d: 0 for d in da.dims if d not in (x, y)}
@@ -1584,7 +1586,7 @@ def plot_design_map(
         da, st = da.isel(rest), st.isel(rest)
     da = da.transpose(y, x)
     st = st.transpose(y, x)
-    xs, ys = dataset[x].values.astype(float), dataset[y].values.astype(float)
+    (xs, x_names), (ys, y_names) = _map_positions(dataset[x].values), _map_positions(dataset[y].values)
     fig, ax = plt.subplots(figsize=(7.2, 5.8), layout="constrained")
     mesh = ax.pcolormesh(xs, ys, da.values, shading="nearest", cmap="viridis")
     fig.colorbar(mesh, ax=ax, label=f"{variable.removesuffix('_kV').replace('_', ' ')} (kV)")
@@ -1622,8 +1624,10 @@ def plot_design_map(
     ax.set_xlabel(_axis_label(dataset[x], x))
     ax.set_ylabel(_axis_label(dataset[y], y))
     # few values (e.g. zone counts 2 and 5): ticks at the values computed, not at ones in between
-    for values, set_ticks in ((xs, ax.set_xticks), (ys, ax.set_yticks)):
-        if values.size <= MAP_TICKS_MAX:
+    for values, names, set_ticks in ((xs, x_names, ax.set_xticks), (ys, y_names, ax.set_yticks)):
+        if names is not None:  # a text key (a material): one cell per value, named
+            set_ticks(values, names)
+        elif values.size <= MAP_TICKS_MAX:
             set_ticks(values, [f"{v:g}" for v in values])
     if title:
         ax.set_title(title, fontsize=9)
@@ -1633,6 +1637,15 @@ def plot_design_map(
 
 #: a design map's axis with at most this many values has its ticks at exactly those values
 MAP_TICKS_MAX = 12
+
+
+def _map_positions(values) -> tuple:
+    """Where a swept key's values sit on a design map's axis: the values themselves, or for text (a material)
+    the positions ``0, 1, …`` with the values as names (None for numbers)."""
+    try:
+        return np.asarray(values, dtype=float), None
+    except (TypeError, ValueError):
+        return np.arange(len(values), dtype=float), [str(v) for v in values]
 
 
 def _cell_edges(centres: np.ndarray) -> np.ndarray:

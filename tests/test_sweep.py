@@ -288,3 +288,43 @@ def test_design_map_headline(tmp_path):
     ds = open_dataset(out)
     assert float(ds["spinodal_up_kV"].values.ravel()[0]) == pytest.approx(jump["voltage_kV"], abs=1e-9)
     assert float(ds["hysteresis_kV"].values.ravel()[0]) == pytest.approx(up_kV - down_kV, abs=2e-6)
+
+
+def test_design_map_cells_sit_at_their_values(tmp_path, monkeypatch):
+    """Found in review: ``--vary`` values in any order misplaced the design map's cells (unsorted centres), and a
+    text key on an axis (``membrane.material``) ended the run in an internal error after the netCDF was written.
+    The map's colours are checked against the dataset point by point, and a material axis is drawn, one cell per
+    material, named."""
+    import matplotlib.axes
+    import xarray as xr
+
+    from coexist.sweep import plot_design_map
+
+    drawn = {}
+    real = matplotlib.axes.Axes.pcolormesh
+
+    def capture(self, *args, **kwargs):
+        if kwargs.get("cmap") == "viridis":  # the map's own mesh (not its colour bar's)
+            drawn["xs"], drawn["ys"], drawn["c"] = (np.asarray(a) for a in args[:3])
+        return real(self, *args, **kwargs)
+
+    monkeypatch.setattr(matplotlib.axes.Axes, "pcolormesh", capture)
+    counts, pressures = [3, 1, 2], [20.0, 19.5, 19.8]
+    up = np.array([[10 * c + p for p in pressures] for c in counts])
+    ds = xr.Dataset(
+        {
+            "spinodal_up_kV": (("zones.count", "p"), up),
+            "status": (("zones.count", "p"), np.full(up.shape, "bulges")),
+        },
+        coords={"zones.count": counts, "p": pressures},
+        attrs={"swept_dims": "zones.count,p"},
+    )
+    plot_design_map(ds, tmp_path / "map.png")
+    assert list(drawn["xs"]) == sorted(pressures) and list(drawn["ys"]) == sorted(counts)
+    for iy, c in enumerate(drawn["ys"]):
+        for ix, p in enumerate(drawn["xs"]):
+            assert drawn["c"][iy, ix] == pytest.approx(10 * c + p)
+    text = ds.assign_coords(p=["neo-hookean", "gent", "gent-x"]).rename(p="membrane.material")
+    text.attrs["swept_dims"] = "zones.count,membrane.material"
+    plot_design_map(text, tmp_path / "material.png")
+    assert list(drawn["xs"]) == [0.0, 1.0, 2.0] and (tmp_path / "material.png").stat().st_size > 10_000
