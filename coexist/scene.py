@@ -511,28 +511,28 @@ class Scene:
         c, v = self.chamber, self.voltage
         rows = [
             ("[membrane].material", self.material),
-            ("[membrane].jlim", None if self.jlim is None else f"{self.jlim:g}"),
-            ("[membrane].shear_modulus", f"{self.shear_modulus / 1e3:g} kPa"),
-            ("[membrane].relative_permittivity", f"{self.relative_permittivity:g}"),
-            ("[membrane].thickness", f"{self.thickness * 1e3:g} mm"),
-            ("[membrane].zone_radius", f"{self.zone_radius * 1e3:g} mm"),
-            ("[membrane].prestretch", f"{self.prestretch:g}"),
+            ("[membrane].jlim", None if self.jlim is None else f"{self.jlim:.12g}"),
+            ("[membrane].shear_modulus", f"{self.shear_modulus / 1e3:.12g} kPa"),
+            ("[membrane].relative_permittivity", f"{self.relative_permittivity:.12g}"),
+            ("[membrane].thickness", f"{self.thickness * 1e3:.12g} mm"),
+            ("[membrane].zone_radius", f"{self.zone_radius * 1e3:.12g} mm"),
+            ("[membrane].prestretch", f"{self.prestretch:.12g}"),
             ("[membrane].wrinkling", self.wrinkling),
             (
                 "[membrane].breakdown_field",
-                None if self.breakdown_field is None else f"{self.breakdown_field / 1e6:g} MV/m",
+                None if self.breakdown_field is None else f"{self.breakdown_field / 1e6:.12g} MV/m",
             ),
             ("[zones].count", f"{self.zone_count}"),
             (
                 "[zones].pressure",
-                None if self.controlled_pressure is None else f"{self.controlled_pressure / 100:g} mbar",
+                None if self.controlled_pressure is None else f"{self.controlled_pressure / 100:.12g} mbar",
             ),
-            ("[chamber].volume", None if c is None else f"{c.volume * 1e6:g} ml"),
-            ("[chamber].closing_pressure", None if c is None else f"{c.closing_pressure / 100:g} mbar"),
-            ("[chamber].atmospheric_pressure", None if c is None else f"{c.atmospheric_pressure / 1e3:g} kPa"),
+            ("[chamber].volume", None if c is None else f"{c.volume * 1e6:.12g} ml"),
+            ("[chamber].closing_pressure", None if c is None else f"{c.closing_pressure / 100:.12g} mbar"),
+            ("[chamber].atmospheric_pressure", None if c is None else f"{c.atmospheric_pressure / 1e3:.12g} kPa"),
             ("[electrodes].pattern", self.electrode_pattern if self.patterned else None),
-            ("[electrodes].inner_fraction", None if self.inner_fraction is None else f"{self.inner_fraction:g}"),
-            ("[electrodes].outer_fraction", None if self.outer_fraction is None else f"{self.outer_fraction:g}"),
+            ("[electrodes].inner_fraction", None if self.inner_fraction is None else f"{self.inner_fraction:.12g}"),
+            ("[electrodes].outer_fraction", None if self.outer_fraction is None else f"{self.outer_fraction:.12g}"),
             ("[layers].passive", f"{self.passive_layers}" if self.patterned and self.region_layers is None else None),
             (
                 "[layers].regions",
@@ -540,9 +540,9 @@ class Scene:
             ),
         ]
         if v is not None and v.kind == "ramp":
-            rows += [(f"[voltage].{k}", f"{getattr(v, k) / 1e3:g} kV") for k in ("start", "stop", "step")]
+            rows += [(f"[voltage].{k}", f"{getattr(v, k) / 1e3:.12g} kV") for k in ("start", "stop", "step")]
         elif v is not None:
-            rows.append(("[voltage].values", f"{len(v.values)} values up to {v.peak / 1e3:g} kV"))
+            rows.append(("[voltage].values", f"{len(v.values)} values up to {v.peak / 1e3:.12g} kV"))
         return [(k, val, "default" if k in self.defaulted else "file") for k, val in rows if val is not None]
 
     def to_dict(self) -> dict:

@@ -274,3 +274,13 @@ def test_a_stiff_gent_membrane_has_no_snap_through_and_says_so(tmp_path):
     assert data["snap_through_is_maximum"] is False
     result, _, _ = run(["phase-diagram", "--jlim", "0.5", "--points", "3"], tmp_path)
     assert result.exit_code == 0 and "no spinodals, no coexistence" in result.stderr
+
+
+def test_check_prints_the_values_the_solver_uses(tmp_path):
+    """Found in review: ``coexist check`` printed 6 significant digits (21.416537 mm as 21.4165 mm), while the solver
+    uses the file's values and the transition moves by 0.4 kV per 1 % of radius: the values appear as written."""
+    text = tricircle(zone_radius_mm="21.416537", closing_pressure_mbar="20.00049", volume_ml="300.0004")
+    result, _, _ = run(["check", "-", "--no-solve"], tmp_path, stdin=text)
+    assert result.exit_code == 0, result.output
+    for shown in ("21.416537 mm", "20.00049 mbar", "300.0004 ml", "101.325 kPa", "0.5 mm"):
+        assert shown in result.output, (shown, result.output)
