@@ -401,7 +401,16 @@ class Simulation:
         """
         if self.scene.voltage is None:
             raise SceneError("this scene has no [voltage]: nothing to ramp", "[voltage]")
-        result = Ramp(self.emap, self.lam_max).run(self.scene.voltage_hat_path, self.start, progress)
+        path = self.scene.voltage_hat_path
+        result = Ramp(self.emap, self.lam_max).run(path, self.start, progress)
+        if path is not None and len(path) and path[0] > 0:
+            # the state follows the voltage up from the closing state at 0 V: what happens below the first printed
+            # voltage is part of the ramp (a transition there is listed, its states are not printed)
+            result.notes.append(
+                f"the ramp starts from the closing state at 0 V and passes the voltages below the path's first, "
+                f"{self.scene.voltage_of(path[0]) / 1e3:.6g} kV, without printing their states (a transition there "
+                "is listed)"
+            )
         if self.settings.error_estimates:
             self.measure_errors(result.transitions + result.equal_free_energy)
         return RampReport(self.scene, self.settings, result, self.gas, self.scene.effects(), dict(self.scene.fitted))

@@ -3,8 +3,10 @@ it), and the transitions list says so: two zones of the default membrane jump at
 to a more bulged one (the bulged zone's volume 30.7 -> 36.7 ml between the rows at 4.10 and 4.12 kV), which
 printed no marker (audit of 2026-12-01)."""
 
+import json
 import re
 
+import pytest
 from click.testing import CliRunner
 
 from coexist.cli.main import cli
@@ -49,3 +51,16 @@ def test_a_closing_pressure_too_high_is_refused_before_the_ramp_starts(tmp_path)
     r = CliRunner().invoke(cli, ["ramp", str(scene)])
     assert r.exit_code == 2 and "snap-through" in r.output
     assert "following the stable states" not in r.output
+
+
+def test_a_path_that_starts_above_zero_says_so(tmp_path):
+    """Found in review: with ``start_kV = 3.95`` the table's rows start at 3.95 kV while the transitions list the
+    jump at 3.900 kV (the state follows the voltage up from the closing state at 0 V); a note says so."""
+    path = tmp_path / "late.toml"
+    path.write_text(builtin_scene_text("tricircle").replace("start_kV = 0\n", "start_kV = 3.95\n"))
+    r = CliRunner().invoke(cli, ["ramp", str(path), "--json"])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    assert data["steps"][0]["voltage_kV"] == pytest.approx(3.95)
+    assert any(t["voltage_kV"] < 3.95 for t in data["transitions"])
+    assert any("starts from the closing state at 0 V" in n and "3.95 kV" in n for n in data["notes"]), data["notes"]
