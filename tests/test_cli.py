@@ -90,6 +90,8 @@ def test_curves_csv_to_stdout():
     assert r.exit_code == 0
     lines = r.stdout.strip().splitlines()
     assert lines[0].startswith("family,") and len(lines) == 11
+    # the limit points go beside the CSV, to stderr (they were nowhere; found in review)
+    assert "pressure_max" in r.stderr and "pressure_max" not in r.stdout
 
 
 def test_curves_refuses_to_overwrite(tmp_path):

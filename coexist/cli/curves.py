@@ -216,6 +216,7 @@ def curves(
         from coexist.curves import curves_csv
 
         click.echo(curves_csv(pv + vq), nl=False)
+        _summary(pv, vq, settings, err=True)  # the CSV holds the states; the limit points go beside it, to stderr
     elif as_json:
         write_json(data)
     else:
@@ -309,16 +310,19 @@ def _note(curve):
         info(f"note: curve at {name} = {curve.fixed:g} stops early: {curve.stopped_because}")
 
 
-def _summary(pv, vq, settings):
-    click.echo(f"limit points (relative tolerance {settings.rtol:.0e}):")
+def _summary(pv, vq, settings, err=False):
+    click.echo(f"limit points (relative tolerance {settings.rtol:.0e}):", err=err)
     for c in pv:
         for lp in c.limit_points:
             click.echo(
-                f"  Φ̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  p̂ = {lp.p_hat:.10f}  V̂ = {lp.v_hat:.8f}"
+                f"  Φ̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  p̂ = {lp.p_hat:.10f}"
+                f"  V̂ = {lp.v_hat:.8f}",
+                err=err,
             )
     for c in vq:
         for lp in c.limit_points:
             click.echo(
                 f"  p̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  Φ̂ = {lp.phi_hat:.10f}"
-                f"  Q̂ = {lp.q_hat:.8f}"
+                f"  Q̂ = {lp.q_hat:.8f}",
+                err=err,
             )
