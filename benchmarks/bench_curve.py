@@ -29,7 +29,7 @@ boundary value method in ``tests/test_second_method.py``), and
 
 **Voltage–charge curves** (issue 11's target: a 200-state ``Φ̂–Q̂`` curve within 2× of a ``p̂–V̂`` curve):
 :func:`coexist.curves.voltage_charge_curve` of the Gent membrane (Jlim 97) at ``p̂ = 1.5, 1.7, 1.2`` (the
-last with its spiral of nine turning points) on ``λ0 = linspace(1.01, 4, 200)``, against
+last with its spiral of eleven turning points) on ``λ0 = linspace(1.01, 4, 200)``, against
 :func:`coexist.curves.pressure_volume_curve` of the same model at ``Φ̂ = 0.1`` on the same grid, default
 settings (rtol 1e-10), all in one process and interleaved (after a warm-up), ``CHARGE_REPEATS`` runs
 each: best and median wall time, and process CPU time (the machine is shared). Interleaved with them, what

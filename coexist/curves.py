@@ -1,9 +1,12 @@
 """The two curve families of one zone: ``p̂(V̂)`` at fixed ``Φ̂`` and ``Φ̂(Q̂)`` at fixed ``p̂``.
 
 Both are traced by the pole stretch ``λ0``, which does not turn where pressure, voltage or volume
-do, so the curves pass through their limit points. Limit points are then located precisely, not read
+do, so the curves pass through their limit points. A limit point is found where the slope of its quantity
+along the grid changes sign, sampled by the secant of every interval and, at both ends of the curve and around
+its sharp bends, by the exact slope at the node (so also in the first and last intervals, and two within one
+interval: :func:`_grid_extrema`). Limit points are then located precisely, not read
 off the grid: on a ``p̂–V̂`` curve by solving for the extremum (Chebyshev interpolation of the quantity
-on a shrinking bracket around the grid extremum, converged to the solver tolerance); on a ``Φ̂–Q̂``
+on a shrinking bracket around it, converged to the solver tolerance); on a ``Φ̂–Q̂``
 curve as roots of the exact derivatives along it, ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)`` and
 ``dQ̂/dλ0 = ∂Q̂/∂λ0 + (∂Q̂/∂Φ̂) dΦ̂/dλ0`` (the variational equations of the shooting).
 
@@ -223,47 +226,110 @@ def _limit_point(kind: str, s: MembraneStates) -> LimitPoint:
     )
 
 
-def _find_limit_points(states, quantities, evaluate_states, settings):
-    """Refine every interior discrete extremum of the named quantities along the grid.
+#: a node's exact slope (the variational equations) is asked for at both ends of the valid run, where the
+#: secant slopes of the grid on either side of a node differ in sign or by more than this factor (an extremum,
+#: or a bend sharp enough to hide a pair of them within one interval, is near), and next to every such node
+SHARP_BEND = 4.0
+#: an exact node slope smaller than this fraction of the secant slopes beside it is taken to be zero (the node
+#: lies within about this fraction of an interval of an extremum): its sign is not used, the secants decide
+SLOPE_NOISE = 1e-6
 
-    ``quantities`` maps an attribute (``p_hat``) to its pair of kinds
-    (``("pressure_max", "pressure_min")``); all brackets are refined together.
+
+@dataclass(frozen=True)
+class _Bracket:
+    """An extremum (``is_max``, named ``kind``) of the quantity ``attr`` between the grid nodes ``lo < hi``."""
+
+    attr: str
+    kind: str
+    is_max: bool
+    lo: int
+    hi: int
+
+
+def _slope_rows(states: MembraneStates, quantities) -> np.ndarray:
+    """The grid nodes whose exact slopes :func:`_grid_extrema` needs: both ends, every node where the secant
+    slopes of a quantity on either side differ in sign or by more than :data:`SHARP_BEND`, and their
+    neighbours."""
+    n = states.pole_stretch.size
+    flagged = np.zeros(n, dtype=bool)
+    flagged[[0, n - 1]] = True
+    for attr in quantities:
+        d = np.diff(getattr(states, attr)) / np.diff(states.pole_stretch)
+        a, b = np.abs(d[:-1]), np.abs(d[1:])
+        with np.errstate(all="ignore"):
+            sharp = (d[:-1] * d[1:] <= 0) | (np.maximum(a, b) > SHARP_BEND * np.minimum(a, b))
+        centre = np.flatnonzero(sharp) + 1
+        for k in (-1, 0, 1):
+            flagged[np.clip(centre + k, 0, n - 1)] = True
+    return np.flatnonzero(flagged)
+
+
+def _grid_extrema(states: MembraneStates, quantities, slopes=None) -> list[_Bracket]:
+    """Every extremum of the named quantities that the grid shows, with its bracket of grid nodes.
+
+    Along the grid the slope of a quantity is sampled in order by the secant ``(f[i+1] − f[i])/(λ0[i+1] −
+    λ0[i])`` of every interval (it equals the slope somewhere inside) and, where ``slopes`` gives it, the
+    exact slope at a node (:data:`SLOPE_NOISE`). Between two consecutive samples whose signs differ lies an
+    extremum (a maximum where the slope turns negative); its bracket spans both samples: two intervals
+    ``[λ0[i−1], λ0[i+1]]`` between two secants (the discrete extremum at node ``i``), one interval next to a
+    node slope. So a node slope finds an extremum in the first or last interval of the grid, and two in one
+    interval (both node slopes of the sign opposite to its secant) or on either side of one node.
+
+    Parameters
+    ----------
+    states : MembraneStates
+        A valid run of states along increasing pole stretches.
+    quantities : dict
+        Attribute (``p_hat``) → its pair of kinds (``("pressure_max", "pressure_min")``).
+    slopes : dict, optional
+        Attribute → exact ``d(attr)/dλ0`` along the curve at every node (NaN where not known).
+
+    Returns
+    -------
+    list of _Bracket
+        In the order of the quantities, then of the pole stretch.
     """
     grid = states.pole_stretch
-    brackets, kinds, attrs = [], [], []
-    for attr, names in quantities.items():
-        values = getattr(states, attr)
-        d = np.diff(values)
-        for i in range(1, values.size - 1):
-            if d[i - 1] > 0 and d[i] <= 0:
-                brackets.append((grid[i - 1], grid[i + 1], True))
-                kinds.append(names[0])
-            elif d[i - 1] < 0 and d[i] >= 0:
-                brackets.append((grid[i - 1], grid[i + 1], False))
-                kinds.append(names[1])
-            else:
-                continue
-            attrs.append(attr)
-    if not brackets:
-        return []
-    per_attr: dict[str, list[int]] = {}
-    for j, attr in enumerate(attrs):
-        per_attr.setdefault(attr, []).append(j)
+    brackets = []
+    for attr, (max_kind, min_kind) in quantities.items():
+        d = np.diff(getattr(states, attr)) / np.diff(grid)
+        exact = None if slopes is None else slopes.get(attr)
+        samples = []  # (first node, last node, sign)
+        for i in range(grid.size):
+            if exact is not None and np.isfinite(exact[i]):
+                beside = np.abs(d[max(i - 1, 0) : i + 1])
+                if abs(exact[i]) > SLOPE_NOISE * float(beside.max(initial=0.0)):
+                    samples.append((i, i, np.sign(exact[i])))
+            if i < d.size and np.isfinite(d[i]) and d[i] != 0:
+                samples.append((i, i + 1, np.sign(d[i])))
+        for (lo, _, s0), (_, hi, s1) in zip(samples, samples[1:]):
+            if s0 != s1:
+                is_max = bool(s0 > 0)
+                brackets.append(_Bracket(attr, max_kind if is_max else min_kind, is_max, lo, hi))
+    return brackets
 
+
+def _refine_brackets(states: MembraneStates, brackets, evaluate_states, settings) -> list[LimitPoint]:
+    """Locate the extremum in every bracket (:func:`_grid_extrema`) by Chebyshev interpolation on a shrinking
+    bracket (:func:`~coexist.numerics.roots.chebyshev_extremum`; the extremum of its kind with the largest
+    or smallest value in the bracket), all brackets of one quantity in one call per round."""
+    grid = states.pole_stretch
     found: list = [None] * len(brackets)
-    for attr, sel in per_attr.items():
+    for attr in dict.fromkeys(b.attr for b in brackets):
+        sel = [j for j, b in enumerate(brackets) if b.attr == attr]
 
         def g_of(x, attr=attr):
             st = evaluate_states(x)
             return np.where(st.ok, getattr(st, attr), np.nan)
 
-        lo, hi, is_max = (np.array([brackets[j][k] for j in sel]) for k in range(3))
+        lo = np.array([grid[brackets[j].lo] for j in sel])
+        hi = np.array([grid[brackets[j].hi] for j in sel])
         try:
             x_star, _ = chebyshev_extremum(
                 g_of,
                 lo,
                 hi,
-                is_max,
+                np.array([brackets[j].is_max for j in sel]),
                 ftol=0.5 * settings.rtol,
                 xtol=settings.limit_point_xtol,
                 nodes=settings.limit_point_nodes,
@@ -272,8 +338,36 @@ def _find_limit_points(states, quantities, evaluate_states, settings):
             raise SolverError(f"no valid state near a limit point of {attr}: {exc}") from None
         at = evaluate_states(x_star)
         for k, j in enumerate(sel):
-            found[j] = _limit_point(kinds[j], _take(at, slice(k, k + 1)))
-    return sorted(found, key=lambda lp: lp.pole_stretch)
+            found[j] = _limit_point(brackets[j].kind, _take(at, slice(k, k + 1)))
+    return found
+
+
+def _node_slopes(states: MembraneStates, quantities, slopes_at) -> dict | None:
+    """The exact slopes :func:`_grid_extrema` uses, at the nodes :func:`_slope_rows` names (``slopes_at(rows)``
+    gives them: attribute → array over ``rows``); None without ``slopes_at``."""
+    if slopes_at is None or states.pole_stretch.size < 2:
+        return None
+    rows = _slope_rows(states, quantities)
+    known = slopes_at(rows)
+    out = {}
+    for attr in quantities:
+        full = np.full(states.pole_stretch.size, np.nan)
+        full[rows] = known[attr]
+        out[attr] = full
+    return out
+
+
+def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None):
+    """Locate every extremum of the named quantities that the grid shows (:func:`_grid_extrema`, with the exact
+    node slopes ``slopes_at`` gives, if given: :func:`_node_slopes`), all brackets refined together
+    (:func:`_refine_brackets`).
+
+    ``quantities`` maps an attribute (``p_hat``) to its pair of kinds (``("pressure_max", "pressure_min")``).
+    """
+    brackets = _grid_extrema(states, quantities, _node_slopes(states, quantities, slopes_at))
+    if not brackets:
+        return []
+    return sorted(_refine_brackets(states, brackets, evaluate_states, settings), key=lambda lp: lp.pole_stretch)
 
 
 def _check_range(pole_stretch, model):
@@ -337,19 +431,35 @@ def pressure_volume_curve(
         lambda x: solve_states(model, x, phi_hat, settings),
         {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
         settings,
+        lambda x: _pressure_volume_slopes(model, x, phi_hat, settings),
     )
 
 
-def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, settings) -> Curve:
+def _pressure_volume_slopes(model, l0, phi_hat, settings) -> dict:
+    """``dp̂/dλ0`` and ``dV̂/dλ0`` at fixed ``Φ̂`` (the variational equations; NaN where a state fails)."""
+    st = solve_states(model, l0, phi_hat, settings, derivatives=True)
+    dv = StateDerivatives.of(st)
+    return {"p_hat": np.where(st.ok, dv.dp_dl0, np.nan), "v_hat": np.where(st.ok, dv.dv_dl0, np.nan)}
+
+
+def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, settings, slopes_at=None) -> Curve:
     """A curve of ``family`` from ``evaluate(λ0) -> MembraneStates`` on ``pole_stretch`` (default: ``points``
-    from ``1.01 λpre`` to ``max(4, 1.5 λpre)``): its valid run, and the extrema of ``quantities`` located."""
+    from ``1.01 λpre`` to ``max(4, 1.5 λpre)``): its valid run, and the extrema of ``quantities`` located
+    (with the exact node slopes of ``slopes_at(λ0) -> {attribute: d(attr)/dλ0}``, if given:
+    :func:`_find_limit_points`)."""
     if pole_stretch is None:
         pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), points)
     l0 = _check_range(pole_stretch, model)
     states = evaluate(l0)
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
-    limits = _find_limit_points(states, quantities, evaluate, settings)
+    limits = _find_limit_points(
+        states,
+        quantities,
+        evaluate,
+        settings,
+        None if slopes_at is None else lambda rows: slopes_at(states.pole_stretch[rows]),
+    )
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
 
 
@@ -1022,7 +1132,7 @@ def _local_polynomial(grid, values, i):
     pole stretches around ``i``."""
     lo, hi = max(0, i - LIMIT_POINT_HALF_STENCIL), min(grid.size, i + LIMIT_POINT_HALF_STENCIL + 1)
     x = grid[lo:hi] - grid[i]
-    scale = grid[i + 1] - grid[i]
+    scale = grid[i + 1] - grid[i] if i + 1 < grid.size else grid[i] - grid[i - 1]
     return np.polynomial.Polynomial.fit(x, values[lo:hi], x.size - 1, domain=[-scale, scale])
 
 
@@ -1040,47 +1150,192 @@ def _stationary_point(grid, poly, i, is_max):
 LIMIT_POINT_ITERATIONS = 12
 
 
+_CHARGE_QUANTITIES = {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("charge_max", "charge_min")}
+
+
+def _voltage_charge_slopes(model, l0, phi_hat, settings) -> dict:
+    """``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)`` and ``dQ̂/dλ0 = ∂Q̂/∂λ0 + (∂Q̂/∂Φ̂) dΦ̂/dλ0`` along a ``Φ̂–Q̂`` curve at
+    its states ``(λ0, Φ̂)`` (one shot with derivatives; NaN where a state fails)."""
+    return _voltage_charge_slopes_of(solve_states(model, l0, phi_hat, settings, derivatives=True))
+
+
+def _interval_cubic(grid, values, exact, lo):
+    """The cubic Hermite interpolant (in ``λ0 − λ0[lo]``) on ``[λ0[lo], λ0[lo+1]]`` through the values and
+    slopes at both ends: the exact slope where ``exact`` has it, else that of :func:`_local_polynomial`."""
+    h = grid[lo + 1] - grid[lo]
+    d0, d1 = (
+        exact[i] if exact is not None and np.isfinite(exact[i]) else _local_polynomial(grid, values, i).deriv()(0.0)
+        for i in (lo, lo + 1)
+    )
+    secant = (values[lo + 1] - values[lo]) / h
+    return np.polynomial.Polynomial(
+        [values[lo], d0, (3 * secant - 2 * d0 - d1) / h, (d0 + d1 - 2 * secant) / h**2], domain=[0, h], window=[0, h]
+    )
+
+
+def _first_guess(grid, states, slopes, bracket):
+    """The first ``(λ0, Φ̂)`` of a ``Φ̂–Q̂`` limit point in ``bracket``, and the curvatures there of its quantity
+    and of ``Φ̂`` along the curve: on two intervals, the extremum of :func:`_local_polynomial` around the
+    middle node (:func:`_stationary_point`); on one, the stationary point of its kind of
+    :func:`_interval_cubic` (the middle of the interval if it has none)."""
+    values = getattr(states, bracket.attr)
+    if bracket.hi - bracket.lo == 2:
+        i = bracket.lo + 1
+        poly = _local_polynomial(grid, values, i)
+        offset = _stationary_point(grid, poly, i, bracket.is_max)
+        phi_poly = _local_polynomial(grid, states.phi_hat, i)
+        return grid[i] + offset, phi_poly(offset), poly.deriv(2)(offset), phi_poly.deriv(2)(offset)
+    exact = None if slopes is None else slopes
+    poly = _interval_cubic(grid, values, None if exact is None else exact.get(bracket.attr), bracket.lo)
+    h = grid[bracket.hi] - grid[bracket.lo]
+    roots = poly.deriv().roots()
+    roots = roots[np.abs(roots.imag) <= 1e-9 * h].real
+    sign = -1.0 if bracket.is_max else 1.0
+    roots = roots[(roots > 0) & (roots < h) & (sign * poly.deriv(2)(roots) > 0)]
+    offset = roots[0] if roots.size else 0.5 * h
+    phi_poly = _interval_cubic(grid, states.phi_hat, None if exact is None else exact.get("phi_hat"), bracket.lo)
+    return grid[bracket.lo] + offset, phi_poly(offset), poly.deriv(2)(offset), phi_poly.deriv(2)(offset)
+
+
 def _charge_limit_points(model, p_hat, states, settings, evaluate):
     """The voltage and charge extrema of a ``Φ̂–Q̂`` curve, as roots of their exact derivatives along it.
 
     Along the curve ``p̂(λ0, Φ̂) = p̂``: ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)`` and ``dQ̂/dλ0 = ∂Q̂/∂λ0 +
-    (∂Q̂/∂Φ̂) dΦ̂/dλ0``, both from one shot with derivatives. Each discrete extremum of the grid values (as
-    :func:`_find_limit_points` detects them) starts at the extremum of the polynomial through the grid
-    values around it; each step then moves ``λ0`` by the secant (first: the polynomial's curvature) step on
-    the derivative and ``Φ̂`` by the Newton step onto the curve plus the tangent ``dΦ̂/dλ0`` (and curvature)
-    times that move, all extrema in one batched shot. A limit point is located when its voltage meets
-    ``inner_ftol · p̂`` and the ``λ0`` step is at most ``limit_point_xtol/10`` (relative), or at most
-    ``limit_point_xtol`` and no longer shrinking (the noise of the derivatives); one that fails (leaves its
-    grid bracket, meets no valid state, runs out of steps) is refined by :func:`_find_limit_points`.
+    (∂Q̂/∂Φ̂) dΦ̂/dλ0``, both from one shot with derivatives. Every extremum the grid shows
+    (:func:`_grid_extrema`, with the exact slopes at the ends of the curve and around its sharp bends,
+    :func:`_node_slopes`) starts at the extremum of an interpolant of the grid values (:func:`_first_guess`);
+    each step then moves ``λ0`` by the secant (first: the interpolant's curvature) step on the derivative and
+    ``Φ̂`` by the Newton step onto the curve plus the tangent ``dΦ̂/dλ0`` (and curvature) times that move, all
+    extrema in one batched shot. A limit point is located when its voltage meets ``inner_ftol · p̂`` and the
+    ``λ0`` step is at most ``limit_point_xtol/10`` (relative), or at most ``limit_point_xtol`` and no longer
+    shrinking (the noise of the derivatives); one that fails (leaves its grid bracket, meets no valid state,
+    runs out of steps) is located by :func:`_refine_brackets` in its bracket.
     """
     grid = states.pole_stretch
-    items = []  # (grid index, attribute, kind)
-    for attr, names in (("phi_hat", ("voltage_max", "voltage_min")), ("q_hat", ("charge_max", "charge_min"))):
-        values = getattr(states, attr)
-        diff = np.diff(values)
-        for i in range(1, values.size - 1):
-            if diff[i - 1] > 0 and diff[i] <= 0:
-                items.append((i, attr, names[0], True))
-            elif diff[i - 1] < 0 and diff[i] >= 0:
-                items.append((i, attr, names[1], False))
-    if not items:
+    slopes = _node_slopes(
+        states,
+        _CHARGE_QUANTITIES,
+        lambda rows: _voltage_charge_slopes(model, grid[rows], states.phi_hat[rows], settings),
+    )
+    brackets = _grid_extrema(states, _CHARGE_QUANTITIES, slopes)
+    if not brackets:
         return []
-    m = len(items)
-    ftol = settings.inner_ftol * p_hat
+    m = len(brackets)
     lam, phi = np.empty(m), np.empty(m)
     curvature, phi_curvature = np.empty(m), np.empty(m)
-    lo_b, hi_b = np.empty(m), np.empty(m)
-    for j, (i, attr, _, is_max) in enumerate(items):
-        poly = _local_polynomial(grid, getattr(states, attr), i)
-        offset = _stationary_point(grid, poly, i, is_max)
-        phi_poly = _local_polynomial(grid, states.phi_hat, i)
-        lam[j], phi[j] = grid[i] + offset, phi_poly(offset)
-        curvature[j], phi_curvature[j] = poly.deriv(2)(offset), phi_poly.deriv(2)(offset)
-        lo_b[j], hi_b[j] = grid[i - 1], grid[i + 1]
-    is_voltage = np.array([attr == "phi_hat" for _, attr, _, _ in items])
+    for j, bracket in enumerate(brackets):
+        lam[j], phi[j], curvature[j], phi_curvature[j] = _first_guess(grid, states, slopes, bracket)
+    lo_b = np.array([grid[b.lo] for b in brackets])
+    hi_b = np.array([grid[b.hi] for b in brackets])
+    found = _slope_roots(model, p_hat, settings, brackets, lam, phi, curvature, phi_curvature, lo_b, hi_b)
+    for stage in (_from_sampled_slopes, _from_interpolated_values):
+        rest = [j for j in range(m) if found[j] is None]
+        if not rest:
+            break
+        for j, lp in zip(rest, stage(model, p_hat, settings, states, [brackets[j] for j in rest], evaluate)):
+            found[j] = lp
+    return sorted(found, key=lambda lp: lp.pole_stretch)
+
+
+#: interior points of a bracket at which the slope along a ``Φ̂–Q̂`` curve is sampled when the iteration from
+#: the interpolated first guess failed (:func:`_from_sampled_slopes`)
+SLOPE_SAMPLES = 8
+
+
+def _slope_of(bracket, slopes: dict) -> np.ndarray:
+    return slopes["phi_hat"] if bracket.attr == "phi_hat" else slopes["q_hat"]
+
+
+def _from_sampled_slopes(model, p_hat, settings, states, brackets, evaluate) -> list:
+    """Limit points whose iteration from the interpolated first guess failed (two or three extrema may share a
+    grid interval near the centre of a spiral): the exact slope is sampled at :data:`SLOPE_SAMPLES` interior
+    points of each bracket (the states of :func:`voltage_at_pressure`, all brackets in one call), and the
+    iteration (:func:`_slope_roots`) restarts from the first change of sign of its kind, inside it. None for
+    a bracket without one, or whose iteration fails again."""
+    grid = states.pole_stretch
+    k = SLOPE_SAMPLES
+    lo = np.array([grid[b.lo] for b in brackets])
+    hi = np.array([grid[b.hi] for b in brackets])
+    x = lo[:, None] + (hi - lo)[:, None] * (np.arange(1, k + 1) / (k + 1))[None, :]
+    st = evaluate(x.ravel())
+    slopes = _voltage_charge_slopes_of(st)
+    m = len(brackets)
+    guess = [np.full(m, np.nan) for _ in range(6)]  # λ0, Φ̂, curvature, Φ̂ curvature, lo, hi
+    for j, b in enumerate(brackets):
+        t = _slope_of(b, slopes).reshape(m, k)[j]
+        g = slopes["phi_hat"].reshape(m, k)[j]
+        phi = np.where(st.ok, st.phi_hat, np.nan).reshape(m, k)[j]
+        sign = 1.0 if b.is_max else -1.0
+        for i in range(k - 1):
+            if sign * t[i] > 0 > sign * t[i + 1] and np.isfinite(phi[i] + phi[i + 1]):
+                xa, xb = x[j, i], x[j, i + 1]
+                w = t[i] / (t[i] - t[i + 1])
+                values = (xa + w * (xb - xa), phi[i] + w * (phi[i + 1] - phi[i]), (t[i + 1] - t[i]) / (xb - xa))
+                for arr, v in zip(guess, (*values, (g[i + 1] - g[i]) / (xb - xa), xa, xb)):
+                    arr[j] = v
+                break
+    have = [int(j) for j in np.flatnonzero(np.isfinite(guess[0]))]
+    found: list = [None] * m
+    if have:
+        sub = [brackets[j] for j in have]
+        again = _slope_roots(model, p_hat, settings, sub, *(arr[have] for arr in guess))
+        for j, lp in zip(have, again):
+            found[j] = lp
+    return found
+
+
+def _from_interpolated_values(model, p_hat, settings, states, brackets, evaluate) -> list:
+    """The last resort of :func:`_charge_limit_points`: the extremum of the interpolated values in each bracket
+    (:func:`_refine_brackets`: exact to the values' precision, its location only to about the square root of
+    that where the curve is flat), then the root of the slope from there (:func:`_slope_roots`), which
+    replaces it where it converges."""
+    grid = states.pole_stretch
+    rough = _refine_brackets(states, brackets, evaluate, settings)
+    x = np.array([lp.pole_stretch for lp in rough])
+    delta = 1e-3 * np.array([grid[b.hi] - grid[b.lo] for b in brackets])
+    here = evaluate(np.r_[x, x + delta])
+    slopes = _voltage_charge_slopes_of(here)
+    k = len(brackets)
+    is_q = np.array([b.attr == "q_hat" for b in brackets])
+    t = np.where(np.r_[is_q, is_q], slopes["q_hat"], slopes["phi_hat"])
+    with np.errstate(all="ignore"):
+        curvature = (t[k:] - t[:k]) / delta
+        phi_curvature = (slopes["phi_hat"][k:] - slopes["phi_hat"][:k]) / delta
+    again = _slope_roots(
+        model,
+        p_hat,
+        settings,
+        brackets,
+        x,
+        here.phi_hat[:k].copy(),
+        curvature,
+        phi_curvature,
+        np.array([grid[b.lo] for b in brackets]),
+        np.array([grid[b.hi] for b in brackets]),
+    )
+    return [lp if polished is None else polished for lp, polished in zip(rough, again)]
+
+
+def _voltage_charge_slopes_of(st: MembraneStates) -> dict:
+    """:func:`_voltage_charge_slopes` of states shot with derivatives."""
+    dv = StateDerivatives.of(st)
+    with np.errstate(all="ignore"):
+        g = -dv.dp_dl0 / dv.dp_dphi
+        t = dv.dq_dl0 + dv.dq_dphi * g
+    return {"phi_hat": np.where(st.ok, g, np.nan), "q_hat": np.where(st.ok, t, np.nan)}
+
+
+def _slope_roots(model, p_hat, settings, brackets, lam, phi, curvature, phi_curvature, lo_b, hi_b) -> list:
+    """The roots of the slopes along a ``Φ̂–Q̂`` curve (:func:`_charge_limit_points`) from the first guesses
+    ``(λ0, Φ̂)`` with the curvatures there, each kept inside ``(lo_b, hi_b)``; None for those not located."""
+    m = len(brackets)
+    lam, phi = np.array(lam, dtype=float), np.array(phi, dtype=float)
+    curvature, phi_curvature = np.array(curvature, dtype=float), np.array(phi_curvature, dtype=float)
+    ftol = settings.inner_ftol * p_hat
+    is_voltage = np.array([b.attr == "phi_hat" for b in brackets])
+    is_max = np.array([b.is_max for b in brackets])
     found: list = [None] * m
     open_ = np.ones(m, dtype=bool)
-    failed = np.zeros(m, dtype=bool)
     lam_prev, t_prev, g_prev = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.nan)
     step_prev = np.full(m, np.inf)
     for _ in range(LIMIT_POINT_ITERATIONS):
@@ -1106,29 +1361,22 @@ def _charge_limit_points(model, p_hat, states, settings, evaluate):
         size = np.abs(step)
         tol = settings.limit_point_xtol * np.abs(lam[idx])
         located = met & ~bad & ((size <= 0.1 * tol) | ((size <= tol) & (size >= 0.5 * step_prev[idx])))
+        # a root of the slope where it falls (a maximum) or rises: two extrema may share a bracket
+        wrong_kind = located & ~(np.where(is_max[idx], -1.0, 1.0) * curvature[idx] > 0)
+        bad |= wrong_kind
+        located &= ~wrong_kind
         for k in np.flatnonzero(located):
             j = idx[k]
-            found[j] = _limit_point(items[j][2], _take(st, slice(k, k + 1)))
+            found[j] = _limit_point(brackets[j].kind, _take(st, slice(k, k + 1)))
         new_lam = lam[idx] + step
         left = ~located & ~bad & ~((new_lam > lo_b[idx]) & (new_lam < hi_b[idx]))
-        failed[idx[bad | left]] = True
         open_[idx[located | bad | left]] = False
         lam_prev[idx], t_prev[idx], g_prev[idx], step_prev[idx] = lam[idx], t, g, size
         with np.errstate(all="ignore"):
             phi[idx] = phi[idx] - f / dv.dp_dphi + g * step + 0.5 * phi_curvature[idx] * step**2
         lam[idx] = np.where(located | bad | left, lam[idx], new_lam)
-        lost = open_[idx] & ~(phi[idx] > 0)
-        failed[idx[lost]] = True
-        open_[idx[lost]] = False
-    failed |= open_
-    for jj in np.flatnonzero(failed):
-        j = int(jj)
-        at, name, kind, _ = items[j]
-        names = ("voltage_max", "voltage_min") if name == "phi_hat" else ("charge_max", "charge_min")
-        sub = _take(states, slice(at - 1, at + 2))
-        (lp,) = [q for q in _find_limit_points(sub, {name: names}, evaluate, settings) if q.kind == kind]
-        found[j] = lp
-    return sorted(found, key=lambda lp: lp.pole_stretch)
+        open_[idx[open_[idx] & ~(phi[idx] > 0)]] = False
+    return found
 
 
 def voltage_charge_curve(

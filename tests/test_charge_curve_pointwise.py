@@ -2,7 +2,7 @@
 point (an independent root search at each pole stretch: safeguarded Newton from the regula falsi point of
 ``[0, s_pole]``, every shot with derivatives, no interpolated first guess, no chord steps), on the cases of
 ``benchmarks/bench_curve.py --charge-only`` (Gent Jlim 97 at ``p̂ = 1.5, 1.7, 1.2``, the last with its spiral
-of nine turning points), a neo-Hookean case and a prestretched one.
+of eleven turning points), a neo-Hookean case and a prestretched one.
 
 The tolerance is the curve's own ``rtol`` (the integration's relative tolerance, 1e-10 by default):
 
@@ -98,14 +98,17 @@ def test_turning_points_are_the_pointwise_roots(solved, case):
     model, c, ref = solved[case]
     grid, p, rtol = _grid(model), c.fixed, c.rtol
     assert c.limit_points
-    # the same turning points as the discrete extrema of the reference's own grid values, in order (voltage
-    # and charge extrema separately: a voltage and a charge extremum may share a grid interval)
+    # the same turning points, in order, as the changes of sign of the reference's slope along its grid, sampled
+    # by the exact slope at every node and the secant of every interval between them (this finds those in
+    # the first and last intervals and pairs within one interval; voltage and charge extrema separately: they
+    # may share a grid interval)
     at = np.searchsorted(grid, c.pole_stretch)
     for attr, up, down in (("phi_hat", "voltage_max", "voltage_min"), ("q_hat", "charge_max", "charge_min")):
         v = getattr(ref, attr)[at]
-        expected = [
-            up if a > 0 else down for a, b in zip(np.diff(v)[:-1], np.diff(v)[1:]) if (a > 0 >= b) or (a < 0 <= b)
-        ]
+        exact = _along(ref.derivatives.take(at), up)
+        signs = np.sign(np.ravel(np.c_[exact[:-1], np.diff(v)]).tolist() + [exact[-1]])
+        signs = signs[signs != 0]
+        expected = [up if a > 0 else down for a, b in zip(signs[:-1], signs[1:]) if a != b]
         assert [lp.kind for lp in c.limit_points if lp.kind in (up, down)] == expected
     x = np.array(
         [[lp.pole_stretch * (1 - 1e-4), lp.pole_stretch, lp.pole_stretch * (1 + 1e-4)] for lp in c.limit_points]

@@ -4,7 +4,7 @@ of the exact ``dΦ̂/dλ0`` and ``dQ̂/dλ0``) give what the slow ones gave, che
 - every state carries the pressure when it is shot again from scratch;
 - every limit point is where an independent root search (scipy's ``brentq`` on the derivative along the
   curve, with the voltage at each pole stretch found by a second ``brentq`` on freshly shot states) puts it;
-- the hard cases keep their structure and their numbers: the spiral at ``p̂ = 1.2`` (nine turning points),
+- the hard cases keep their structure and their numbers: the spiral at ``p̂ = 1.2`` (eleven turning points),
   the late start at ``p̂ = 1.5``, the late start and early stop at ``p̂ = 1.7`` (neo-Hookean), a
   prestretched membrane; the reference numbers are those of the former regula-falsi implementation at
   ``rtol = 1e-12`` (Chebyshev extremum search), which the new one matches to ``1e-8`` or better.
@@ -195,6 +195,10 @@ REFERENCE = {
         ("voltage_min", 3.215673887780356, 0.33986870315230183, 5.329057333358646),
         ("charge_min", 3.248534804283565, 0.3398715367668826, 5.3288844202714465),
         ("voltage_max", 3.2522332593737953, 0.33987158999208106, 5.328886278408712),
+        # both in the last grid interval (3.2487..3.2638), which the former implementation did not search; these
+        # from it at rtol 1e-12 on linspace(3.2, 3.27, 1000), where they are discrete extrema of the grid
+        ("charge_max", 3.261302691619109, 0.3398714806978476, 5.328892966528534),
+        ("voltage_min", 3.262310580101681, 0.3398714786656854, 5.328892895635453),
     ],
     ("neo", 1.7): [
         ("voltage_max", 2.0255631685771056, 0.16835769072925064, 2.823583609747974),
@@ -222,15 +226,16 @@ def test_limit_points_match_the_reference(curves, key):
 
 def test_spiral_at_low_pressure(curves):
     """p̂ = 1.2 (Gent, Jlim 97): starts late (no voltage reaches 1.2 below λ0 ≈ 1.27), stops early (none
-    beyond ≈ 3.26), nine turning points alternating voltage and charge, the voltage monotone between the
+    beyond ≈ 3.26), eleven turning points alternating voltage and charge (the last two in the last grid
+    interval), the voltage monotone between the
     voltage extrema and the charge between the charge extrema; it shares its first valid run with the
     former implementation (134 states from 1.26543)."""
     _, c = curves[("gent", 1.2)]
     assert c.starts_because.startswith("no_equilibrium") and c.stopped_because.startswith("no_equilibrium")
     assert c.pole_stretch.size == 134 and c.pole_stretch[0] == pytest.approx(1.265427135678392, abs=1e-12)
     kinds = [lp.kind for lp in c.limit_points]
-    assert kinds[0::2] == ["voltage_max", "voltage_min", "voltage_max", "voltage_min", "voltage_max"]
-    assert kinds[1::2] == ["charge_max", "charge_min", "charge_max", "charge_min"]
+    assert kinds[0::2] == ["voltage_max", "voltage_min", "voltage_max", "voltage_min", "voltage_max", "voltage_min"]
+    assert kinds[1::2] == ["charge_max", "charge_min", "charge_max", "charge_min", "charge_max"]
     for attr, prefix in (("phi_hat", "voltage"), ("q_hat", "charge")):
         cuts = [lp.pole_stretch for lp in c.limit_points if lp.kind.startswith(prefix)]
         pieces = np.split(np.arange(c.pole_stretch.size), np.searchsorted(c.pole_stretch, cuts))

@@ -45,11 +45,15 @@ def test_step_budget_end_is_the_physical_end_it_hides():
     scene = variant(closing_pressure_mbar=0.5)
     t, report = _end(scene, 1e-10)
     # not the step budget (old code: 'solver_budget' at 4.904912505 kV) but the pole's tension reaching zero,
-    # located with a larger budget; a whole ramp at max_steps = 64000 puts it at 4.904912727009 kV
+    # located with a larger budget; a whole ramp at max_steps = 64000 put it at 4.904912727009 kV. The location is
+    # not reproducible to its bracket (± 9e-10 kV, printed as not measured): a change of 5e-12 in the
+    # zero-voltage pressure maximum's pole stretch (the limit point found in one grid interval instead of two)
+    # moved it to 4.904912677 kV, and there the pole tension is still positive (it vanishes 4.6e-8 kV higher at
+    # that pole stretch); 1e-7 is what is known
     assert not t.source.note.startswith("solver_budget")
     assert t.source.note.startswith("wrinkling: the tension at the pole")
     assert t.source.max_steps is not None and t.source.max_steps > SolverSettings().max_steps
-    assert abs(report.voltage_kV(t.phi_hat) - 4.904912727) < 1e-8
+    assert abs(report.voltage_kV(t.phi_hat) - 4.904912727) < 1e-7
     assert np.isfinite(t.phi_hat_error)
 
 

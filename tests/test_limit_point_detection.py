@@ -1,0 +1,119 @@
+"""Limit points that the grid values alone do not show (found in review, helper-60): an extremum in the first or
+last interval of a curve's valid run, and a maximum and a minimum within one interval. The curves now sample the
+slope along the grid by the secants and, at both ends and around sharp bends, by the exact slopes of the
+variational equations (``curves._grid_extrema``). Every limit point found is compared with the same one
+located on a grid where it is an ordinary interior discrete extremum (the detection the former code had)."""
+
+import json
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from coexist.cli.main import cli
+from coexist.curves import pressure_volume_curve, voltage_charge_curve
+from coexist.model import build_model
+from coexist.settings import SolverSettings
+
+#: λ0 to the limit-point tolerance (1e-9 relative) of either location, with room for both; the extremal value to
+#: the states' tolerance (rtol 1e-10, ×10); the other quantities read there through their slopes (|dV̂/dλ0| ≈ 4)
+LAMBDA_TOL = 3e-9
+VALUE_TOL = 1e-9
+READ_TOL = 2e-8
+#: the quantity each kind is an extremum of
+EXTREMAL = {"pressure": "p_hat", "volume": "v_hat", "voltage": "phi_hat", "charge": "q_hat"}
+
+
+def _kinds(curve, prefix=""):
+    return [(lp.kind, lp) for lp in curve.limit_points if lp.kind.startswith(prefix)]
+
+
+def _same(found, reference):
+    assert found.kind == reference.kind
+    assert found.pole_stretch == pytest.approx(reference.pole_stretch, rel=LAMBDA_TOL)
+    extremal = EXTREMAL[found.kind.split("_")[0]]
+    for name in ("p_hat", "v_hat", "phi_hat", "q_hat"):
+        tol = VALUE_TOL if name == extremal else READ_TOL
+        assert getattr(found, name) == pytest.approx(getattr(reference, name), rel=tol, abs=1e-12), name
+
+
+@pytest.fixture(scope="module")
+def neo():
+    return build_model("neo-hookean", voltage=True)
+
+
+def test_pressure_minimum_in_the_last_interval(neo):
+    """``coexist curves --phi-hat 0.2 --pole-stretch 1.01,3.775``: the pressure minimum at λ0 ≈ 3.7713 lies in
+    the last of 200 intervals (the grid values fall to the end); it was not reported."""
+    ref = dict(_kinds(pressure_volume_curve(neo, 0.2, np.linspace(1.01, 4.0, 200)), "pressure"))
+    c = pressure_volume_curve(neo, 0.2, np.linspace(1.01, 3.775, 200))
+    assert np.all(np.diff(c.p_hat[-5:]) < 0)  # nothing to see in the values
+    found = dict(_kinds(c, "pressure"))
+    assert set(found) == set(ref) == {"pressure_max", "pressure_min"}
+    for kind in ref:
+        _same(found[kind], ref[kind])
+    assert c.pole_stretch[-2] < found["pressure_min"].pole_stretch < c.pole_stretch[-1]
+
+
+def test_pressure_maximum_in_the_first_interval(neo):
+    """A grid whose first interval holds the pressure maximum (λ0 ≈ 2.055 at Φ̂ = 0.15): the values fall from the
+    first node on."""
+    ref = dict(_kinds(pressure_volume_curve(neo, 0.15, np.linspace(1.01, 4.0, 200)), "pressure_max"))
+    grid = np.linspace(2.05, 3.5, 100)
+    c = pressure_volume_curve(neo, 0.15, grid)
+    assert np.all(np.diff(c.p_hat[:5]) < 0)
+    (found,) = [lp for kind, lp in _kinds(c, "pressure_max")]
+    _same(found, ref["pressure_max"])
+    assert grid[0] < found.pole_stretch < grid[1]
+
+
+@pytest.mark.parametrize("start", [1.15, 1.25, 1.05])
+def test_pressure_maximum_and_minimum_in_one_interval(start):
+    """Gent Jlim 72 at zero voltage: the pressure maximum (λ0 ≈ 2.823) and minimum (≈ 3.217) lie 0.39 apart, so a
+    grid of step 0.45 or 0.6 puts both in one interval, or one on either side of a node, and its values rise
+    through them; neither was reported."""
+    model = build_model("gent", jlim=72.0, voltage=False)
+    ref = dict(_kinds(pressure_volume_curve(model, 0.0, np.linspace(1.01, 6.0, 2000)), "pressure"))
+    assert set(ref) == {"pressure_max", "pressure_min"}
+    for step in (0.45, 0.6):
+        grid = np.arange(start, 5.0, step)
+        c = pressure_volume_curve(model, 0.0, grid)
+        found = dict(_kinds(c, "pressure"))
+        assert set(found) == set(ref), (start, step)
+        for kind in ref:
+            _same(found[kind], ref[kind])
+
+
+def test_voltage_maximum_in_the_first_interval():
+    """A ``Φ̂–Q̂`` curve (Gent Jlim 97, p̂ = 1.5) on a grid whose first interval holds its voltage maximum."""
+    model = build_model("gent", jlim=97.0, voltage=True)
+    settings = SolverSettings()
+    ref = dict(_kinds(voltage_charge_curve(model, 1.5, np.linspace(1.01, 4.0, 200), settings), "voltage_max"))
+    at = ref["voltage_max"].pole_stretch
+    grid = np.linspace(at - 0.004, at + 1.0, 80)
+    c = voltage_charge_curve(model, 1.5, grid, settings)
+    assert c.pole_stretch[0] == grid[0] and np.all(np.diff(c.phi_hat[:5]) < 0)
+    (found,) = [lp for kind, lp in _kinds(c, "voltage_max")]
+    _same(found, ref["voltage_max"])
+
+
+def test_a_monotone_stretch_has_none(neo):
+    """No limit point where there is none: the zero-voltage curve past its maximum, and a grid that stops just
+    short of it (the exact slopes at the ends agree with the secants)."""
+    assert pressure_volume_curve(neo, 0.0, np.linspace(2.5, 4.0, 60)).limit_points == []
+    c = pressure_volume_curve(neo, 0.0, np.linspace(1.01, 4.0, 200))
+    (lp,) = [lp for kind, lp in _kinds(c, "pressure_max")]
+    assert pressure_volume_curve(neo, 0.0, np.linspace(1.01, lp.pole_stretch * (1 - 1e-4), 50)).limit_points == []
+
+
+def test_command_line_reports_the_minimum_in_the_last_interval():
+    """The review's reproduction, as a user runs it."""
+    r = CliRunner().invoke(
+        cli, ["curves", "--phi-hat", "0.2", "--p-hat", "none", "--pole-stretch", "1.01,3.775", "--json"]
+    )
+    assert r.exit_code == 0, r.output
+    (curve,) = json.loads(r.stdout)["curves"]
+    kinds = [lp["kind"] for lp in curve["limit_points"]]
+    assert "pressure_min" in kinds
+    (lp,) = [lp for lp in curve["limit_points"] if lp["kind"] == "pressure_min"]
+    assert lp["pole_stretch"] == pytest.approx(3.77130543, abs=1e-8)
