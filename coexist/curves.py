@@ -230,9 +230,10 @@ def _limit_point(kind: str, s: MembraneStates) -> LimitPoint:
 #: secant slopes of the grid on either side of a node differ in sign or by more than this factor (an extremum,
 #: or a bend sharp enough to hide a pair of them within one interval, is near), and next to every such node
 SHARP_BEND = 4.0
-#: an exact node slope smaller than this fraction of the secant slopes beside it is taken to be zero (the node
-#: lies within about this fraction of an interval of an extremum): its sign is not used, the secants decide
-SLOPE_NOISE = 1e-6
+#: an exact node slope smaller than this fraction of the secant slopes beside it is taken to be zero: its sign is
+#: not used, the secants decide (the slopes' own noise is about 1e-11 absolute; a larger fraction, 1e-6, hid an
+#: extremum in the last interval when the run ended within 1e-7 of another: review, helper-61)
+SLOPE_NOISE = 1e-9
 
 
 @dataclass(frozen=True)
@@ -358,16 +359,93 @@ def _node_slopes(states: MembraneStates, quantities, slopes_at) -> dict | None:
 
 
 def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None):
-    """Locate every extremum of the named quantities that the grid shows (:func:`_grid_extrema`, with the exact
-    node slopes ``slopes_at`` gives, if given: :func:`_node_slopes`), all brackets refined together
-    (:func:`_refine_brackets`).
+    """Locate every extremum of the named quantities that the grid shows (:func:`_grid_extrema`).
 
     ``quantities`` maps an attribute (``p_hat``) to its pair of kinds (``("pressure_max", "pressure_min")``).
+    With ``slopes_at(λ0) -> (states, {attribute: d(attr)/dλ0})`` (exact slopes along the curve), the grid's
+    node slopes come from it (:func:`_node_slopes`) and an extremum in one interval with both end slopes is
+    the root of its slope (:func:`_slope_extrema`, from the extremum of the interval's cubic Hermite
+    interpolant); every other one, and any such root not located, by the extremum of the interpolated values
+    (:func:`_refine_brackets`).
     """
-    brackets = _grid_extrema(states, quantities, _node_slopes(states, quantities, slopes_at))
+    node = None if slopes_at is None else (lambda rows: slopes_at(states.pole_stretch[rows])[1])
+    slopes = _node_slopes(states, quantities, node)
+    brackets = _grid_extrema(states, quantities, slopes)
     if not brackets:
         return []
-    return sorted(_refine_brackets(states, brackets, evaluate_states, settings), key=lambda lp: lp.pole_stretch)
+    found: list = [None] * len(brackets)
+    if slopes_at is not None and slopes is not None:
+        found = _slope_extrema(states, brackets, slopes, slopes_at, settings)
+    rest = [j for j, lp in enumerate(found) if lp is None]
+    if rest:
+        for j, lp in zip(rest, _refine_brackets(states, [brackets[j] for j in rest], evaluate_states, settings)):
+            found[j] = lp
+    return sorted(found, key=lambda lp: lp.pole_stretch)
+
+
+def _cubic_extremum(poly, h, is_max) -> float:
+    """The first stationary point of its kind in ``(0, h)`` of a cubic (:func:`_interval_cubic`), NaN if none."""
+    roots = poly.deriv().roots()
+    roots = roots[np.abs(roots.imag) <= 1e-9 * h].real
+    sign = -1.0 if is_max else 1.0
+    roots = roots[(roots > 0) & (roots < h) & (sign * poly.deriv(2)(roots) > 0)]
+    return float(roots[0]) if roots.size else np.nan
+
+
+def _slope_extrema(states, brackets, slopes, slopes_at, settings) -> list:
+    """Extrema at a fixed parameter (a ``p̂–V̂`` curve's ``Φ̂``) as roots of their exact slopes ``t(λ0)``.
+
+    A bracket of one interval with the exact slope at both ends starts at the extremum of the cubic Hermite
+    interpolant there (values and exact slopes), with its curvature; each step is ``−t/t'`` with ``t'`` the
+    secant of the last two slopes (first: the cubic's), all brackets in one shot with derivatives. Located as
+    :func:`_slope_roots` locates them (the step at most ``limit_point_xtol/10``, or at most ``limit_point_xtol``
+    and no longer shrinking; the slope falls through a maximum); None for a bracket without a start, or whose
+    step leaves it or meets an invalid state. (The extremum of interpolated values is located only to about the
+    square root of the values' noise where the curve is flat: 1e-7 in λ0 at rtol 1e-10, review, helper-61.)"""
+    grid = states.pole_stretch
+    m = len(brackets)
+    lam, curvature = np.full(m, np.nan), np.full(m, np.nan)
+    for j, b in enumerate(brackets):
+        exact = slopes.get(b.attr)
+        if b.hi - b.lo != 1 or exact is None or not np.isfinite(exact[b.lo] + exact[b.hi]):
+            continue
+        poly = _interval_cubic(grid, getattr(states, b.attr), exact, b.lo)
+        offset = _cubic_extremum(poly, grid[b.hi] - grid[b.lo], b.is_max)
+        if np.isfinite(offset):
+            lam[j], curvature[j] = grid[b.lo] + offset, poly.deriv(2)(offset)
+    found: list = [None] * m
+    lo_b = np.array([grid[b.lo] for b in brackets])
+    hi_b = np.array([grid[b.hi] for b in brackets])
+    is_max = np.array([b.is_max for b in brackets])
+    open_ = np.isfinite(lam) & np.isfinite(curvature)
+    lam_prev, t_prev, step_prev = np.full(m, np.nan), np.full(m, np.nan), np.full(m, np.inf)
+    for _ in range(LIMIT_POINT_ITERATIONS):
+        idx = np.flatnonzero(open_)
+        if idx.size == 0:
+            break
+        st, slope = slopes_at(lam[idx])
+        t = np.array([slope[brackets[j].attr][k] for k, j in enumerate(idx)])
+        with np.errstate(all="ignore"):
+            dlam = lam[idx] - lam_prev[idx]
+            usable = np.abs(dlam) > 1e-12 * np.abs(lam[idx])
+            secant = np.where(usable, (t - t_prev[idx]) / dlam, np.nan)
+            curvature[idx] = np.where(usable & np.isfinite(secant), secant, curvature[idx])
+            step = -t / curvature[idx]
+        size = np.abs(step)
+        tol = settings.limit_point_xtol * np.abs(lam[idx])
+        bad = ~st.ok | ~np.isfinite(step)
+        located = ~bad & ((size <= 0.1 * tol) | ((size <= tol) & (size >= 0.5 * step_prev[idx])))
+        wrong_kind = located & ~(np.where(is_max[idx], -1.0, 1.0) * curvature[idx] > 0)
+        bad |= wrong_kind
+        located &= ~wrong_kind
+        for k in np.flatnonzero(located):
+            found[idx[k]] = _limit_point(brackets[idx[k]].kind, _take(st, slice(k, k + 1)))
+        new_lam = lam[idx] + step
+        left = ~located & ~bad & ~((new_lam > lo_b[idx]) & (new_lam < hi_b[idx]))
+        open_[idx[located | bad | left]] = False
+        lam_prev[idx], t_prev[idx], step_prev[idx] = lam[idx], t, size
+        lam[idx] = np.where(located | bad | left, lam[idx], new_lam)
+    return found
 
 
 def _check_range(pole_stretch, model):
@@ -435,17 +513,18 @@ def pressure_volume_curve(
     )
 
 
-def _pressure_volume_slopes(model, l0, phi_hat, settings) -> dict:
-    """``dp̂/dλ0`` and ``dV̂/dλ0`` at fixed ``Φ̂`` (the variational equations; NaN where a state fails)."""
+def _pressure_volume_slopes(model, l0, phi_hat, settings) -> tuple[MembraneStates, dict]:
+    """The states at ``λ0`` and fixed ``Φ̂`` with ``dp̂/dλ0`` and ``dV̂/dλ0`` (the variational equations; NaN where
+    a state fails)."""
     st = solve_states(model, l0, phi_hat, settings, derivatives=True)
     dv = StateDerivatives.of(st)
-    return {"p_hat": np.where(st.ok, dv.dp_dl0, np.nan), "v_hat": np.where(st.ok, dv.dv_dl0, np.nan)}
+    return st, {"p_hat": np.where(st.ok, dv.dp_dl0, np.nan), "v_hat": np.where(st.ok, dv.dv_dl0, np.nan)}
 
 
 def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, settings, slopes_at=None) -> Curve:
     """A curve of ``family`` from ``evaluate(λ0) -> MembraneStates`` on ``pole_stretch`` (default: ``points``
     from ``1.01 λpre`` to ``max(4, 1.5 λpre)``): its valid run, and the extrema of ``quantities`` located
-    (with the exact node slopes of ``slopes_at(λ0) -> {attribute: d(attr)/dλ0}``, if given:
+    (with the exact slopes of ``slopes_at(λ0) -> (states, {attribute: d(attr)/dλ0})``, if given:
     :func:`_find_limit_points`)."""
     if pole_stretch is None:
         pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), points)
@@ -453,13 +532,7 @@ def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, set
     states = evaluate(l0)
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
-    limits = _find_limit_points(
-        states,
-        quantities,
-        evaluate,
-        settings,
-        None if slopes_at is None else lambda rows: slopes_at(states.pole_stretch[rows]),
-    )
+    limits = _find_limit_points(states, quantities, evaluate, settings, slopes_at)
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
 
 
@@ -1188,11 +1261,8 @@ def _first_guess(grid, states, slopes, bracket):
     exact = None if slopes is None else slopes
     poly = _interval_cubic(grid, values, None if exact is None else exact.get(bracket.attr), bracket.lo)
     h = grid[bracket.hi] - grid[bracket.lo]
-    roots = poly.deriv().roots()
-    roots = roots[np.abs(roots.imag) <= 1e-9 * h].real
-    sign = -1.0 if bracket.is_max else 1.0
-    roots = roots[(roots > 0) & (roots < h) & (sign * poly.deriv(2)(roots) > 0)]
-    offset = roots[0] if roots.size else 0.5 * h
+    offset = _cubic_extremum(poly, h, bracket.is_max)
+    offset = offset if np.isfinite(offset) else 0.5 * h
     phi_poly = _interval_cubic(grid, states.phi_hat, None if exact is None else exact.get("phi_hat"), bracket.lo)
     return grid[bracket.lo] + offset, phi_poly(offset), poly.deriv(2)(offset), phi_poly.deriv(2)(offset)
 
