@@ -376,6 +376,12 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     found: list = [None] * len(brackets)
     if slopes_at is not None and slopes is not None:
         found = _slope_extrema(states, brackets, slopes, slopes_at, settings)
+        done = [j for j, lp in enumerate(found) if lp is not None]
+        if done:  # the states at the roots as the curve's own evaluation gives them (a shot with derivatives
+            # takes other steps: 1e-11 apart)
+            at = evaluate_states(np.array([found[j].pole_stretch for j in done]))
+            for k, j in enumerate(done):
+                found[j] = _limit_point(brackets[j].kind, _take(at, slice(k, k + 1)))
     rest = [j for j, lp in enumerate(found) if lp is None]
     if rest:
         for j, lp in zip(rest, _refine_brackets(states, [brackets[j] for j in rest], evaluate_states, settings)):
