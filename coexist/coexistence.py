@@ -606,7 +606,13 @@ def _limit_pressures(model, phi_hat: float, lo, hi, settings: SolverSettings) ->
         nodes=settings.limit_point_nodes,
     )
     s = solve_states(model, x, phi_hat, settings)
-    inside = s.ok & (x > lo) & (x < hi)
+    # an interior extremum: the exact slope dp̂/dλ0 rises into it and falls out of it at the bracket's ends (the
+    # interpolant of a monotone stretch has its extremum just inside an end: review, helper-62)
+    ends = solve_states(model, np.r_[lo, hi], phi_hat, settings, derivatives=True)
+    slope = np.where(ends.ok, StateDerivatives.of(ends).dp_dl0, np.nan)
+    sign = np.array([1.0, -1.0])  # the maximum, then the minimum
+    turns = (sign * slope[:2] > 0) & (sign * slope[2:] < 0)
+    inside = s.ok & (x > lo) & (x < hi) & turns
     return x, np.where(inside, s.p_hat, np.nan)
 
 
@@ -787,9 +793,19 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
         )
     phi_values = np.asarray(phi_values, dtype=float)
     pre = model.prestretch
+    states, notes = [], []
+    lock = model.elasticity.locking_stretch
+    if lock is not None and pole_stretch_max > settings.locking_margin * lock:
+        # a grid laid far past where the chains lock puts a few of its points on the curve: the splines' loops are
+        # then wrong (review, helper-62: Gent Jlim 97 to λ0 = 100 gave a spinodal 1.6 % off with a 1.8e-10 error)
+        end = settings.locking_margin * lock
+        notes.append(
+            f"pole_stretch_max = {pole_stretch_max:.6g} lies beyond the model's range; the curves end at "
+            f"λ0 = {end:.6g} (locking_margin times the Gent locking stretch)"
+        )
+        pole_stretch_max = end
     u = np.linspace(np.sqrt(2e-3 * pre), np.sqrt(pole_stretch_max - pre), settings.phase_diagram_points)
     smax, smin, bino, emax, emin, ebino = (np.full(phi_values.size, np.nan) for _ in range(6))
-    states, notes = [], []
     loops: list = [None] * phi_values.size
 
     def curve_at(phi):

@@ -265,7 +265,7 @@ def _slope_rows(states: MembraneStates, quantities) -> np.ndarray:
     return np.flatnonzero(flagged)
 
 
-def _grid_extrema(states: MembraneStates, quantities, slopes=None) -> list[_Bracket]:
+def _grid_extrema(states: MembraneStates, quantities, slopes=None, resolution: float = 0.0) -> list[_Bracket]:
     """Every extremum of the named quantities that the grid shows, with its bracket of grid nodes.
 
     Along the grid the slope of a quantity is sampled in order by the secant ``(f[i+1] − f[i])/(λ0[i+1] −
@@ -284,6 +284,9 @@ def _grid_extrema(states: MembraneStates, quantities, slopes=None) -> list[_Brac
         Attribute (``p_hat``) → its pair of kinds (``("pressure_max", "pressure_min")``).
     slopes : dict, optional
         Attribute → exact ``d(attr)/dλ0`` along the curve at every node (NaN where not known).
+    resolution : float
+        The values' relative error (the solver's ``rtol``): extrema whose swing is below it are dropped
+        (:func:`_resolved`).
 
     Returns
     -------
@@ -293,7 +296,8 @@ def _grid_extrema(states: MembraneStates, quantities, slopes=None) -> list[_Brac
     grid = states.pole_stretch
     brackets = []
     for attr, (max_kind, min_kind) in quantities.items():
-        d = np.diff(getattr(states, attr)) / np.diff(grid)
+        values = getattr(states, attr)
+        d = np.diff(values) / np.diff(grid)
         exact = None if slopes is None else slopes.get(attr)
         samples = []  # (first node, last node, sign)
         for i in range(grid.size):
@@ -303,11 +307,62 @@ def _grid_extrema(states: MembraneStates, quantities, slopes=None) -> list[_Brac
                     samples.append((i, i, np.sign(exact[i])))
             if i < d.size and np.isfinite(d[i]) and d[i] != 0:
                 samples.append((i, i + 1, np.sign(d[i])))
+        found = []
         for (lo, _, s0), (_, hi, s1) in zip(samples, samples[1:]):
             if s0 != s1:
                 is_max = bool(s0 > 0)
-                brackets.append(_Bracket(attr, max_kind if is_max else min_kind, is_max, lo, hi))
+                found.append(_Bracket(attr, max_kind if is_max else min_kind, is_max, lo, hi))
+        brackets += _resolved(found, values, resolution, grid, exact)
     return brackets
+
+
+def _resolved(brackets: list, values: np.ndarray, resolution: float, grid=None, exact=None) -> list:
+    """The extrema of one quantity (in order along the grid) that stand out of the values' noise.
+
+    Each extremum's value is estimated: in a bracket of one interval with the exact slopes ``exact`` at both
+    ends, as the extremum of the interval's cubic Hermite interpolant; otherwise as the extreme grid value in
+    its bracket. The adjacent maximum and minimum whose values differ least are dropped together while they
+    differ by at most ``resolution`` times the larger (their swing is below the states' own error: noise on a
+    flat stretch, near the centre of a spiral), and so is a first or last extremum within that of the
+    curve's first or last value (one whose bracket holds that end node is kept: the exact slope there, not a
+    difference of values, shows it). What is left are the extrema that persist (a maximum kept is the
+    highest of those merged into it)."""
+    if resolution <= 0 or not brackets:
+        return brackets
+    items = list(brackets)
+    peak = []
+    for b in items:
+        value = np.nan
+        if b.hi - b.lo == 1 and grid is not None and exact is not None and np.isfinite(exact[b.lo] + exact[b.hi]):
+            poly = _interval_cubic(grid, values, exact, b.lo)
+            offset = _cubic_extremum(poly, grid[b.hi] - grid[b.lo], b.is_max)
+            value = float(poly(offset)) if np.isfinite(offset) else np.nan
+        if not np.isfinite(value):
+            value = float(values[b.lo : b.hi + 1].max() if b.is_max else values[b.lo : b.hi + 1].min())
+        peak.append(value)
+
+    def floor(a, b):
+        return resolution * max(abs(a), abs(b))
+
+    def end_swing(k, end):
+        """How far extremum ``k``'s value lies from the curve's value at ``end`` (0 or -1)."""
+        touches = end % values.size in (items[k].lo, items[k].hi)
+        return np.inf if touches else abs(peak[k] - values[end])
+
+    while items:
+        swings = [abs(peak[k] - peak[k + 1]) - floor(peak[k], peak[k + 1]) for k in range(len(items) - 1)]
+        k = int(np.argmin(swings)) if swings else -1
+        if k >= 0 and swings[k] <= 0:
+            del items[k : k + 2], peak[k : k + 2]
+            continue
+        if end_swing(0, 0) <= floor(peak[0], values[0]):
+            del items[0], peak[0]
+            continue
+        if end_swing(-1, -1) <= floor(peak[-1], values[-1]):
+            del items[-1], peak[-1]
+            continue
+        break
+    return items
 
 
 def _refine_brackets(states: MembraneStates, brackets, evaluate_states, settings) -> list[LimitPoint]:
@@ -370,7 +425,7 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     """
     node = None if slopes_at is None else (lambda rows: slopes_at(states.pole_stretch[rows])[1])
     slopes = _node_slopes(states, quantities, node)
-    brackets = _grid_extrema(states, quantities, slopes)
+    brackets = _grid_extrema(states, quantities, slopes, settings.rtol)
     if not brackets:
         return []
     found: list = [None] * len(brackets)
@@ -1258,8 +1313,9 @@ def _first_guess(grid, states, slopes, bracket):
     middle node (:func:`_stationary_point`); on one, the stationary point of its kind of
     :func:`_interval_cubic` (the middle of the interval if it has none)."""
     values = getattr(states, bracket.attr)
-    if bracket.hi - bracket.lo == 2:
-        i = bracket.lo + 1
+    if bracket.hi - bracket.lo >= 2:  # around the interior node of the extreme value
+        inner = values[bracket.lo + 1 : bracket.hi]
+        i = bracket.lo + 1 + int(np.argmax(inner) if bracket.is_max else np.argmin(inner))
         poly = _local_polynomial(grid, values, i)
         offset = _stationary_point(grid, poly, i, bracket.is_max)
         phi_poly = _local_polynomial(grid, states.phi_hat, i)
@@ -1293,7 +1349,7 @@ def _charge_limit_points(model, p_hat, states, settings, evaluate):
         _CHARGE_QUANTITIES,
         lambda rows: _voltage_charge_slopes(model, grid[rows], states.phi_hat[rows], settings),
     )
-    brackets = _grid_extrema(states, _CHARGE_QUANTITIES, slopes)
+    brackets = _grid_extrema(states, _CHARGE_QUANTITIES, slopes, settings.rtol)
     if not brackets:
         return []
     m = len(brackets)

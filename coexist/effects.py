@@ -778,5 +778,5 @@ def material_from_name(name: str, jlim: float | None = None):
     if key == "gent":
         if jlim is None:
             raise SceneError("the Gent material needs jlim (e.g. 97 for VHB)", "jlim")
-        return Gent(float(jlim))
+        return Gent(jlim)  # Gent checks it (a positive number, not a bool or text)
     raise SceneError(f"unknown material {name!r}; use 'neo-hookean' or 'gent'", "material")

@@ -673,6 +673,6 @@ def build_model(
     return MembraneModel(
         elasticity=material_from_name(material, jlim),
         electrostatics=IdealDielectric() if voltage else NoElectrostatics(),
-        prestretch=float(prestretch),
+        prestretch=prestretch,  # MembraneModel checks it (a number ≥ 1, not a bool or text)
         wrinkling=wrinkling,
     )

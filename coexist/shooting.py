@@ -1044,7 +1044,8 @@ def solve_states(
         max_field = np.abs(np.asarray(aux0[5], dtype=float) * np.ones(n))
     status[l0 - model.prestretch < FLAT_LIMIT * model.prestretch] = BELOW_RESOLUTION
     status[(status == OK) & (margin0 <= LOCKING_LIMIT)] = LOCKED
-    status[(status == OK) & ((T0 <= 0) | ~np.isfinite(T0))] = WRINKLED_AT_POLE
+    status[(status == OK) & ~np.isfinite(T0)] = NOT_FINITE  # an overflowing pole tension is not a wrinkle
+    status[(status == OK) & (T0 <= 0)] = WRINKLED_AT_POLE
     status[(status == OK) & (alpha <= 0)] = LOST_ELLIPTICITY
     fail_radius[status != OK] = 0.0
 

@@ -95,6 +95,10 @@ def stretch_range_end(elasticity, prestretch: float, settings: SolverSettings | 
     return settings.stretch_max_factor * prestretch
 
 
+#: the snap-through search looks up to this many prestretches first (then to the end of the model's range)
+SNAP_SEARCH_CAP = 12.0
+
+
 class Snap(NamedTuple):
     """The largest pressure one zone holds at zero voltage: ``p_hat`` at ``pole_stretch``; ``maximum`` says
     whether it is a true pressure maximum (a snap-through) or, for a curve that rises to the end of the
@@ -127,11 +131,16 @@ def snap_through(model, settings: SolverSettings, lam_max: float) -> Snap:
     from .curves import pressure_volume_curve
 
     pre = model.prestretch
-    grid = pre * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(lam_max / pre - 1), settings.snap_grid_points) ** 2)
-    curve = pressure_volume_curve(model, 0.0, grid, settings)
-    maxima = [lp for lp in curve.limit_points if lp.kind == "pressure_max"]
-    if maxima:
-        return Snap(float(maxima[0].p_hat), float(maxima[0].pole_stretch), True)
+    curve = None
+    # first up to SNAP_SEARCH_CAP λpre, where every snap-through lies (neo-Hookean: 2.2 λpre): a grid over a
+    # range that reaches 1e10 (a Gent Jlim of 1e22) holds one valid state (review, helper-62)
+    for top in dict.fromkeys((min(lam_max, SNAP_SEARCH_CAP * pre), lam_max)):
+        grid = pre * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(top / pre - 1), settings.snap_grid_points) ** 2)
+        curve = pressure_volume_curve(model, 0.0, grid, settings)
+        maxima = [lp for lp in curve.limit_points if lp.kind == "pressure_max"]
+        if maxima:
+            return Snap(float(maxima[0].p_hat), float(maxima[0].pole_stretch), True)
+    assert curve is not None
     i = int(np.argmax(curve.states.p_hat))
     return Snap(float(curve.states.p_hat[i]), float(curve.states.pole_stretch[i]), False)
 
@@ -561,10 +570,30 @@ class Simulation:
         -------
         list of Equilibrium
             Sorted by the number of bulged zones, then by free energy ``Ĝ``.
+
+        Raises
+        ------
+        SceneError
+            If a number of bulged zones is not a whole number in ``1..N−1`` (field ``bulged``).
         """
+        ks = None if bulged is None else self._bulged_counts(bulged)
         return equilibria_on_gas(
-            self.model, self.gas, self.scene.zone_count, phi, self.settings, self.lam_max, bulged, self.emap
+            self.model, self.gas, self.scene.zone_count, phi, self.settings, self.lam_max, ks, self.emap
         )
+
+    def _bulged_counts(self, bulged) -> list[int]:
+        """The numbers ``k`` of bulged zones asked for (``None``: ``1..N−1``), each a whole number in ``1..N−1``;
+        a single number is taken as a list of one (review, helper-62: ``bulged=[5]`` on three zones listed only
+        the homogeneous state, ``bulged=1`` raised a TypeError)."""
+        N = self.scene.zone_count
+        if bulged is None:
+            return list(range(1, N))
+        if N < 2:
+            raise SceneError("one zone has no coexistence: there is no number of bulged zones to list", "bulged")
+        if isinstance(bulged, str) or not hasattr(bulged, "__iter__"):
+            bulged = [bulged]
+        # 0 and N are the homogeneous states (their own configurations), not coexistence
+        return sorted({validation.integer(k, "bulged", lo=1, hi=N - 1) for k in bulged})
 
     def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
         """For each ``k`` in ``bulged`` (default ``1..N−1``): the stable segments of ``k`` bulged zones
@@ -597,13 +626,7 @@ class Simulation:
             If an equal-free-energy voltage does not converge.
         """
         N = self.scene.zone_count
-        if bulged is None:
-            ks = list(range(1, N))
-        else:
-            if N < 2:
-                raise SceneError("one zone has no coexistence: there is no number of bulged zones to list", "bulged")
-            # 0 and N are the homogeneous states (their own configurations), not coexistence
-            ks = sorted({validation.integer(k, "bulged", lo=1, hi=N - 1) for k in bulged})
+        ks = self._bulged_counts(bulged)
         # every segment a slow ramp can reach (up to the top of the window and back) ...
         # (a jump that finds no landing stops that ramp: the segments traced before it stay in the map, the
         # discovery below seeds the others, and every entry's note says what the ramp did not reach)

@@ -158,3 +158,22 @@ def test_location_is_the_root_of_the_exact_slope_on_fine_grids():
         assert set(found) == set(roots)
         for kind, root in roots.items():
             assert found[kind].pole_stretch == pytest.approx(root, rel=2e-9), (n, kind)
+
+
+def test_no_limit_points_from_the_noise_of_a_flat_stretch():
+    """Found in review (helper-61): zoomed into the centre of a ``Φ̂–Q̂`` spiral (neo-Hookean, p̂ = 1, 2000 points on
+    λ0 ∈ [2.495, 2.5014], where Φ̂ varies by 1.4e-8 and Q̂ by 1.2e-8 relative), the curve reported 98 limit points,
+    most of them pairs whose values differ by 1e-12 relative: the noise of the states (rtol 1e-10). Extrema whose
+    swing is below rtol are dropped in pairs (``curves._resolved``); what is left are those of the same window at
+    rtol 1e-12, in order. Their locations are ill-conditioned here (the curve is flat to 1e-8): 1e-4 is asked."""
+    m = build_model("neo-hookean", voltage=True)
+    ref = voltage_charge_curve(m, 1.0, np.linspace(2.495, 2.5014, 200), SolverSettings(rtol=1e-12)).limit_points
+    assert [lp.kind for lp in ref] == ["charge_max", "voltage_min", "charge_min", "voltage_max"]
+    c = voltage_charge_curve(m, 1.0, np.linspace(2.495, 2.5014, 2000))
+    kinds = [lp.kind for lp in c.limit_points]
+    assert 3 <= len(kinds) <= 4 and kinds == [lp.kind for lp in ref][: len(kinds)]
+    for lp, r in zip(c.limit_points, ref):
+        assert abs(lp.pole_stretch - r.pole_stretch) < 1e-4
+        extremal = EXTREMAL[lp.kind.split("_")[0]]  # its value to rtol; the other, read at the location, to 1e-8
+        for name in ("phi_hat", "q_hat"):
+            assert getattr(lp, name) == pytest.approx(getattr(r, name), rel=1e-10 if name == extremal else 1e-8)
