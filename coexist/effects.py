@@ -589,10 +589,20 @@ class GasChamber:
         >>> float(gas.pressure(0.2)), float(gas.stiffness(0.2))
         (0.5, 1.25)
         """
+        chamber_volume = real(chamber_volume, "chamber_volume", lo=0.0, lo_open=True)
+        atmospheric_pressure = real(atmospheric_pressure, "atmospheric_pressure", lo=0.0, lo_open=True)
         closing_pressure = real(closing_pressure, "closing_pressure")
         zone_volumes_total = real(zone_volumes_total, "zone_volumes_total", lo=0.0)
+        if (
+            not atmospheric_pressure + closing_pressure > 0
+        ):  # the absolute pressure, and with it n̂, would not be positive
+            raise SceneError(
+                f"the absolute pressure p̂atm + p̂ = {atmospheric_pressure + closing_pressure:.6g} at closing must be "
+                "positive (a gauge pressure below minus one atmosphere)",
+                "closing_pressure",
+            )
         n = (chamber_volume + zone_volumes_total) * (atmospheric_pressure + closing_pressure)
-        return cls(float(chamber_volume), float(atmospheric_pressure), float(n))
+        return cls(chamber_volume, atmospheric_pressure, float(n))
 
     def pressure(self, total_volume):
         """Gauge pressure ``p̂ = n̂/(V̂c + ΣV̂) − p̂atm``.

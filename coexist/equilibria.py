@@ -58,7 +58,18 @@ class Configuration:
     counts: tuple
 
     def __post_init__(self):
-        c = tuple(int(x) for x in self.counts)
+        counts = self.counts
+        whole = (
+            not isinstance(counts, (str, bytes))
+            and hasattr(counts, "__iter__")
+            and all(
+                not isinstance(x, (bool, np.bool_))
+                and isinstance(x, (int, np.integer, float))
+                and float(x).is_integer()
+                for x in counts
+            )
+        )  # a bare number, text or 1.7 was an int() error or silently truncated (review, helper-62)
+        c = tuple(int(x) for x in counts) if whole else ()
         if not c or any(x < 1 for x in c):
             raise SceneError(f"group sizes must be positive integers, got {self.counts!r}", "configuration")
         object.__setattr__(self, "counts", c)

@@ -199,6 +199,12 @@ def fit_zone_radius(
             f"{top_volts / 1e3:.6g} kV ({voltage_top_field(scene)}): no ramp of the scene reaches it",
             "target_voltage",
         )
+    if shared is not None and not isinstance(shared, Shared):
+        raise SceneError(f"shared must be a Shared (Shared.of(scene)), got {type(shared).__name__}", "shared")
+    if bracket_mm is not None:
+        if isinstance(bracket_mm, (str, bytes)) or not hasattr(bracket_mm, "__len__") or len(bracket_mm) != 2:
+            raise SceneError(f"bracket_mm must be two radii (low, high) in mm, got {bracket_mm!r}", "bracket_mm")
+        bracket_mm = tuple(validation.real(x, "bracket_mm") for x in bracket_mm)
     shared = shared or Shared.of(scene)
     mu_h = scene.shear_modulus * scene.thickness
     a_max = shared.snap[0] * mu_h / scene.chamber.closing_pressure  # closing pressure = p̂max

@@ -227,7 +227,7 @@ class Scene:
         float or numpy.ndarray
             ``p̂`` (a float for a scalar, an array of the same shape otherwise).
         """
-        return _scaled(p, 1 / self.pressure_scale)
+        return _scaled(p, 1 / self.pressure_scale, "p")
 
     def pressure(self, p_hat):
         """Gauge pressure in Pa of a normalised pressure, ``p = p̂ μH/A``.
@@ -242,7 +242,7 @@ class Scene:
         float or numpy.ndarray
             ``p`` in Pa (a float for a scalar, an array of the same shape otherwise).
         """
-        return _scaled(p_hat, self.pressure_scale)
+        return _scaled(p_hat, self.pressure_scale, "p_hat")
 
     def v_hat(self, volume):
         """``V̂ = V/A³`` of a volume in m³.
@@ -257,7 +257,7 @@ class Scene:
         float or numpy.ndarray
             ``V̂`` (a float for a scalar, an array of the same shape otherwise).
         """
-        return _scaled(volume, 1 / self.volume_scale)
+        return _scaled(volume, 1 / self.volume_scale, "volume")
 
     def volume(self, v_hat):
         """Volume in m³ of a normalised volume, ``V = V̂ A³``.
@@ -272,7 +272,7 @@ class Scene:
         float or numpy.ndarray
             ``V`` in m³ (a float for a scalar, an array of the same shape otherwise).
         """
-        return _scaled(v_hat, self.volume_scale)
+        return _scaled(v_hat, self.volume_scale, "v_hat")
 
     def phi_hat(self, volts):
         """``Φ̂ = (Φ/H) √(ε/μ)`` of a voltage in V.
@@ -287,7 +287,7 @@ class Scene:
         float or numpy.ndarray
             ``Φ̂`` (a float for a scalar, an array of the same shape otherwise).
         """
-        return _scaled(volts, 1 / self.voltage_scale)
+        return _scaled(volts, 1 / self.voltage_scale, "volts")
 
     def voltage_of(self, phi_hat):
         """Voltage in V of a normalised voltage, ``Φ = Φ̂ H √(μ/ε)``.
@@ -302,7 +302,7 @@ class Scene:
         float or numpy.ndarray
             ``Φ`` in V (a float for a scalar, an array of the same shape otherwise).
         """
-        return _scaled(phi_hat, self.voltage_scale)
+        return _scaled(phi_hat, self.voltage_scale, "phi_hat")
 
     @property
     def voltage_hat_path(self) -> np.ndarray | None:
@@ -384,7 +384,8 @@ class Scene:
             what = (
                 "snap-through pressure p̂max"
                 if snap_through
-                else "largest pressure they hold within the model's range (no snap-through: near Gent locking)"
+                else "largest pressure they hold within the model's range (no snap-through: the pressure rises to the "
+                "end of the range, as near Gent locking)"
             )
             raise SceneError(
                 f"the zones cannot hold {mbar:.4g} mbar (p̂ = {p_hat:.4g}): it is at or above the "
@@ -663,7 +664,12 @@ def _shared_model(material: str, jlim: float | None, voltage: bool, prestretch: 
     return build_model(material, jlim, voltage=voltage, prestretch=prestretch, wrinkling=wrinkling)
 
 
-def _scaled(x, factor):
+def _scaled(x, factor, name="value"):
+    """``x`` (a number or an array of numbers; NaN passes) times ``factor``; anything else is a SceneError naming
+    ``name`` (text was a bare ValueError: review, helper-62)."""
+    kind = "U" if isinstance(x, (str, bytes)) else np.asarray(x).dtype.kind
+    if kind not in "iuf":
+        raise SceneError(f"must be a number or an array of numbers, got {x!r}", name)
     if np.ndim(x) == 0:
         return float(x) * factor
     return np.asarray(x, dtype=float) * factor

@@ -87,16 +87,44 @@ def stretch_range_end(elasticity, prestretch: float, settings: SolverSettings | 
     -------
     float
         The largest pole stretch ``λ0``.
+
+    Raises
+    ------
+    SceneError
+        If ``locking_margin`` or ``stretch_max_factor`` leaves no pole stretch above ``1.002 λpre``.
     """
     settings = settings or SolverSettings()
     lock = elasticity.locking_stretch
+    least = prestretch * (1 + 2e-3)  # the first pole stretch any grid of the library starts at
     if lock is not None:
-        return settings.locking_margin * lock
+        end = settings.locking_margin * lock
+        if end <= least < lock:  # the margin, not the material, leaves no range (review, helper-62)
+            raise SceneError(
+                f"locking_margin = {settings.locking_margin:g} leaves no pole stretches to follow: the range ends at "
+                f"λ0 = {end:.6g}, not above the prestretch {prestretch:g} (the material locks at {lock:.6g})",
+                "locking_margin",
+            )
+        return end
+    if settings.stretch_max_factor * prestretch <= least:
+        raise SceneError(
+            f"stretch_max_factor must exceed 1.002 (the range ends at stretch_max_factor times the prestretch), "
+            f"got {settings.stretch_max_factor:g}",
+            "stretch_max_factor",
+        )
     return settings.stretch_max_factor * prestretch
 
 
 #: the snap-through search looks up to this many prestretches first (then to the end of the model's range)
 SNAP_SEARCH_CAP = 12.0
+
+
+def _numbers(value, name: str, sizes: tuple, what: str) -> tuple:
+    """``value`` as a tuple of finite numbers of one of the ``sizes`` (the third of a snap may be a bool), else a
+    SceneError naming ``name``."""
+    if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) not in sizes:
+        raise SceneError(f"{name} must be {what}, got {value!r}", name)
+    head = tuple(validation.real(x, name) for x in value[:2])
+    return head + tuple(value[2:])
 
 
 class Snap(NamedTuple):
@@ -318,6 +346,14 @@ class Simulation:
         """
         settings = validation.settings_or_default(settings)
         validation.scene(scene)
+        if model is not None:
+            validation.membrane_model(model)
+        snap = None if snap is None else _numbers(snap, "snap", (2, 3), "(p̂max, λ0 at it)")
+        if phi_window is not None:  # a reversed window silently found nothing (review, helper-62)
+            lo, hi = _numbers(phi_window, "phi_window", (2,), "(Φ̂lo, Φ̂hi)")
+            if not 0 <= lo <= hi:
+                raise SceneError(f"phi_window must satisfy 0 <= low <= high, got {phi_window!r}", "phi_window")
+            phi_window = (lo, hi)
         if model is None:
             model = zone_model(scene)
         elif scene.patterned and getattr(model, "pattern", None) != scene.zone_pattern():
@@ -408,6 +444,8 @@ class Simulation:
         SolverError
             If an equal-free-energy voltage does not converge.
         """
+        if progress is not None and not callable(progress):
+            raise SceneError(f"progress must be a callable (or None), got {type(progress).__name__}", "progress")
         if self.scene.voltage is None:
             raise SceneError("this scene has no [voltage]: nothing to ramp", "[voltage]")
         path = self.scene.voltage_hat_path

@@ -216,10 +216,15 @@ class ZoneCurve:
         Raises
         ------
         SceneError
-            For invalid pole stretches or voltage (:func:`~coexist.shooting.solve_states`).
+            For invalid pole stretches (fewer than 3, not increasing, not above ``λpre``) or voltage
+            (:func:`~coexist.shooting.solve_states`).
         ModelRangeError
             If fewer than 5 consecutive states are valid.
         """
+        from .curves import _check_range
+
+        # an unsorted or repeated grid made splines of divided-by-zero slopes and false reasons (review, helper-62)
+        pole_stretch = _check_range(pole_stretch, model)
         states = _refined_end(model, solve_states(model, pole_stretch, phi_hat, settings), phi_hat, settings)
         if stop_at_jumps:
             cut = _wrinkling_jump(model, states, phi_hat, settings)

@@ -89,3 +89,71 @@ def test_equilibria_at_checks_the_numbers_of_bulged_zones():
     one = sim.equilibria_at(0.23, bulged=1)
     assert one == sim.equilibria_at(0.23, bulged=[1])
     assert any(e.configuration.counts != (3,) for e in one)
+
+
+@pytest.fixture(scope="module")
+def tricircle():
+    return parse_scene(builtin_scene_text("tricircle"))
+
+
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        ({"phi_window": (0.3, 0)}, "phi_window"),  # silently found nothing
+        ({"phi_window": (0, float("nan"))}, "phi_window"),
+        ({"phi_window": (-1, 0.3)}, "phi_window"),  # named phi_hat
+        ({"phi_window": (0,)}, "phi_window"),  # IndexError
+        ({"phi_window": 5}, "phi_window"),  # TypeError
+        ({"snap": (1.0,)}, "snap"),  # IndexError
+        ({"snap": (float("nan"), 2.0)}, "snap"),
+        ({"model": "x"}, "model"),  # AttributeError
+    ],
+)
+def test_simulation_arguments_are_checked(tricircle, kwargs, field):
+    with pytest.raises(SceneError) as exc:
+        Simulation.from_scene(tricircle, SolverSettings(rtol=1e-8), **kwargs)
+    assert exc.value.field == field
+
+
+@pytest.mark.parametrize(
+    "settings, field",
+    [({"locking_margin": 0.1}, "locking_margin"), ({"stretch_max_factor": 1.001}, "stretch_max_factor")],
+)
+def test_settings_that_leave_no_range_name_themselves(settings, field):
+    """They were reported as 'pole_stretch: must be finite numbers' (a grid of NaN) or 'must increase'."""
+    text = builtin_scene_text("tricircle")
+    if field == "stretch_max_factor":
+        text = text.replace('material = "gent"', 'material = "neo-hookean"').replace("jlim = 97\n", "")
+    with pytest.raises(SceneError) as exc:
+        Simulation.from_scene(parse_scene(text), SolverSettings(**settings))
+    assert exc.value.field == field
+
+
+def test_wrong_types_deeper_in_the_api_are_scene_errors(tricircle):
+    """Each raised a bare TypeError, ValueError or AttributeError, or named another input."""
+    from coexist.effects import GasChamber
+    from coexist.equilibria import Configuration
+    from coexist.fit import fit_zone_radius
+    from coexist.zone_curves import ZoneCurve
+
+    cases = [
+        (lambda: GasChamber.closed_at(None, 1, 0.5, 0.2), "chamber_volume"),
+        (lambda: GasChamber.closed_at(1, 1, -2, 0.2), "closing_pressure"),  # named gas_amount
+        (lambda: Configuration(3), "configuration"),
+        (lambda: Configuration("ab"), "configuration"),
+        (lambda: Configuration((1.7, 2)), "configuration"),  # silently (1, 2)
+        (lambda: tricircle.p_hat("x"), "p"),
+        (lambda: tricircle.phi_hat("x"), "volts"),
+        (lambda: fit_zone_radius(tricircle, 3900, bracket_mm=5), "bracket_mm"),
+        (lambda: fit_zone_radius(tricircle, 3900, bracket_mm=(10,)), "bracket_mm"),
+        (lambda: fit_zone_radius(tricircle, 3900, shared="x"), "shared"),
+        (lambda: ZoneCurve.compute(build_model("gent", 97.0), 0.1, [2.0, 1.5, 3.0, 2.5, 4.0, 3.5]), "pole_stretch"),
+    ]
+    for call, field in cases:
+        with pytest.raises(SceneError) as exc:
+            call()
+        assert exc.value.field == field, field
+    sim = Simulation.from_scene(tricircle, SolverSettings(rtol=1e-8))
+    with pytest.raises(SceneError) as exc:
+        sim.ramp(progress="x")  # raised after the first step
+    assert exc.value.field == "progress"
