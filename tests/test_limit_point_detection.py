@@ -177,3 +177,14 @@ def test_no_limit_points_from_the_noise_of_a_flat_stretch():
         extremal = EXTREMAL[lp.kind.split("_")[0]]  # its value to rtol; the other, read at the location, to 1e-8
         for name in ("phi_hat", "q_hat"):
             assert getattr(lp, name) == pytest.approx(getattr(r, name), rel=1e-10 if name == extremal else 1e-8)
+
+
+@pytest.mark.parametrize("offset", [0.5, 1.5, 2.5])
+def test_a_maximum_near_the_start_of_a_fine_grid_at_draft_accuracy(offset):
+    """The noise filter first also dropped an extremum within rtol of the curve's end value: at rtol 1e-6 a grid of
+    step 2e-4 starting 1.5 or 2.5 steps before the neo-Hookean pressure maximum lost it."""
+    m = build_model("neo-hookean", voltage=False)
+    x, h = 2.1959445440, 2e-4
+    c = pressure_volume_curve(m, 0.0, np.arange(x - offset * h, x + 0.2, h), SolverSettings(rtol=1e-6))
+    assert [lp.kind for lp in c.limit_points] == ["pressure_max"]
+    assert c.limit_points[0].pole_stretch == pytest.approx(x, abs=1e-6)
