@@ -265,7 +265,9 @@ def _slope_rows(states: MembraneStates, quantities) -> np.ndarray:
     return np.flatnonzero(flagged)
 
 
-def _grid_extrema(states: MembraneStates, quantities, slopes=None, resolution: float = 0.0) -> list[_Bracket]:
+def _grid_extrema(
+    states: MembraneStates, quantities, slopes=None, resolution: float = 0.0, probe=None
+) -> list[_Bracket]:
     """Every extremum of the named quantities that the grid shows, with its bracket of grid nodes.
 
     Along the grid the slope of a quantity is sampled in order by the secant ``(f[i+1] − f[i])/(λ0[i+1] −
@@ -287,6 +289,8 @@ def _grid_extrema(states: MembraneStates, quantities, slopes=None, resolution: f
     resolution : float
         The values' relative error (the solver's ``rtol``): extrema whose swing is below it are dropped
         (:func:`_resolved`).
+    probe : callable, optional
+        ``probe(λ0) -> {attribute: exact slope}`` at points between the nodes (:func:`_resolved`).
 
     Returns
     -------
@@ -312,21 +316,27 @@ def _grid_extrema(states: MembraneStates, quantities, slopes=None, resolution: f
             if s0 != s1:
                 is_max = bool(s0 > 0)
                 found.append(_Bracket(attr, max_kind if is_max else min_kind, is_max, lo, hi))
-        brackets += _resolved(found, values, resolution, grid, exact)
+        brackets += _resolved(
+            found, values, resolution, grid, exact, None if probe is None else (lambda x, a=attr: probe(x)[a])
+        )
     return brackets
 
 
-def _resolved(brackets: list, values: np.ndarray, resolution: float, grid=None, exact=None) -> list:
+def _resolved(brackets: list, values: np.ndarray, resolution: float, grid=None, exact=None, probe=None) -> list:
     """The extrema of one quantity (in order along the grid) that stand out of the values' noise.
 
     Each extremum's value is estimated: in a bracket of one interval with the exact slopes ``exact`` at both
     ends, as the extremum of the interval's cubic Hermite interpolant; otherwise as the extreme grid value in
     its bracket. The adjacent maximum and minimum whose values differ least are dropped together while they
     differ by at most ``resolution`` times the larger (their swing is below the states' own error: noise on a
-    flat stretch, near the centre of a spiral). What is left are the extrema that persist (a maximum kept is
-    the highest of those merged into it). An extremum left over at either end is kept: the slope's sign changes
-    across the flat stretch, so there is one (a rule that also dropped one within noise of the curve's end value
-    lost a genuine pressure maximum 1.5 intervals from the start of a fine grid at rtol 1e-6)."""
+    flat stretch, near the centre of a spiral), unless both are confirmed by the exact slopes at their
+    brackets' ends (those are far less noisy than differences of values: at rtol 1e-6 a pair of Φ̂–Q̂
+    extrema whose swing was 3e-7 relative, real to 1e-8, was dropped by the swing alone: review, helper-63).
+    What is left are the extrema that persist (a maximum kept is the highest of those merged into it). A
+    maximum and minimum in one interval are confirmed by ``probe``, the exact slope between them, if given. An
+    extremum left over at either end is kept: the slope's sign changes across the flat stretch, so there is
+    one (a rule that also dropped one within noise of the curve's end value lost a genuine pressure maximum 1.5
+    intervals from the start of a fine grid at rtol 1e-6)."""
     if resolution <= 0 or not brackets:
         return brackets
     items = list(brackets)
@@ -344,12 +354,42 @@ def _resolved(brackets: list, values: np.ndarray, resolution: float, grid=None, 
     def floor(a, b):
         return resolution * max(abs(a), abs(b))
 
+    def confirmed(b):  # the exact slopes at both ends of its bracket rise into it and fall out of it (a maximum)
+        if exact is None or not np.isfinite(exact[b.lo] + exact[b.hi]):
+            return False
+        sign = 1.0 if b.is_max else -1.0
+        return bool(sign * exact[b.lo] > 0 > sign * exact[b.hi])
+
+    sure = [confirmed(b) for b in items]
+    if probe is not None and grid is not None and exact is not None:
+        # a maximum and a minimum in one interval (both end slopes of one sign): the exact slope between the
+        # cubic's two stationary points confirms them if it has the other sign (one batched call)
+        pairs, points = [], []
+        for k in range(len(items) - 1):
+            a, b = items[k], items[k + 1]
+            if a.lo == b.lo and a.hi == b.hi == a.lo + 1 and not (sure[k] and sure[k + 1]):
+                if not np.isfinite(exact[a.lo] + exact[a.hi]):
+                    continue
+                poly = _interval_cubic(grid, values, exact, a.lo)
+                h = grid[a.hi] - grid[a.lo]
+                first, second = _cubic_extremum(poly, h, a.is_max), _cubic_extremum(poly, h, b.is_max)
+                middle = 0.5 * (first + second) if np.isfinite(first + second) else 0.5 * h
+                pairs.append(k)
+                points.append(grid[a.lo] + middle)
+        if pairs:
+            slope = np.asarray(probe(np.array(points)), dtype=float)
+            for k, t in zip(pairs, slope):
+                if np.isfinite(t) and (t < 0 if items[k].is_max else t > 0):
+                    sure[k] = sure[k + 1] = True
     while len(items) > 1:
-        swings = [abs(peak[k] - peak[k + 1]) - floor(peak[k], peak[k + 1]) for k in range(len(items) - 1)]
+        swings = [
+            abs(peak[k] - peak[k + 1]) - floor(peak[k], peak[k + 1]) if not (sure[k] and sure[k + 1]) else np.inf
+            for k in range(len(items) - 1)
+        ]
         k = int(np.argmin(swings))
         if swings[k] > 0:
             break
-        del items[k : k + 2], peak[k : k + 2]
+        del items[k : k + 2], peak[k : k + 2], sure[k : k + 2]
     return items
 
 
@@ -413,7 +453,8 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     """
     node = None if slopes_at is None else (lambda rows: slopes_at(states.pole_stretch[rows])[1])
     slopes = _node_slopes(states, quantities, node)
-    brackets = _grid_extrema(states, quantities, slopes, settings.rtol)
+    probe = None if slopes_at is None else (lambda x: slopes_at(x)[1])
+    brackets = _grid_extrema(states, quantities, slopes, settings.rtol, probe)
     if not brackets:
         return []
     found: list = [None] * len(brackets)
@@ -1337,7 +1378,9 @@ def _charge_limit_points(model, p_hat, states, settings, evaluate):
         _CHARGE_QUANTITIES,
         lambda rows: _voltage_charge_slopes(model, grid[rows], states.phi_hat[rows], settings),
     )
-    brackets = _grid_extrema(states, _CHARGE_QUANTITIES, slopes, settings.rtol)
+    brackets = _grid_extrema(
+        states, _CHARGE_QUANTITIES, slopes, settings.rtol, lambda x: _voltage_charge_slopes_of(evaluate(x))
+    )
     if not brackets:
         return []
     m = len(brackets)

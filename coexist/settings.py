@@ -259,14 +259,20 @@ class SolverSettings:
         Returns
         -------
         SolverSettings
-            The copy; every other field unchanged.
+            The copy; every other field unchanged, but an explicit ``pole_radius`` above ``rtol^¼`` (allowed at
+            the old tolerance) lowered to it.
 
         Raises
         ------
         SceneError
             If ``rtol`` lies outside ``[RTOL_MIN, RTOL_MAX] = [1e-14, 1e-4]``.
         """
-        return replace(self, rtol=rtol)  # __post_init__ checks it (a number, in range)
+        radius = self.pole_radius
+        if radius is not None and isinstance(rtol, (int, float)) and not isinstance(rtol, bool) and rtol > 0:
+            # a radius allowed at this rtol may not be at a tighter one (an event located again at rtol/100 raised
+            # on a user's pole_radius = 1e-3 at rtol 1e-11: review, helper-63); the series needs it no larger
+            radius = min(radius, rtol**0.25)
+        return replace(self, rtol=rtol, pole_radius=radius)  # __post_init__ checks rtol (a number, in range)
 
     @classmethod
     def from_accuracy(cls, accuracy: str | float | None) -> SolverSettings:

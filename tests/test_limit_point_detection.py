@@ -188,3 +188,40 @@ def test_a_maximum_near_the_start_of_a_fine_grid_at_draft_accuracy(offset):
     c = pressure_volume_curve(m, 0.0, np.arange(x - offset * h, x + 0.2, h), SolverSettings(rtol=1e-6))
     assert [lp.kind for lp in c.limit_points] == ["pressure_max"]
     assert c.limit_points[0].pole_stretch == pytest.approx(x, abs=1e-6)
+
+
+def test_draft_accuracy_keeps_real_pairs_of_extrema():
+    """Found in review (helper-63): the noise filter dropped pairs whose swing was below rtol, but at rtol 1e-6 the
+    states are good to about 1e-8 relative: the p̂ = 1.2 spiral lost two turning points at draft accuracy, Gent Jlim
+    70.73 lost its nearly merged pressure maximum and minimum, and the snap-through at Jlim 70.738 was reported as
+    no snap-through. Pairs confirmed by exact slopes (at their brackets' ends, or between them in one interval)
+    are kept."""
+    from coexist.simulation import snap_through, stretch_range_end
+
+    gent = build_model("gent", jlim=97.0, voltage=True)
+    grid = np.linspace(1.01, 4.0, 200)
+    default = [lp.kind for lp in voltage_charge_curve(gent, 1.2, grid).limit_points]
+    draft = [lp.kind for lp in voltage_charge_curve(gent, 1.2, grid, SolverSettings(rtol=1e-6)).limit_points]
+    assert draft == default and len(default) == 11
+
+    near = build_model("gent", jlim=70.73, voltage=False)
+    kinds = lambda s: [lp.kind for lp in pressure_volume_curve(near, 0.0, np.linspace(1.01, 7.0, 400), s).limit_points]  # noqa: E731
+    pressure = [k for k in kinds(SolverSettings(rtol=1e-6)) if k.startswith("pressure")]
+    assert (
+        pressure == [k for k in kinds(SolverSettings()) if k.startswith("pressure")] == ["pressure_max", "pressure_min"]
+    )
+
+    edge = build_model("gent", jlim=70.738, voltage=False)
+    for rtol in (1e-6, 1e-10):
+        s = SolverSettings(rtol=rtol)
+        snap = snap_through(edge, s, stretch_range_end(edge.elasticity, 1.0, s))
+        assert snap.maximum and snap.p_hat == pytest.approx(2.0251987, rel=1e-6), rtol
+
+
+def test_a_pole_radius_allowed_at_the_users_tolerance_survives_a_tighter_one():
+    """Found in review (helper-63): events are located again at rtol/100, where an explicit pole_radius of 1e-3 (allowed
+    at rtol 1e-11, up to 5.6e-3) exceeded rtol^(1/4) and the ramp raised a SceneError."""
+    s = SolverSettings(rtol=1e-11, pole_radius=1e-3)
+    tight = s.with_rtol(1e-13)
+    assert tight.rtol == 1e-13 and tight.pole_radius == pytest.approx(1e-13**0.25)
+    assert s.with_rtol(1e-8).pole_radius == 1e-3
