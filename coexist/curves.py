@@ -515,27 +515,44 @@ def _slope_extrema(states, brackets, slopes, slopes_at, settings) -> list:
             break
         st, slope = slopes_at(lam[idx])
         t = np.array([slope[brackets[j].attr][k] for k, j in enumerate(idx)])
-        with np.errstate(all="ignore"):
-            dlam = lam[idx] - lam_prev[idx]
-            usable = np.abs(dlam) > 1e-12 * np.abs(lam[idx])
-            secant = np.where(usable, (t - t_prev[idx]) / dlam, np.nan)
-            curvature[idx] = np.where(usable & np.isfinite(secant), secant, curvature[idx])
-            step = -t / curvature[idx]
-        size = np.abs(step)
-        tol = settings.limit_point_xtol * np.abs(lam[idx])
-        bad = ~st.ok | ~np.isfinite(step)
-        located = ~bad & ((size <= 0.1 * tol) | ((size <= tol) & (size >= 0.5 * step_prev[idx])))
-        wrong_kind = located & ~(np.where(is_max[idx], -1.0, 1.0) * curvature[idx] > 0)
-        bad |= wrong_kind
-        located &= ~wrong_kind
+        iterate = (lam, lam_prev, t_prev, curvature, step_prev)
+        _, located, done = _secant_round(idx, t, st.ok, st.ok, iterate, is_max, lo_b, hi_b, settings.limit_point_xtol)
         for k in np.flatnonzero(located):
             found[idx[k]] = _limit_point(brackets[idx[k]].kind, _take(st, slice(k, k + 1)))
-        new_lam = lam[idx] + step
-        left = ~located & ~bad & ~((new_lam > lo_b[idx]) & (new_lam < hi_b[idx]))
-        open_[idx[located | bad | left]] = False
-        lam_prev[idx], t_prev[idx], step_prev[idx] = lam[idx], t, size
-        lam[idx] = np.where(located | bad | left, lam[idx], new_lam)
+        open_[idx[done]] = False
     return found
+
+
+def _secant_round(idx, t, ok, met, iterate, is_max, lo_b, hi_b, xtol):
+    """One round of the secant iteration on exact slopes along a curve, shared by :func:`_slope_extrema` and
+    :func:`_slope_roots`: at ``λ0 = lam[idx]`` the slopes ``t`` (``ok`` where valid, ``met`` where the state is on
+    the curve); the step ``−t/t'`` with ``t'`` the secant of the last two slopes (first: the given curvature).
+    Located when the state is met and the step is at most ``xtol/10`` (relative), or at most ``xtol`` and no
+    longer shrinking, and the slope falls through a maximum (rises through a minimum); given up when the state
+    is invalid, the step not finite or of the wrong kind, or it leaves ``(lo_b, hi_b)``. ``iterate = (lam,
+    lam_prev, t_prev, curvature, step_prev)`` is updated in place (``lam`` moves by the step where not done).
+    Returns ``(step, located, done)`` over ``idx``."""
+    lam, lam_prev, t_prev, curvature, step_prev = iterate
+    with np.errstate(all="ignore"):
+        dlam = lam[idx] - lam_prev[idx]
+        usable = np.abs(dlam) > 1e-12 * np.abs(lam[idx])
+        secant = np.where(usable, (t - t_prev[idx]) / dlam, np.nan)
+        curvature[idx] = np.where(usable & np.isfinite(secant), secant, curvature[idx])
+        step = -t / curvature[idx]
+    size = np.abs(step)
+    tol = xtol * np.abs(lam[idx])
+    bad = ~ok | ~np.isfinite(step)
+    located = met & ~bad & ((size <= 0.1 * tol) | ((size <= tol) & (size >= 0.5 * step_prev[idx])))
+    # a root of the slope where it falls (a maximum) or rises: two extrema may share a bracket
+    wrong_kind = located & ~(np.where(is_max[idx], -1.0, 1.0) * curvature[idx] > 0)
+    bad |= wrong_kind
+    located &= ~wrong_kind
+    new_lam = lam[idx] + step
+    left = ~located & ~bad & ~((new_lam > lo_b[idx]) & (new_lam < hi_b[idx]))
+    done = located | bad | left
+    lam_prev[idx], t_prev[idx], step_prev[idx] = lam[idx], t, size
+    lam[idx] = np.where(done, lam[idx], new_lam)
+    return step, located, done
 
 
 def _check_range(pole_stretch, model):
@@ -1513,31 +1530,19 @@ def _slope_roots(model, p_hat, settings, brackets, lam, phi, curvature, phi_curv
             t = dv.dq_dl0 + dv.dq_dphi * g  # dQ̂/dλ0 along the curve
             t[is_voltage[idx]] = g[is_voltage[idx]]
             dlam = lam[idx] - lam_prev[idx]
-            usable = np.abs(dlam) > 1e-12 * np.abs(lam[idx])
-            secant = np.where(usable, (t - t_prev[idx]) / dlam, np.nan)
-            curvature[idx] = np.where(usable & np.isfinite(secant), secant, curvature[idx])
-            g_secant = np.where(usable, (g - g_prev[idx]) / dlam, np.nan)
-            phi_curvature[idx] = np.where(usable & np.isfinite(g_secant), g_secant, phi_curvature[idx])
-            step = -t / curvature[idx]
-        bad = ~st.ok | ~np.isfinite(step) | ~np.isfinite(g)
+            g_secant = np.where(np.abs(dlam) > 1e-12 * np.abs(lam[idx]), (g - g_prev[idx]) / dlam, np.nan)
+            phi_curvature[idx] = np.where(np.isfinite(g_secant), g_secant, phi_curvature[idx])
+        g_prev[idx] = g
+        ok = st.ok & np.isfinite(g)
         met = st.ok & (np.abs(f) <= ftol)
-        size = np.abs(step)
-        tol = settings.limit_point_xtol * np.abs(lam[idx])
-        located = met & ~bad & ((size <= 0.1 * tol) | ((size <= tol) & (size >= 0.5 * step_prev[idx])))
-        # a root of the slope where it falls (a maximum) or rises: two extrema may share a bracket
-        wrong_kind = located & ~(np.where(is_max[idx], -1.0, 1.0) * curvature[idx] > 0)
-        bad |= wrong_kind
-        located &= ~wrong_kind
+        iterate = (lam, lam_prev, t_prev, curvature, step_prev)
+        step, located, done = _secant_round(idx, t, ok, met, iterate, is_max, lo_b, hi_b, settings.limit_point_xtol)
         for k in np.flatnonzero(located):
             j = idx[k]
             found[j] = _limit_point(brackets[j].kind, _take(st, slice(k, k + 1)))
-        new_lam = lam[idx] + step
-        left = ~located & ~bad & ~((new_lam > lo_b[idx]) & (new_lam < hi_b[idx]))
-        open_[idx[located | bad | left]] = False
-        lam_prev[idx], t_prev[idx], g_prev[idx], step_prev[idx] = lam[idx], t, g, size
+        open_[idx[done]] = False
         with np.errstate(all="ignore"):
             phi[idx] = phi[idx] - f / dv.dp_dphi + g * step + 0.5 * phi_curvature[idx] * step**2
-        lam[idx] = np.where(located | bad | left, lam[idx], new_lam)
         open_[idx[open_[idx] & ~(phi[idx] > 0)]] = False
     return found
 
