@@ -34,7 +34,7 @@ import numpy as np
 from .errors import ModelRangeError, SceneError, SolverError
 from .numerics.roots import bisect, bracketed_root, chebyshev_extremum
 from .numerics.splines import casadi_piecewise
-from .settings import SolverSettings
+from .settings import SolverSettings, measured_error, tight_settings
 from .shooting import StateDerivatives, solve_states
 from .validation import instance, membrane_model, real, real_array, settings_or_default
 from .zone_curves import ZoneCurve
@@ -49,42 +49,6 @@ CRITICAL_XTOL = 1e-8
 #: Newton iterations allowed to the solve of a coexisting pair on exact states (from the spline solution it
 #: takes two or three)
 EXACT_NEWTON_ITERATIONS = 20
-
-
-def tight_settings(settings: SolverSettings) -> SolverSettings:
-    """The settings an error is measured with: ``rtol/100``, at least 1e-13 (as a transition voltage's).
-
-    Parameters
-    ----------
-    settings : SolverSettings
-        The settings of the run.
-
-    Returns
-    -------
-    SolverSettings
-        ``settings`` with ``rtol = max(rtol/100, 1e-13)``.
-    """
-    return settings.with_rtol(max(settings.rtol / 100, 1e-13))
-
-
-def measured_error(value: float, tight_value: float, rtol: float) -> float:
-    """The error given to a number solved at ``rtol`` and again at ``rtol/100``: ``2 |value − tight| + rtol |value|``
-    (twice the change, as the tighter value carries noise of its own; never below the relative tolerance the
-    states themselves carry).
-
-    Parameters
-    ----------
-    value, tight_value : float
-        The number at the run's tolerance and at the tighter one.
-    rtol : float
-        The run's relative tolerance.
-
-    Returns
-    -------
-    float
-        The error estimate.
-    """
-    return float(2 * abs(value - tight_value) + rtol * abs(value))
 
 
 @dataclass

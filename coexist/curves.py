@@ -28,7 +28,7 @@ from .errors import NoStateInRange, SceneError, SolverError
 from .model import MembraneModel
 from .numerics.roots import bracketed_root, chebyshev_extremum
 from .numerics.sets import unique_sorted
-from .settings import SolverSettings
+from .settings import SolverSettings, error_reference, measured_error
 from .shooting import (
     NO_VOLTAGE,
     OK,
@@ -57,9 +57,20 @@ STATE_FIELDS = (
 )
 
 
+#: the numbers of a limit point that carry an error (:attr:`LimitPoint.errors`)
+LIMIT_POINT_FIELDS = ("pole_stretch", "p_hat", "v_hat", "phi_hat", "q_hat", "psi_hat")
+
+
 @dataclass
 class LimitPoint:
-    """A turning point along a curve: ``kind`` is e.g. ``pressure_max`` or ``voltage_max``."""
+    """A turning point along a curve: ``kind`` is e.g. ``pressure_max`` or ``voltage_max``.
+
+    ``errors`` maps each number (:data:`LIMIT_POINT_FIELDS`) to its error, measured by locating the limit point
+    again at ``rtol/100`` (:func:`~coexist.settings.error_reference`; :func:`_limit_point_errors`): the extremal
+    value (``p̂`` of a pressure maximum) is good to about the states' tolerance, while the location ``λ0`` and the
+    other quantities there, which vary to first order with it, are only as good as the extremum is sharp (a flat
+    one is ill-conditioned). None when it could not be measured (no valid state at the other tolerance).
+    """
 
     kind: str
     pole_stretch: float
@@ -68,6 +79,7 @@ class LimitPoint:
     phi_hat: float
     q_hat: float
     psi_hat: float
+    errors: dict | None = None
 
     def to_dict(self) -> dict:
         """JSON-ready dict of the fields.
@@ -75,9 +87,12 @@ class LimitPoint:
         Returns
         -------
         dict
-            ``kind``, ``pole_stretch``, ``p_hat``, ``v_hat``, ``phi_hat``, ``q_hat``, ``psi_hat``.
+            ``kind``, ``pole_stretch``, ``p_hat``, ``v_hat``, ``phi_hat``, ``q_hat``, ``psi_hat`` and ``errors``
+            (the error of each number, or None where not measured).
         """
-        return dict(self.__dict__)
+        out = dict(self.__dict__)
+        out["errors"] = None if self.errors is None else dict(self.errors)
+        return out
 
 
 @dataclass
@@ -555,6 +570,88 @@ def _secant_round(idx, t, ok, met, iterate, is_max, lo_b, hi_b, xtol):
     return step, located, done
 
 
+#: the step, relative to ``λ0``, between the two states at the tighter tolerance whose exact slopes give the
+#: curvature at a limit point for its measured error (:func:`_limit_point_errors`)
+ERROR_STEP = 1e-5
+#: without exact slopes (patterned zones): the tight states this far on either side of a limit point, relative
+#: to ``λ0``, give the parabola whose vertex locates it again
+VALUES_ERROR_STEP = 1e-4
+
+
+def _limit_point_errors(limit_points, quantities, rtol, fixed, slopes_along=None, values_along=None) -> None:
+    """Measure every limit point's :attr:`~LimitPoint.errors` (in place) by locating it again at a tighter
+    tolerance.
+
+    ``slopes_along(λ0, Φ̂) -> (states, slopes)`` gives the curve's states at the pole stretches ``λ0`` at that
+    tolerance (``Φ̂``: first guesses of their voltages) and the slopes ``dX/dλ0`` along the curve of every number
+    ``X`` of :data:`LIMIT_POINT_FIELDS` (:func:`_slopes_along`); ``values_along(λ0, Φ̂) -> states`` the states
+    alone, for a curve without exact slopes.
+
+    With slopes, at ``λ0*`` and ``λ0*(1 + ERROR_STEP)`` the slope ``t`` of the extremal quantity gives its
+    curvature ``c = Δt/Δλ0``, and one Newton step ``δ = −t(λ0*)/c`` the location at the tighter tolerance, where
+    each number is ``X(λ0*) + X' δ + X'' δ²/2`` (``X''`` from the same two slopes). With values only,
+    the parabola through the extremal quantity at ``λ0*`` and ``λ0*(1 ± VALUES_ERROR_STEP)`` gives ``t`` and
+    ``c`` (and central differences the other slopes). The error of each number is
+    :func:`~coexist.settings.measured_error` of its value and the tight one (twice the change, plus ``rtol`` of
+    it); the number held fixed (``fixed``) is exact. A limit point without a valid state or a finite curvature at
+    the tighter tolerance keeps ``errors = None``."""
+    if not limit_points:
+        return
+    attr_of = {kind: attr for attr, kinds in quantities.items() for kind in kinds}
+    lam = np.array([lp.pole_stretch for lp in limit_points])
+    phi = np.array([lp.phi_hat for lp in limit_points])
+    m = lam.size
+    if slopes_along is not None:
+        h = ERROR_STEP * lam
+        st, slope = slopes_along(np.r_[lam, lam + h], np.r_[phi, phi])
+        ok = st.ok[:m] & st.ok[m:]
+        slopes = {name: slope[name][:m] for name in LIMIT_POINT_FIELDS}
+        with np.errstate(all="ignore"):
+            curvature = {name: (slope[name][m:] - slopes[name]) / h for name in LIMIT_POINT_FIELDS}
+        here = {name: getattr(st, name)[:m] for name in LIMIT_POINT_FIELDS}
+    else:
+        h = VALUES_ERROR_STEP * lam
+        st = values_along(np.r_[lam - h, lam, lam + h], np.r_[phi, phi, phi])
+        ok = st.ok[:m] & st.ok[m : 2 * m] & st.ok[2 * m :]
+        y = {name: getattr(st, name) for name in LIMIT_POINT_FIELDS}
+        with np.errstate(all="ignore"):
+            slopes = {name: (v[2 * m :] - v[:m]) / (2 * h) for name, v in y.items()}
+            curvature = {name: (v[:m] - 2 * v[m : 2 * m] + v[2 * m :]) / h**2 for name, v in y.items()}
+        here = {name: v[m : 2 * m] for name, v in y.items()}
+    for j, lp in enumerate(limit_points):
+        attr = attr_of[lp.kind]
+        with np.errstate(all="ignore"):
+            delta = -slopes[attr][j] / curvature[attr][j]
+        if not (ok[j] and np.isfinite(delta)):
+            continue
+        errors = {}
+        for name in LIMIT_POINT_FIELDS:
+            tight = here[name][j] + slopes[name][j] * delta + 0.5 * curvature[name][j] * delta**2
+            errors[name] = 0.0 if name == fixed else measured_error(getattr(lp, name), float(tight), rtol)
+        if all(np.isfinite(v) for v in errors.values()):
+            lp.errors = errors
+
+
+def _slopes_along(st: MembraneStates, family: str) -> dict:
+    """The slopes ``dX/dλ0`` along a curve of ``family`` of every number of :data:`LIMIT_POINT_FIELDS`, at states
+    shot with derivatives (NaN where a state fails): along a ``p̂–V̂`` curve (``Φ̂`` fixed) the partial derivatives
+    to ``λ0``; along a ``Φ̂–Q̂`` curve (``p̂`` fixed) ``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)`` and ``dX/dλ0 = ∂X/∂λ0 +
+    (∂X/∂Φ̂) dΦ̂/dλ0``; ``dΨ̂ = p̂ dV̂ − Q̂ dΦ̂`` for the potential."""
+    dv = StateDerivatives.of(st)
+    with np.errstate(all="ignore"):
+        g = np.zeros(st.p_hat.size) if family == "pressure_volume" else -dv.dp_dl0 / dv.dp_dphi
+        v = dv.dv_dl0 + dv.dv_dphi * g
+        out = {
+            "pole_stretch": np.ones(st.p_hat.size),
+            "p_hat": dv.dp_dl0 + dv.dp_dphi * g,
+            "v_hat": v,
+            "phi_hat": g,
+            "q_hat": dv.dq_dl0 + dv.dq_dphi * g,
+            "psi_hat": st.p_hat * v - st.q_hat * g,
+        }
+    return {k: np.where(st.ok, x, np.nan) for k, x in out.items()}
+
+
 def _check_range(pole_stretch, model):
     l0 = validation.real_array(pole_stretch, "pole_stretch")
     if l0.ndim != 1 or l0.size < 3:
@@ -617,22 +714,25 @@ def pressure_volume_curve(
         {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
         settings,
         lambda x: _pressure_volume_slopes(model, x, phi_hat, settings),
+        (lambda x, _: _pressure_volume_slopes(model, x, phi_hat, error_reference(settings)), None),
     )
 
 
 def _pressure_volume_slopes(model, l0, phi_hat, settings) -> tuple[MembraneStates, dict]:
-    """The states at ``λ0`` and fixed ``Φ̂`` with ``dp̂/dλ0`` and ``dV̂/dλ0`` (the variational equations; NaN where
-    a state fails)."""
+    """The states at ``λ0`` and fixed ``Φ̂`` with the slopes of :func:`_slopes_along` (``dp̂/dλ0``, ``dV̂/dλ0``, ...;
+    the variational equations; NaN where a state fails)."""
     st = solve_states(model, l0, phi_hat, settings, derivatives=True)
-    dv = StateDerivatives.of(st)
-    return st, {"p_hat": np.where(st.ok, dv.dp_dl0, np.nan), "v_hat": np.where(st.ok, dv.dv_dl0, np.nan)}
+    return st, _slopes_along(st, "pressure_volume")
 
 
-def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, settings, slopes_at=None) -> Curve:
+def _trace(
+    family, fixed, model, pole_stretch, points, evaluate, quantities, settings, slopes_at=None, errors_along=None
+) -> Curve:
     """A curve of ``family`` from ``evaluate(λ0) -> MembraneStates`` on ``pole_stretch`` (default: ``points``
     from ``1.01 λpre`` to ``max(4, 1.5 λpre)``): its valid run, and the extrema of ``quantities`` located
     (with the exact slopes of ``slopes_at(λ0) -> (states, {attribute: d(attr)/dλ0})``, if given:
-    :func:`_find_limit_points`)."""
+    :func:`_find_limit_points`), with their errors measured (:func:`_limit_point_errors`) by
+    ``errors_along = (slopes_along, values_along)``, the same at the tighter tolerance (one of them None)."""
     if pole_stretch is None:
         pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), points)
     l0 = _check_range(pole_stretch, model)
@@ -640,6 +740,9 @@ def _trace(family, fixed, model, pole_stretch, points, evaluate, quantities, set
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
     limits = _find_limit_points(states, quantities, evaluate, settings, slopes_at)
+    if errors_along is not None:
+        held = "phi_hat" if family == "pressure_volume" else "p_hat"
+        _limit_point_errors(limits, quantities, settings.rtol, held, *errors_along)
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
 
 
@@ -1336,7 +1439,7 @@ _CHARGE_QUANTITIES = {"phi_hat": ("voltage_max", "voltage_min"), "q_hat": ("char
 def _voltage_charge_slopes(model, l0, phi_hat, settings) -> dict:
     """``dΦ̂/dλ0 = −(∂p̂/∂λ0)/(∂p̂/∂Φ̂)`` and ``dQ̂/dλ0 = ∂Q̂/∂λ0 + (∂Q̂/∂Φ̂) dΦ̂/dλ0`` along a ``Φ̂–Q̂`` curve at
     its states ``(λ0, Φ̂)`` (one shot with derivatives; NaN where a state fails)."""
-    return _voltage_charge_slopes_of(solve_states(model, l0, phi_hat, settings, derivatives=True))
+    return _slopes_along(solve_states(model, l0, phi_hat, settings, derivatives=True), "voltage_charge")
 
 
 def _interval_cubic(grid, values, exact, lo):
@@ -1396,7 +1499,7 @@ def _charge_limit_points(model, p_hat, states, settings, evaluate):
         lambda rows: _voltage_charge_slopes(model, grid[rows], states.phi_hat[rows], settings),
     )
     brackets = _grid_extrema(
-        states, _CHARGE_QUANTITIES, slopes, settings.rtol, lambda x: _voltage_charge_slopes_of(evaluate(x))
+        states, _CHARGE_QUANTITIES, slopes, settings.rtol, lambda x: _slopes_along(evaluate(x), "voltage_charge")
     )
     if not brackets:
         return []
@@ -1438,7 +1541,7 @@ def _from_sampled_slopes(model, p_hat, settings, states, brackets, evaluate) -> 
     hi = np.array([grid[b.hi] for b in brackets])
     x = lo[:, None] + (hi - lo)[:, None] * (np.arange(1, k + 1) / (k + 1))[None, :]
     st = evaluate(x.ravel())
-    slopes = _voltage_charge_slopes_of(st)
+    slopes = _slopes_along(st, "voltage_charge")
     m = len(brackets)
     guess = [np.full(m, np.nan) for _ in range(6)]  # λ0, Φ̂, curvature, Φ̂ curvature, lo, hi
     for j, b in enumerate(brackets):
@@ -1474,7 +1577,7 @@ def _from_interpolated_values(model, p_hat, settings, states, brackets, evaluate
     x = np.array([lp.pole_stretch for lp in rough])
     delta = 1e-3 * np.array([grid[b.hi] - grid[b.lo] for b in brackets])
     here = evaluate(np.r_[x, x + delta])
-    slopes = _voltage_charge_slopes_of(here)
+    slopes = _slopes_along(here, "voltage_charge")
     k = len(brackets)
     is_q = np.array([b.attr == "q_hat" for b in brackets])
     t = np.where(np.r_[is_q, is_q], slopes["q_hat"], slopes["phi_hat"])
@@ -1494,15 +1597,6 @@ def _from_interpolated_values(model, p_hat, settings, states, brackets, evaluate
         np.array([grid[b.hi] for b in brackets]),
     )
     return [lp if polished is None else polished for lp, polished in zip(rough, again)]
-
-
-def _voltage_charge_slopes_of(st: MembraneStates) -> dict:
-    """:func:`_voltage_charge_slopes` of states shot with derivatives."""
-    dv = StateDerivatives.of(st)
-    with np.errstate(all="ignore"):
-        g = -dv.dp_dl0 / dv.dp_dphi
-        t = dv.dq_dl0 + dv.dq_dphi * g
-    return {"phi_hat": np.where(st.ok, g, np.nan), "q_hat": np.where(st.ok, t, np.nan)}
 
 
 def _slope_roots(model, p_hat, settings, brackets, lam, phi, curvature, phi_curvature, lo_b, hi_b) -> list:
@@ -1534,7 +1628,11 @@ def _slope_roots(model, p_hat, settings, brackets, lam, phi, curvature, phi_curv
             phi_curvature[idx] = np.where(np.isfinite(g_secant), g_secant, phi_curvature[idx])
         g_prev[idx] = g
         ok = st.ok & np.isfinite(g)
-        met = st.ok & (np.abs(f) <= ftol)
+        with np.errstate(all="ignore"):
+            # on the curve: the pressure met, or (at rtol ≤ 1e-12, where inner_ftol lies below the states' rounding)
+            # the Newton step onto it within the noise of the shooting, as voltage_at_pressure accepts a voltage
+            noise = np.abs(f / dv.dp_dphi) <= 0.5 * NOISE_STEP * np.abs(phi[idx])
+        met = st.ok & ((np.abs(f) <= ftol) | noise)
         iterate = (lam, lam_prev, t_prev, curvature, step_prev)
         step, located, done = _secant_round(idx, t, ok, met, iterate, is_max, lo_b, hi_b, settings.limit_point_xtol)
         for k in np.flatnonzero(located):
@@ -1601,7 +1699,23 @@ def voltage_charge_curve(
     limits = _charge_limit_points(
         model, p_hat, states, settings, lambda x: voltage_at_pressure(model, x, p_hat, settings)
     )
+    tight = error_reference(settings)
+
+    def along(x, phi):
+        st = _voltages_from(model, x, p_hat, tight, phi)
+        return st, _slopes_along(st, "voltage_charge")
+
+    _limit_point_errors(limits, _CHARGE_QUANTITIES, settings.rtol, "p_hat", along)
     return Curve("voltage_charge", float(p_hat), states, limits, starts, stopped, settings.rtol)
+
+
+def _voltages_from(model, l0, p_hat, settings, phi_hat, iterations=60) -> MembraneStates:
+    """:func:`voltage_at_pressure` with derivatives at the pole stretches ``l0``, the Newton iteration started at the
+    voltages ``phi_hat`` (near the roots) instead of the regula falsi point; the zero-voltage states are not
+    shot (the feasibility they decide is known)."""
+    roots = _VoltageRoots(model, l0, p_hat, settings)
+    roots.newton(np.arange(l0.size), np.asarray(phi_hat, dtype=float) ** 2, iterations)
+    return roots.states(with_derivatives=True)
 
 
 def curves_csv(curves) -> str:

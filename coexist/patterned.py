@@ -63,7 +63,7 @@ from .curves import Curve, _trace
 from .errors import SceneError
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
-from .settings import SolverSettings
+from .settings import SolverSettings, error_reference
 from .shooting import (
     BELOW_RESOLUTION,
     FLAT_LIMIT,
@@ -2598,26 +2598,28 @@ def patterned_pressure_volume_curve(
         slope = np.where(err <= HINT_SCALE_ERROR, slope, np.nan)
         return guess, {"slope": slope, "jump": jump}
 
-    def solve(x, from_known, later=None):
+    def solve(x, from_known, later=None, at=settings):
         """The states at ``x``: from the cap estimate, from the states kept (``from_known``), or (``later``, the
-        curve's first call) one Newton iteration in which the ``later`` states join from the others."""
+        curve's first call) one Newton iteration in which the ``later`` states join from the others. ``at``: the
+        settings (those of the curve, whose states are kept as starts, or the tighter ones its limit points'
+        errors are measured with)."""
         guess = h = stage = None
         if from_known:
             cat = {k: np.concatenate(v) for k, v in known_jump.items()}
             guess, h = start(np.concatenate(known_l0), np.concatenate(known_sigma), np.concatenate(known_slope), cat, x)
         if later is not None:
             stage = (later, start)
-        st, kept = _solve(model, pattern, x, phi_hat, settings, guess, False, False, h, stage)
+        st, kept = _solve(model, pattern, x, phi_hat, at, guess, False, False, h, stage)
         again = ~st.ok & (from_known or later is not None) & (np.ones(x.size, dtype=bool) if later is None else later)
         if again.any():  # a start from neighbours that failed: once more from the cap
-            retry = solve_patterned_states(model, pattern, x[again], phi_hat, settings)
+            retry = solve_patterned_states(model, pattern, x[again], phi_hat, at)
             st = _merge(x, ~again, _take_patterned(st, ~again), retry)
         if model.tension_field:  # a tension-field membrane: its WRINKLED states shot again relaxed
             from .patterned_relaxed import relax_wrinkled
 
-            st = relax_wrinkled(model, pattern, st, settings)
+            st = relax_wrinkled(model, pattern, st, at)
         ok = st.ok & np.isfinite(st.clamp_radius)
-        if ok.any() and kept:
+        if ok.any() and kept and at is settings:
             known_l0.append(x[ok])
             known_sigma.append(np.log(st.clamp_radius[ok]))
             known_slope.append(np.where(again, np.nan, kept["slope"])[ok])
@@ -2641,4 +2643,6 @@ def patterned_pressure_volume_curve(
         evaluate,
         {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
         settings,
+        None,
+        (None, lambda x, _: solve(np.asarray(x, dtype=float), bool(known_l0), at=error_reference(settings))),
     )

@@ -318,3 +318,58 @@ class SolverSettings:
                 ) from None
             return cls(rtol=rtol)
         return cls(rtol=accuracy)  # __post_init__ checks it (a number, in range)
+
+
+def tight_settings(settings: SolverSettings) -> SolverSettings:
+    """The settings an error is measured with: ``rtol/100``, at least 1e-13 (as a transition voltage's).
+
+    Parameters
+    ----------
+    settings : SolverSettings
+        The settings of the run.
+
+    Returns
+    -------
+    SolverSettings
+        ``settings`` with ``rtol = max(rtol/100, 1e-13)``.
+    """
+    return settings.with_rtol(max(settings.rtol / 100, 1e-13))
+
+
+def measured_error(value: float, tight_value: float, rtol: float) -> float:
+    """The error given to a number solved at ``rtol`` and again at ``rtol/100``: ``2 |value − tight| + rtol |value|``
+    (twice the change, as the tighter value carries noise of its own; never below the relative tolerance the
+    states themselves carry).
+
+    Parameters
+    ----------
+    value, tight_value : float
+        The number at the run's tolerance and at the tighter one.
+    rtol : float
+        The run's relative tolerance.
+
+    Returns
+    -------
+    float
+        The error estimate.
+    """
+    return float(2 * abs(value - tight_value) + rtol * abs(value))
+
+
+def error_reference(settings: SolverSettings) -> SolverSettings:
+    """The settings a limit point's error is measured against: :func:`tight_settings` where they are tighter than
+    ``settings``; at ``rtol ≤ 1e-13``, where they are not (a second run at the same tolerance only repeats the
+    first), ``100 rtol``: the change is then mostly the looser run's own error, an overestimate of this one's.
+
+    Parameters
+    ----------
+    settings : SolverSettings
+        The settings of the run.
+
+    Returns
+    -------
+    SolverSettings
+        ``settings`` with ``rtol = rtol/100`` (at least 1e-13), or ``100 rtol`` when that is not tighter.
+    """
+    tight = tight_settings(settings)
+    return tight if tight.rtol < settings.rtol else settings.with_rtol(min(100 * settings.rtol, RTOL_MAX))

@@ -26,7 +26,7 @@ from .model import MembraneModel
 from .numerics.roots import newton
 from .ramp import Ramp, RampResult, Transition, equal_free_energy, equal_free_energy_voltage
 from .scene import Scene
-from .settings import SolverSettings
+from .settings import SolverSettings, tight_settings
 from .shooting import StateDerivatives, solve_states
 
 
@@ -522,9 +522,13 @@ class Simulation:
             t.measured = ev.measured
 
     def _tight_map(self) -> EquilibriumMap:
-        tight_settings = self.settings.with_rtol(max(self.settings.rtol / 100, 1e-13))
         return EquilibriumMap(
-            self.model, self.gas, self.scene.zone_count, tight_settings, self.phi_window, self.emap.breakdown
+            self.model,
+            self.gas,
+            self.scene.zone_count,
+            tight_settings(self.settings),
+            self.phi_window,
+            self.emap.breakdown,
         )
 
     def _measure_event(self, ev: Event, counts, tight_map) -> None:

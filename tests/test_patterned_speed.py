@@ -162,7 +162,8 @@ def test_the_headline_curve_takes_five_passes_and_a_pass_for_each_limit_point_ev
     """The headline curve's grid is one Newton iteration: the coarse states (evenly spaced in
     ``(λ0/λpre − 1)^0.4``) three passes, then every other state joins from their polynomial and converges in two
     (the first without variational equations where the interpolated slope serves); the pressure maximum's
-    evaluations one pass each. Measured: passes of 26, 26, 26, 196, 176 states, then 9 and 1."""
+    evaluations one pass each, and its error's three states at rtol/100 two. Measured: passes of 26, 26, 26, 196,
+    176 states, then 9 and 1, then 3 and 3."""
     import coexist.patterned as pat
 
     sizes = []
@@ -178,9 +179,9 @@ def test_the_headline_curve_takes_five_passes_and_a_pass_for_each_limit_point_ev
     finally:
         pat._pass = original
     assert np.all(curve.states.status == OK)
-    assert len(sizes) <= 7, sizes
-    assert sum(sizes) <= 26 * 3 + 200 * 2 + 10, sizes
-    assert sizes[:3] == [26, 26, 26] and sizes[-2:] == [9, 1], sizes
+    assert len(sizes) <= 9, sizes
+    assert sum(sizes) <= 26 * 3 + 200 * 2 + 10 + 6, sizes
+    assert sizes[:3] == [26, 26, 26] and sizes[-4:] == [9, 1, 3, 3], sizes
 
 
 def test_a_rejected_step_in_two_halves_is_the_adaptive_integration(gent):

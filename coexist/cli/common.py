@@ -360,6 +360,46 @@ class Outputs:
         self._staged.clear()
 
 
+def decimals_for(error: float) -> int:
+    """The decimals a number with this error supports: ``⌈−log10 error⌉``, 3 to 12 (12 for an exact one).
+
+    Parameters
+    ----------
+    error : float
+        The number's error (≥ 0).
+
+    Returns
+    -------
+    int
+        E.g. 10 for an error of 1.6e-10.
+    """
+    return 12 if error <= 0 else int(min(12, max(3, math.ceil(-math.log10(error)))))
+
+
+def with_error(value: float, error: float | None, decimals: int = 8) -> str:
+    """A number with the decimals its measured error supports (:func:`decimals_for`) and the error, e.g.
+    ``2.12726637 ± 2e-08``; with ``decimals`` and no error when ``error`` is None (not measured).
+
+    Parameters
+    ----------
+    value : float
+        The number.
+    error : float or None
+        Its measured error.
+    decimals : int
+        The decimals printed without an error.
+
+    Returns
+    -------
+    str
+    """
+    if error is None or not math.isfinite(error):
+        return f"{value:.{decimals}f}"
+    if error <= 0:
+        return f"{value:.{decimals_for(error)}f}"
+    return f"{value:.{decimals_for(error)}f} ± {error:.0e}"
+
+
 def printable(text: str) -> str:
     """``text`` safe for a terminal (:func:`coexist.validation.escaped`: control characters from a scene's name or
     description shown as ``\\xNN`` escapes instead of reaching the terminal raw)."""

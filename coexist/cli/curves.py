@@ -6,6 +6,7 @@ from pathlib import Path
 
 import click
 
+from ..settings import error_reference
 from .common import (
     InputError,
     Outputs,
@@ -17,6 +18,7 @@ from .common import (
     material_options,  # noqa: I001
     parse_floats,
     settings_from,
+    with_error,
     write_json,
 )
 
@@ -311,18 +313,22 @@ def _note(curve):
 
 
 def _summary(pv, vq, settings, err=False):
-    click.echo(f"limit points (relative tolerance {settings.rtol:.0e}):", err=err)
-    for c in pv:
-        for lp in c.limit_points:
-            click.echo(
-                f"  Φ̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  p̂ = {lp.p_hat:.10f}"
-                f"  V̂ = {lp.v_hat:.8f}",
-                err=err,
-            )
-    for c in vq:
-        for lp in c.limit_points:
-            click.echo(
-                f"  p̂ = {c.fixed:<6g} {lp.kind:<13} λ0 = {lp.pole_stretch:.8f}  Φ̂ = {lp.phi_hat:.10f}"
-                f"  Q̂ = {lp.q_hat:.8f}",
-                err=err,
-            )
+    again = error_reference(settings).rtol
+    click.echo(
+        f"limit points (relative tolerance {settings.rtol:.0e}; each number ± its error, measured by locating the"
+        f" limit point again at rtol {again:.0e}):",
+        err=err,
+    )
+    for curves, held, shown in (
+        (pv, "Φ̂", (("p̂", "p_hat"), ("V̂", "v_hat"))),
+        (vq, "p̂", (("Φ̂", "phi_hat"), ("Q̂", "q_hat"))),
+    ):
+        for c in curves:
+            for lp in c.limit_points:
+                e = lp.errors or {}
+                numbers = "  ".join(
+                    f"{name} = {with_error(getattr(lp, attr), e.get(attr))}"
+                    for name, attr in (("λ0", "pole_stretch"), *shown)
+                )
+                note = "" if lp.errors is not None else "  (error not measured)"
+                click.echo(f"  {held} = {c.fixed:<6g} {lp.kind:<13} {numbers}{note}", err=err)

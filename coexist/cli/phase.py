@@ -9,6 +9,7 @@ from .common import (
     Outputs,
     accuracy_option,
     check_jlim,
+    decimals_for,
     info,
     library_errors,
     load_scene_arg,
@@ -135,5 +136,4 @@ def pressure_cell(p_hat: float, error: float) -> str:
 
     if not (math.isfinite(p_hat) and math.isfinite(error)):
         return "-"
-    digits = 12 if error <= 0 else int(min(12, max(3, math.ceil(-math.log10(error)))))
-    return f"{p_hat:.{digits}f}"
+    return f"{p_hat:.{decimals_for(error)}f}"
