@@ -456,14 +456,15 @@ def _node_slopes(states: MembraneStates, quantities, slopes_at) -> dict | None:
     return out
 
 
-def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None):
+def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None, same_states=False):
     """Locate every extremum of the named quantities that the grid shows (:func:`_grid_extrema`).
 
     ``quantities`` maps an attribute (``p_hat``) to its pair of kinds (``("pressure_max", "pressure_min")``).
     With ``slopes_at(λ0) -> (states, {attribute: d(attr)/dλ0})`` (exact slopes along the curve), the grid's
     node slopes come from it (:func:`_node_slopes`) and an extremum in one interval with both end slopes is
     the root of its slope (:func:`_slope_extrema`, from the extremum of the interval's cubic Hermite
-    interpolant); every other one, and any such root not located, by the extremum of the interpolated values
+    interpolant), its state then evaluated again by ``evaluate_states`` unless ``same_states`` (``slopes_at`` gives
+    the same states); every other one, and any such root not located, by the extremum of the interpolated values
     (:func:`_refine_brackets`).
     """
     node = None if slopes_at is None else (lambda rows: slopes_at(states.pole_stretch[rows])[1])
@@ -476,7 +477,9 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     if slopes_at is not None and slopes is not None:
         found = _slope_extrema(states, brackets, slopes, slopes_at, settings)
         done = [j for j, lp in enumerate(found) if lp is not None]
-        if done:  # the states at the roots as the curve's own evaluation gives them (a shot with derivatives
+        if (
+            done and not same_states
+        ):  # the states at the roots as the curve's own evaluation gives them (a shot with derivatives
             # takes other steps: 1e-11 apart)
             at = evaluate_states(np.array([found[j].pole_stretch for j in done]))
             for k, j in enumerate(done):
@@ -573,51 +576,33 @@ def _secant_round(idx, t, ok, met, iterate, is_max, lo_b, hi_b, xtol):
 #: the step, relative to ``λ0``, between the two states at the tighter tolerance whose exact slopes give the
 #: curvature at a limit point for its measured error (:func:`_limit_point_errors`)
 ERROR_STEP = 1e-5
-#: without exact slopes (patterned zones): the tight states this far on either side of a limit point, relative
-#: to ``λ0``, give the parabola whose vertex locates it again
-VALUES_ERROR_STEP = 1e-4
 
 
-def _limit_point_errors(limit_points, quantities, rtol, fixed, slopes_along=None, values_along=None) -> None:
+def _limit_point_errors(limit_points, quantities, rtol, fixed, slopes_along) -> None:
     """Measure every limit point's :attr:`~LimitPoint.errors` (in place) by locating it again at a tighter
     tolerance.
 
     ``slopes_along(λ0, Φ̂) -> (states, slopes)`` gives the curve's states at the pole stretches ``λ0`` at that
     tolerance (``Φ̂``: first guesses of their voltages) and the slopes ``dX/dλ0`` along the curve of every number
-    ``X`` of :data:`LIMIT_POINT_FIELDS` (:func:`_slopes_along`); ``values_along(λ0, Φ̂) -> states`` the states
-    alone, for a curve without exact slopes.
-
-    With slopes, at ``λ0*`` and ``λ0*(1 + ERROR_STEP)`` the slope ``t`` of the extremal quantity gives its
-    curvature ``c = Δt/Δλ0``, and one Newton step ``δ = −t(λ0*)/c`` the location at the tighter tolerance, where
-    each number is ``X(λ0*) + X' δ + X'' δ²/2`` (``X''`` from the same two slopes). With values only,
-    the parabola through the extremal quantity at ``λ0*`` and ``λ0*(1 ± VALUES_ERROR_STEP)`` gives ``t`` and
-    ``c`` (and central differences the other slopes). The error of each number is
-    :func:`~coexist.settings.measured_error` of its value and the tight one (twice the change, plus ``rtol`` of
-    it); the number held fixed (``fixed``) is exact. A limit point without a valid state or a finite curvature at
-    the tighter tolerance keeps ``errors = None``."""
+    ``X`` of :data:`LIMIT_POINT_FIELDS` (:func:`_slopes_along`). At ``λ0*`` and ``λ0*(1 + ERROR_STEP)`` the slope
+    ``t`` of the extremal quantity gives its curvature ``c = Δt/Δλ0``, and one Newton step ``δ = −t(λ0*)/c`` the
+    location at the tighter tolerance, where each number is ``X(λ0*) + X' δ + X'' δ²/2`` (``X''`` from the same
+    two slopes). The error of each number is :func:`~coexist.settings.measured_error` of its value and the tight
+    one (twice the change, plus ``rtol`` of it); the number held fixed (``fixed``) is exact. A limit point
+    without a valid state or a finite curvature at the tighter tolerance keeps ``errors = None``."""
     if not limit_points:
         return
     attr_of = {kind: attr for attr, kinds in quantities.items() for kind in kinds}
     lam = np.array([lp.pole_stretch for lp in limit_points])
     phi = np.array([lp.phi_hat for lp in limit_points])
     m = lam.size
-    if slopes_along is not None:
-        h = ERROR_STEP * lam
-        st, slope = slopes_along(np.r_[lam, lam + h], np.r_[phi, phi])
-        ok = st.ok[:m] & st.ok[m:]
-        slopes = {name: slope[name][:m] for name in LIMIT_POINT_FIELDS}
-        with np.errstate(all="ignore"):
-            curvature = {name: (slope[name][m:] - slopes[name]) / h for name in LIMIT_POINT_FIELDS}
-        here = {name: getattr(st, name)[:m] for name in LIMIT_POINT_FIELDS}
-    else:
-        h = VALUES_ERROR_STEP * lam
-        st = values_along(np.r_[lam - h, lam, lam + h], np.r_[phi, phi, phi])
-        ok = st.ok[:m] & st.ok[m : 2 * m] & st.ok[2 * m :]
-        y = {name: getattr(st, name) for name in LIMIT_POINT_FIELDS}
-        with np.errstate(all="ignore"):
-            slopes = {name: (v[2 * m :] - v[:m]) / (2 * h) for name, v in y.items()}
-            curvature = {name: (v[:m] - 2 * v[m : 2 * m] + v[2 * m :]) / h**2 for name, v in y.items()}
-        here = {name: v[m : 2 * m] for name, v in y.items()}
+    h = ERROR_STEP * lam
+    st, slope = slopes_along(np.r_[lam, lam + h], np.r_[phi, phi])
+    ok = st.ok[:m] & st.ok[m:]
+    slopes = {name: slope[name][:m] for name in LIMIT_POINT_FIELDS}
+    with np.errstate(all="ignore"):
+        curvature = {name: (slope[name][m:] - slopes[name]) / h for name in LIMIT_POINT_FIELDS}
+    here = {name: getattr(st, name)[:m] for name in LIMIT_POINT_FIELDS}
     for j, lp in enumerate(limit_points):
         attr = attr_of[lp.kind]
         with np.errstate(all="ignore"):
@@ -714,7 +699,7 @@ def pressure_volume_curve(
         {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
         settings,
         lambda x: _pressure_volume_slopes(model, x, phi_hat, settings),
-        (lambda x, _: _pressure_volume_slopes(model, x, phi_hat, error_reference(settings)), None),
+        lambda x, _: _pressure_volume_slopes(model, x, phi_hat, error_reference(settings)),
     )
 
 
@@ -726,23 +711,35 @@ def _pressure_volume_slopes(model, l0, phi_hat, settings) -> tuple[MembraneState
 
 
 def _trace(
-    family, fixed, model, pole_stretch, points, evaluate, quantities, settings, slopes_at=None, errors_along=None
+    family,
+    fixed,
+    model,
+    pole_stretch,
+    points,
+    evaluate,
+    quantities,
+    settings,
+    slopes_at=None,
+    errors_along=None,
+    same_states=False,
 ) -> Curve:
     """A curve of ``family`` from ``evaluate(λ0) -> MembraneStates`` on ``pole_stretch`` (default: ``points``
     from ``1.01 λpre`` to ``max(4, 1.5 λpre)``): its valid run, and the extrema of ``quantities`` located
     (with the exact slopes of ``slopes_at(λ0) -> (states, {attribute: d(attr)/dλ0})``, if given:
     :func:`_find_limit_points`), with their errors measured (:func:`_limit_point_errors`) by
-    ``errors_along = (slopes_along, values_along)``, the same at the tighter tolerance (one of them None)."""
+    ``errors_along(λ0, Φ̂)``, the same at the tighter tolerance. ``same_states``: the states ``slopes_at`` gives
+    are those ``evaluate`` gives (its derivatives computed apart, as a patterned zone's are), so a limit point's
+    state need not be evaluated again."""
     if pole_stretch is None:
         pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), points)
     l0 = _check_range(pole_stretch, model)
     states = evaluate(l0)
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
-    limits = _find_limit_points(states, quantities, evaluate, settings, slopes_at)
+    limits = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
     if errors_along is not None:
         held = "phi_hat" if family == "pressure_volume" else "p_hat"
-        _limit_point_errors(limits, quantities, settings.rtol, held, *errors_along)
+        _limit_point_errors(limits, quantities, settings.rtol, held, errors_along)
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
 
 

@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import validation
-from .curves import Curve, _trace
+from .curves import Curve, _slopes_along, _trace
 from .errors import SceneError
 from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
@@ -2485,6 +2485,8 @@ def _take_patterned(st: PatternedStates, mask) -> PatternedStates:
             kw[k] = v[mask]
         elif k == "wrinkled_radii" and v is not None:  # a relaxed state's bands (coexist.patterned_relaxed)
             kw[k] = [v[i] for i in keep]
+        elif k == "derivatives" and v is not None:
+            kw[k] = v.take(mask)
         else:
             kw[k] = None
     return _patterned(
@@ -2512,6 +2514,13 @@ def _merge(x, first_mask, first: PatternedStates, rest: PatternedStates) -> Patt
             for i, w in zip(np.flatnonzero(~first_mask), b or [[]] * int((~first_mask).sum())):
                 bands[i] = w
             kw[name] = bands
+        elif name == "derivatives" and a is not None and b is not None:
+            merged_d = {}
+            for k, va in a.__dict__.items():
+                both = np.full(x.size, np.nan)
+                both[first_mask], both[~first_mask] = va, b.__dict__[k]
+                merged_d[k] = both
+            kw[name] = StateDerivatives(**merged_d)
         else:
             kw[name] = None
     detail: list = [None] * x.size
@@ -2534,15 +2543,16 @@ def patterned_pressure_volume_curve(
 ) -> Curve:
     """The ``p̂–V̂`` curve of a patterned zone at fixed ``Φ̂``, traced by the pole stretch, limit points located.
 
-    As :func:`coexist.curves.pressure_volume_curve` (the same grid, valid run and limit-point search), with
-    every state from :func:`solve_patterned_states`. The grid is one Newton iteration on the interface scales
-    (:func:`_newton`): a coarse subset (:func:`_coarse`, evenly spaced in ``u = (λ0/λpre − 1)^0.4``) from the
-    pole region's uniform zone, and once its residuals are below :data:`JOIN_RESIDUAL` every other state joins,
-    started from the 6-point polynomial in ``u`` through the coarse scales (:func:`_interpolate`) with the
-    interpolated slope ``dG/dσ`` and interface stretches (no variational equations in its first pass where the
-    scale's error estimate is small): 5 passes for the default grid of the headline zone. The limit-point
-    search's states start from all the converged ones (one pass each). Every state is returned from a pass whose
-    own residual is ``|G| ≤ rtol``: the starts change the passes, not the states.
+    As :func:`coexist.curves.pressure_volume_curve` (the same grid, valid run and limit-point search: the exact
+    slopes of the states' derivatives at the curve's ends and bends, limit points as their roots, errors measured at
+    rtol/100), with every state from :func:`solve_patterned_states`. The grid is one Newton iteration on the
+    interface scales (:func:`_newton`): a coarse subset (:func:`_coarse`, evenly spaced in ``u = (λ0/λpre −
+    1)^0.4``) from the pole region's uniform zone, and once its residuals are below :data:`JOIN_RESIDUAL` every
+    other state joins, started from the 6-point polynomial in ``u`` through the coarse scales (:func:`_interpolate`)
+    with the interpolated slope ``dG/dσ`` and interface stretches (no variational equations in its first pass where
+    the scale's error estimate is small): 5 passes for the default grid of the headline zone. The limit-point
+    search's states start from all the converged ones. Every state is returned from a pass whose own residual is
+    ``|G| ≤ rtol``: the starts change the passes, not the states.
 
     Parameters
     ----------
@@ -2598,26 +2608,26 @@ def patterned_pressure_volume_curve(
         slope = np.where(err <= HINT_SCALE_ERROR, slope, np.nan)
         return guess, {"slope": slope, "jump": jump}
 
-    def solve(x, from_known, later=None, at=settings):
+    def solve(x, from_known, later=None, at=settings, derivatives=False):
         """The states at ``x``: from the cap estimate, from the states kept (``from_known``), or (``later``, the
         curve's first call) one Newton iteration in which the ``later`` states join from the others. ``at``: the
         settings (those of the curve, whose states are kept as starts, or the tighter ones its limit points'
-        errors are measured with)."""
+        errors are measured with); ``derivatives``: with the exact derivatives (the limit points' slopes)."""
         guess = h = stage = None
         if from_known:
             cat = {k: np.concatenate(v) for k, v in known_jump.items()}
             guess, h = start(np.concatenate(known_l0), np.concatenate(known_sigma), np.concatenate(known_slope), cat, x)
         if later is not None:
             stage = (later, start)
-        st, kept = _solve(model, pattern, x, phi_hat, at, guess, False, False, h, stage)
+        st, kept = _solve(model, pattern, x, phi_hat, at, guess, derivatives, False, h, stage)
         again = ~st.ok & (from_known or later is not None) & (np.ones(x.size, dtype=bool) if later is None else later)
         if again.any():  # a start from neighbours that failed: once more from the cap
-            retry = solve_patterned_states(model, pattern, x[again], phi_hat, at)
+            retry = solve_patterned_states(model, pattern, x[again], phi_hat, at, derivatives=derivatives)
             st = _merge(x, ~again, _take_patterned(st, ~again), retry)
         if model.tension_field:  # a tension-field membrane: its WRINKLED states shot again relaxed
             from .patterned_relaxed import relax_wrinkled
 
-            st = relax_wrinkled(model, pattern, st, at)
+            st = relax_wrinkled(model, pattern, st, at, derivatives=derivatives)
         ok = st.ok & np.isfinite(st.clamp_radius)
         if ok.any() and kept and at is settings:
             known_l0.append(x[ok])
@@ -2626,6 +2636,10 @@ def patterned_pressure_volume_curve(
             for k, v in known_jump.items():
                 v.append(np.where(again, np.nan, kept["jump"][k])[ok])
         return st
+
+    def slopes(x, at):
+        st = solve(np.asarray(x, dtype=float), bool(known_l0), at=at, derivatives=True)
+        return st, _slopes_along(st, "pressure_volume")
 
     def evaluate(x):
         x = np.asarray(x, dtype=float)
@@ -2643,6 +2657,7 @@ def patterned_pressure_volume_curve(
         evaluate,
         {"p_hat": ("pressure_max", "pressure_min"), "v_hat": ("volume_max", "volume_min")},
         settings,
-        None,
-        (None, lambda x, _: solve(np.asarray(x, dtype=float), bool(known_l0), at=error_reference(settings))),
+        lambda x: slopes(x, settings),
+        lambda x, _: slopes(x, error_reference(settings)),
+        same_states=True,  # the derivatives come from a pass of their own at the converged interface scales
     )

@@ -225,3 +225,24 @@ def test_a_pole_radius_allowed_at_the_users_tolerance_survives_a_tighter_one():
     tight = s.with_rtol(1e-13)
     assert tight.rtol == 1e-13 and tight.pole_radius == pytest.approx(1e-13**0.25)
     assert s.with_rtol(1e-8).pole_radius == 1e-3
+
+
+def test_patterned_curve_finds_the_extremum_in_its_last_interval():
+    """The inner-circle scene's zone at Φ̂ = 0.3: its curve ends where the pole wrinkles (λ0 = 3.95492), and the
+    last interval of the default grid holds its pressure maximum (λ0 = 3.9444551) and its volume maximum (λ0 =
+    3.9546023775, 0.7e-3 before the end). Without exact slopes a patterned curve searched no end interval and
+    missed the volume maximum; a fine grid ending at the same place has both inside."""
+    from coexist import Simulation, load_scene
+    from coexist.patterned import patterned_pressure_volume_curve
+
+    sim = Simulation.from_scene(load_scene("inner-circle"))
+    zone, pattern = sim.model.uniform, sim.model.pattern
+    curve = patterned_pressure_volume_curve(zone, pattern, 0.3)
+    last = curve.states.pole_stretch[-2:]
+    found = [lp for lp in curve.limit_points if last[0] < lp.pole_stretch < last[1]]
+    assert [lp.kind for lp in found] == ["pressure_max", "volume_max"], curve.limit_points
+    fine = patterned_pressure_volume_curve(zone, pattern, 0.3, np.linspace(3.9, last[1], 60))
+    for lp in found:
+        (ref,) = [r for r in fine.limit_points if r.kind == lp.kind and abs(r.pole_stretch - lp.pole_stretch) < 1e-3]
+        assert abs(lp.pole_stretch - ref.pole_stretch) <= lp.errors["pole_stretch"] < 1e-8
+        assert abs(lp.v_hat - ref.v_hat) <= lp.errors["v_hat"] and abs(lp.p_hat - ref.p_hat) <= lp.errors["p_hat"]
