@@ -69,7 +69,8 @@ class LimitPoint:
     again at ``rtol/100`` (:func:`~coexist.settings.error_reference`; :func:`_limit_point_errors`): the extremal
     value (``p̂`` of a pressure maximum) is good to about the states' tolerance, while the location ``λ0`` and the
     other quantities there, which vary to first order with it, are only as good as the extremum is sharp (a flat
-    one is ill-conditioned). None when it could not be measured (no valid state at the other tolerance).
+    one is ill-conditioned). None when it could not be measured: no valid state at the other tolerance, or no
+    extremum of its kind found there.
     """
 
     kind: str
@@ -588,8 +589,9 @@ def _limit_point_errors(limit_points, quantities, rtol, fixed, slopes_along) -> 
     ``t`` of the extremal quantity gives its curvature ``c = Δt/Δλ0``, and one Newton step ``δ = −t(λ0*)/c`` the
     location at the tighter tolerance, where each number is ``X(λ0*) + X' δ + X'' δ²/2`` (``X''`` from the same
     two slopes). The error of each number is :func:`~coexist.settings.measured_error` of its value and the tight
-    one (twice the change, plus ``rtol`` of it); the number held fixed (``fixed``) is exact. A limit point
-    without a valid state or a finite curvature at the tighter tolerance keeps ``errors = None``."""
+    one (twice the change, plus ``rtol`` of it); the input held fixed (``fixed``: a ``p̂–V̂`` curve's ``Φ̂``) is
+    exact. A limit point without a valid state at the tighter tolerance, or whose curvature there is not finite or
+    of the other sign (no extremum of its kind is found again), keeps ``errors = None``."""
     if not limit_points:
         return
     attr_of = {kind: attr for attr, kinds in quantities.items() for kind in kinds}
@@ -607,7 +609,9 @@ def _limit_point_errors(limit_points, quantities, rtol, fixed, slopes_along) -> 
         attr = attr_of[lp.kind]
         with np.errstate(all="ignore"):
             delta = -slopes[attr][j] / curvature[attr][j]
-        if not (ok[j] and np.isfinite(delta)):
+        # an extremum of the other kind there (or none): not found again, not measured
+        of_its_kind = curvature[attr][j] < 0 if lp.kind == quantities[attr][0] else curvature[attr][j] > 0
+        if not (ok[j] and np.isfinite(delta) and of_its_kind):
             continue
         errors = {}
         for name in LIMIT_POINT_FIELDS:
@@ -738,8 +742,7 @@ def _trace(
     states = _take(states, run)
     limits = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
     if errors_along is not None:
-        held = "phi_hat" if family == "pressure_volume" else "p_hat"
-        _limit_point_errors(limits, quantities, settings.rtol, held, errors_along)
+        _limit_point_errors(limits, quantities, settings.rtol, "phi_hat", errors_along)
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
 
 
@@ -1702,7 +1705,7 @@ def voltage_charge_curve(
         st = _voltages_from(model, x, p_hat, tight, phi)
         return st, _slopes_along(st, "voltage_charge")
 
-    _limit_point_errors(limits, _CHARGE_QUANTITIES, settings.rtol, "p_hat", along)
+    _limit_point_errors(limits, _CHARGE_QUANTITIES, settings.rtol, None, along)
     return Curve("voltage_charge", float(p_hat), states, limits, starts, stopped, settings.rtol)
 
 

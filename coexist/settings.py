@@ -321,7 +321,11 @@ class SolverSettings:
 
 
 def tight_settings(settings: SolverSettings) -> SolverSettings:
-    """The settings an error is measured with: ``rtol/100``, at least 1e-13 (as a transition voltage's).
+    """The settings an error is measured with: ``rtol/100``, at least 1e-13 (as a transition voltage's), and the
+    pole series handed over at a radius smaller by the fourth root of the same factor (its truncation is
+    ``O(R0⁴)``), so that it too is measured: the default radius stops growing at 1e-3 for ``rtol ≥ 1e-8``, and at
+    rtol 1e-6 both runs shared it (a flat pressure minimum's location, 9e-5 off in λ0 with ``R0 = 1e-3``, was given
+    ± 3.5e-6: review, helper-64).
 
     Parameters
     ----------
@@ -331,9 +335,12 @@ def tight_settings(settings: SolverSettings) -> SolverSettings:
     Returns
     -------
     SolverSettings
-        ``settings`` with ``rtol = max(rtol/100, 1e-13)``.
+        ``settings`` with ``rtol = max(rtol/100, 1e-13)`` and ``pole_radius = R0 (rtol'/rtol)^¼`` (``R0`` the
+        radius in use, :attr:`SolverSettings.series_radius`).
     """
-    return settings.with_rtol(max(settings.rtol / 100, 1e-13))
+    rtol = max(settings.rtol / 100, 1e-13)
+    radius = settings.series_radius * (rtol / settings.rtol) ** 0.25
+    return replace(settings.with_rtol(rtol), pole_radius=radius)
 
 
 def measured_error(value: float, tight_value: float, rtol: float) -> float:
