@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import click
 
+from ..settings import SolverSettings, tight_settings
 from .common import (
     Outputs,
     accuracy_option,
@@ -175,7 +176,8 @@ def _table(data):
             f"{'yes' if s['stable'] else 'no'}{mark}" + (f"  {_apex(s)}" if shapes else "")
         )
     click.echo("")
-    click.echo("transitions (voltage ± its error, measured by locating it again at rtol/100):")
+    again = tight_settings(SolverSettings(rtol=data["relative_tolerance"])).rtol
+    click.echo(f"transitions (voltage ± its error, measured by locating it again at rtol {again:.0e}):")
     if not data["transitions"]:
         kv = [s["voltage_kV"] for s in data["steps"]]
         click.echo(
