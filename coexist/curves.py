@@ -478,10 +478,9 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     if slopes_at is not None and slopes is not None:
         found = _slope_extrema(states, brackets, slopes, slopes_at, settings)
         done = [j for j, lp in enumerate(found) if lp is not None]
-        if (
-            done and not same_states
-        ):  # the states at the roots as the curve's own evaluation gives them (a shot with derivatives
-            # takes other steps: 1e-11 apart)
+        # the states at the roots as the curve's own evaluation gives them (a shot with derivatives takes other
+        # steps: 1e-11 apart), unless they are the same
+        if done and not same_states:
             at = evaluate_states(np.array([found[j].pole_stretch for j in done]))
             for k, j in enumerate(done):
                 found[j] = _limit_point(brackets[j].kind, _take(at, slice(k, k + 1)))
