@@ -72,7 +72,8 @@ def curve_dataset(curve):
     -------
     xarray.Dataset
         ``p_hat``, ``v_hat``, ``q_hat``, ``psi_hat``, ``phi_hat``, ``apex_height``, ``max_field_hat``,
-        ``min_tension_hat`` over ``state``; the limit points' values over ``limit_point``; attributes
+        ``min_tension_hat`` over ``state``; the limit points' values and their errors (``limit_p_hat``,
+        ``limit_p_hat_error``, ...) over ``limit_point``; attributes
         ``family``, the fixed value (``fixed_phi_hat`` or ``fixed_p_hat``) and ``relative_tolerance``.
     """
     xr = _xr()
@@ -96,6 +97,11 @@ def curve_dataset(curve):
             "limit_point",
             np.array([getattr(lp, k) for lp in lps], dtype=float),
             {"units": "1", "long_name": f"at the limit point: {NORMALISED[k]}"},
+        )
+        data[f"limit_{k}_error"] = (
+            "limit_point",
+            np.array([np.nan if lp.errors is None else lp.errors[k] for lp in lps], dtype=float),
+            {"units": "1", "long_name": f"error of limit_{k}, measured at rtol/100 (NaN: not measured)"},
         )
     coords = {
         "pole_stretch": (

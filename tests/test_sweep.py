@@ -193,6 +193,8 @@ def test_ramp_and_curve_to_xarray_round_trip(tmp_path):
     assert cds["p_hat"].dims == ("state",) and "p̂ = pA/(μH)" in cds["p_hat"].attrs["long_name"]
     i = list(cds["limit_kind"].values).index("pressure_max")
     assert float(cds["limit_p_hat"][i]) == pytest.approx(1.81362361, abs=1e-8)  # the README's value
+    # its measured error travels with it (the same number the curve carries)
+    assert float(cds["limit_p_hat_error"][i]) == curve.limit_points[i].errors["p_hat"] < 1e-9
     assert np.array_equal(cds["pole_stretch"].values, curve.pole_stretch)
 
 
