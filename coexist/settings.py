@@ -335,11 +335,13 @@ def tight_settings(settings: SolverSettings) -> SolverSettings:
     Returns
     -------
     SolverSettings
-        ``settings`` with ``rtol = max(rtol/100, 1e-13)`` and ``pole_radius = R0 (rtol'/rtol)^¼`` (``R0`` the
-        radius in use, :attr:`SolverSettings.series_radius`).
+        ``settings`` with ``rtol' = max(rtol/100, 1e-13)`` and ``pole_radius = R0 min(1, rtol'/rtol)^¼`` (``R0``
+        the radius in use, :attr:`SolverSettings.series_radius`; at most ``rtol'^¼``).
     """
     rtol = max(settings.rtol / 100, 1e-13)
-    radius = settings.series_radius * (rtol / settings.rtol) ** 0.25
+    # never larger (at rtol < 1e-13 the "tighter" tolerance is 1e-13), and never above rtol'^¼ by a rounding (a
+    # radius at the largest allowed, rtol^¼, raised: review, helper-65)
+    radius = min(settings.series_radius * min(1.0, rtol / settings.rtol) ** 0.25, rtol**0.25)
     return replace(settings.with_rtol(rtol), pole_radius=radius)
 
 

@@ -156,3 +156,16 @@ def test_tight_settings_shrink_the_pole_radius_with_the_tolerance(rtol):
     assert t.rtol == pytest.approx(max(rtol / 100, 1e-13))
     assert t.series_radius == pytest.approx(s.series_radius * (t.rtol / rtol) ** 0.25)
     assert t.series_radius <= t.rtol**0.25
+
+
+@pytest.mark.parametrize("rtol", [1e-4, 2.24e-12, 1.58e-11, 1e-14])
+def test_a_pole_radius_at_its_largest_allowed_survives_the_error_measurement(rtol):
+    """``pole_radius = rtol^¼`` is allowed; the tighter settings' radius, scaled by (rtol'/rtol)^¼, landed one
+    rounding above rtol'^¼ and raised (review, helper-65); at rtol 1e-14 the 'tighter' 1e-13 made it grow."""
+    from coexist.settings import tight_settings
+
+    s = SolverSettings(rtol=rtol, pole_radius=rtol**0.25)
+    t = tight_settings(s)
+    assert t.series_radius <= min(s.series_radius, t.rtol**0.25)
+    curve = pressure_volume_curve(build_model("gent", 97.0), 0.0, np.linspace(1.01, 4, 100), s)
+    assert curve.limit_points and curve.limit_points[0].errors is not None
