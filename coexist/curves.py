@@ -457,6 +457,41 @@ def _node_slopes(states: MembraneStates, quantities, slopes_at) -> dict | None:
     return out
 
 
+#: an interval across which a quantity changes by more than this many times what the exact slopes at both its
+#: ends allow (``h max |X'|``), and by more than :data:`JUMP_CHANGE` of its value, holds a jump of the states: by
+#: the mean value theorem the change equals ``h X'`` somewhere inside, so a smooth curve would need a slope this
+#: much steeper inside than at both ends
+JUMP_FACTOR = 10.0
+#: ... (a jump is a finite change, not the noise of a flat stretch whose slopes are nearly zero)
+JUMP_CHANGE = 1e-3
+
+
+def _first_jump(states: MembraneStates, quantities, slopes) -> int | None:
+    """The first grid interval ``[i, i + 1]`` across which the states jump (:data:`JUMP_FACTOR`), judged where the
+    exact slopes at both its ends are known (:func:`_node_slopes` asks for them where the secants bend sharply, as
+    they do on either side of a jump); None if there is none. A tension-field ring electrode wrinkles over its whole
+    width at once at its onset (Gent 97, ring 0.3–0.7, Φ̂ = 0.3: p̂ 1.3387 → 0.5427 and V̂ 4.295 → 13.83 between λ0
+    2.44691 and 2.44692): the states beyond lie on another branch, and a limit point had been reported at the jump
+    (review, helper-65)."""
+    if slopes is None:
+        return None
+    h = np.diff(states.pole_stretch)
+    first = None
+    for attr in quantities:
+        values, exact = getattr(states, attr), slopes.get(attr)
+        if exact is None:
+            continue
+        change = np.abs(np.diff(values))
+        with np.errstate(all="ignore"):
+            allowed = JUMP_FACTOR * h * np.maximum(np.abs(exact[:-1]), np.abs(exact[1:]))
+            big = JUMP_CHANGE * np.maximum(np.abs(values[:-1]), np.abs(values[1:]))
+        known = np.isfinite(exact[:-1]) & np.isfinite(exact[1:])
+        hits = np.flatnonzero(known & (change > allowed) & (change > big))
+        if hits.size and (first is None or hits[0] < first):
+            first = int(hits[0])
+    return first
+
+
 def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None, same_states=False):
     """Locate every extremum of the named quantities that the grid shows (:func:`_grid_extrema`).
 
@@ -466,14 +501,24 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     the root of its slope (:func:`_slope_extrema`, from the extremum of the interval's cubic Hermite
     interpolant), its state then evaluated again by ``evaluate_states`` unless ``same_states`` (``slopes_at`` gives
     the same states); every other one, and any such root not located, by the extremum of the interpolated values
-    (:func:`_refine_brackets`).
+    (:func:`_refine_brackets`). Where the states jump (:func:`_first_jump`) only those before the jump are searched.
+
+    Returns
+    -------
+    limit_points : list of LimitPoint
+    jump : int or None
+        The node after which the states jump, if they do.
     """
     node = None if slopes_at is None else (lambda rows: slopes_at(states.pole_stretch[rows])[1])
     slopes = _node_slopes(states, quantities, node)
+    jump = _first_jump(states, quantities, slopes)
+    if jump is not None:  # the curve ends before the jump (its end node's exact slopes are known: a bend)
+        states = _take(states, slice(0, jump + 1))
+        slopes = {k: v[: jump + 1] for k, v in slopes.items()} if slopes is not None else None
     probe = None if slopes_at is None else (lambda x: slopes_at(x)[1])
-    brackets = _grid_extrema(states, quantities, slopes, settings.rtol, probe)
+    brackets = _grid_extrema(states, quantities, slopes, settings.rtol, probe) if states.pole_stretch.size > 1 else []
     if not brackets:
-        return []
+        return [], jump
     found: list = [None] * len(brackets)
     if slopes_at is not None and slopes is not None:
         found = _slope_extrema(states, brackets, slopes, slopes_at, settings)
@@ -488,7 +533,7 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     if rest:
         for j, lp in zip(rest, _refine_brackets(states, [brackets[j] for j in rest], evaluate_states, settings)):
             found[j] = lp
-    return sorted(found, key=lambda lp: lp.pole_stretch)
+    return sorted(found, key=lambda lp: lp.pole_stretch), jump
 
 
 def _cubic_extremum(poly, h, is_max) -> float:
@@ -739,7 +784,18 @@ def _trace(
     states = evaluate(l0)
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
-    limits = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
+    limits, jump = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
+    if jump is not None:
+        grid = states.pole_stretch
+        changes = ", ".join(
+            f"{name} {getattr(states, attr)[jump]:.6g} → {getattr(states, attr)[jump + 1]:.6g}"
+            for name, attr in (("p̂", "p_hat"), ("V̂", "v_hat"))
+        )
+        stopped = (
+            f"jump: beyond pole stretch {grid[jump]:.6g} the states change discontinuously (at {grid[jump + 1]:.6g}: "
+            f"{changes}), to another branch of equilibria; the curve ends before it"
+        )
+        states = _take(states, slice(0, jump + 1))
     if errors_along is not None:
         _limit_point_errors(limits, quantities, settings.rtol, "phi_hat", errors_along)
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)
