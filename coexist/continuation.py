@@ -1014,6 +1014,14 @@ class Tracer:
         the bracket is below ``event_tol`` (near an end whose states become singular, as at a pull-in, every
         round counts).
 
+        A probe whose integration runs out of steps (``STEP_LIMIT``) is neither valid nor an end: near a pole
+        whose tension falls to zero the states need ever more steps, and a valid state may lie beyond one that
+        ran out. Such probes are passed over: the bracket's upper end is the first probe that fails for a
+        physical reason, its lower end the last valid probe below that, and the search stops once a round
+        narrows neither (every probe inside ran out of steps; the bracket then spans them, and the end's error
+        with it). Only when no probe fails for a physical reason is the code ``STEP_LIMIT`` (the caller may
+        raise the budget: :meth:`_budget_end`).
+
         Parameters
         ----------
         cur : Point
@@ -1043,20 +1051,29 @@ class Tracer:
             loose = (hi - lo) > 1e-4
             pts = self._points_at(best, None, h, steps, loose)
             failed = self._last_failure
-            bad = [j for j, p in enumerate(pts) if p is None or not p.tangent @ best.tangent > 0]
+            entries = failed.failed_states if hasattr(failed, "failed_states") else {}
+            valid = [p is not None and p.tangent @ best.tangent > 0 for p in pts]
             mids = base + steps
-            if not bad:
-                lo, best, base = float(mids[-1]), pts[-1], float(mids[-1])
-                continue
-            j, confirmed = bad[0], not loose
-            entry = failed.failed_states.get(j) if hasattr(failed, "failed_states") else None
-            if pts[j] is None and (entry is None or entry[2] is None):
+            # the first probe that is neither valid nor out of steps decides the round
+            codes = [_code_of(p, entries.get(k)) for k, p in enumerate(pts)]
+            j = next((k for k in range(RANGE_END_PROBES) if not valid[k] and codes[k] != STEP_LIMIT), None)
+            below = [k for k in range(RANGE_END_PROBES if j is None else j) if valid[k]]
+            if j is not None and pts[j] is None and codes[j] is None:
                 return None  # the corrector failed on a valid state: undecided
-            if j > 0:
-                lo, best, base = float(mids[j - 1]), pts[j - 1], float(mids[j - 1])
-            hi = float(mids[j])
-            if entry is not None and entry[2] is not None:
-                code = entry[2]
+            if below:
+                k = below[-1]
+                lo, best, base = float(mids[k]), pts[k], float(mids[k])
+            out_of_steps = any(codes[k] == STEP_LIMIT for k in range(RANGE_END_PROBES if j is None else j))
+            if j is not None:
+                confirmed = not loose
+                hi = float(mids[j])
+                code = codes[j] if codes[j] is not None else code
+            if out_of_steps:
+                # probes between the last valid one and the bracket's upper end ran out of steps: at this budget
+                # the bracket narrows no further (the end lies in it, and its error spans it)
+                if code is None:
+                    code = STEP_LIMIT  # nothing physical bounds it yet: the budget decides
+                break
         if not confirmed:
             # no tight probe failed: the bracket closed on a failure of a loose probe or on the caller's ``hi`` (a
             # continuation step's, from its own predictor), whose Newton iterates may have crossed the end from a
@@ -1272,8 +1289,10 @@ class Tracer:
 
         Near some ends the meridian's integration takes ever more steps as the end is approached (a pole whose
         tension falls to zero: the pole of a nearly slack zone), so a fixed budget runs out just before the
-        physical end. Where a larger budget reaches a physical end (any failure but the budget) it is that end,
-        located as usual by the tracer with the larger budget, which the event records (``max_steps``: its
+        physical end. Where a probe beyond those that ran out of steps fails for a physical reason, the validity
+        bisection brackets the end without this (:meth:`validity_bisection`); this is for a bracket in which every
+        failure was the budget. Where a larger budget reaches a physical end (any failure but the budget) it is that
+        end, located as usual by the tracer with the larger budget, which the event records (``max_steps``: its
         re-location uses it too).
 
         Parameters
@@ -1298,7 +1317,7 @@ class Tracer:
         """
         settings = self.system.settings
         base = self.base_steps
-        where = f"the states of {self.system.configuration} at Φ̂ = {phi_fail:.10g}"
+        where = f"the states of {self.system.configuration.label} at Φ̂ = {phi_fail:.10g}"
         if settings.max_steps * BUDGET_ESCALATION > base * BUDGET_ESCALATION_MAX:
             raise SolverError(
                 f"{where} stop: their integration used up its step budget (SolverSettings.max_steps = "
@@ -1441,8 +1460,8 @@ class Tracer:
 
 
 #: factor by which :meth:`Tracer._budget_end` raises the integration step budget at an end where the states
-#: ran out of steps, and the largest multiple of the settings' budget it goes to (heuristic: a pole whose
-#: tension falls to zero needed 16 times the default 4000 steps to reach its end within 1e-8 in Φ̂)
+#: ran out of steps with no probe beyond them failing for a physical reason (:meth:`Tracer.validity_bisection`), and
+#: the largest multiple of the settings' budget it goes to (heuristic)
 BUDGET_ESCALATION = 4
 BUDGET_ESCALATION_MAX = 64
 #: points per round of the bisection that locates where the states stop being valid
@@ -1458,6 +1477,14 @@ PULL_IN_BRACKET = 1e-7
 #: (tests/test_transition_variations.py); one more round costs three tight states (no measurable time) and leaves
 #: ± 4.6e-9 kV, 4e-11 kV from it
 PULL_IN_SETTLED = 1e-9
+
+
+def _code_of(point, entry) -> int | None:
+    """The failure code of a probe of :meth:`Tracer._points_at` (None for a converged point, or a corrector that
+    failed without an invalid state); ``entry`` is its item of the corrector's ``failed_states``."""
+    if point is not None or entry is None:
+        return None
+    return entry[2]
 
 
 def _is_pull_in(code_or_note) -> bool:
