@@ -576,7 +576,12 @@ def pattern_fields(
         rule = "open_fraction" if name == "inner_fraction" else "fraction"
         ok, words = _RULES[rule]
         if not ok(value):
-            raise SceneError(f"must be {words}, got {value!r}", where(name))
+            hint = (
+                ' (a disc over the whole zone is the "full" pattern)'
+                if pattern == "inner-circle" and value == 1
+                else ""
+            )
+            raise SceneError(f"must be {words}, got {value!r}{hint}", where(name))
     if pattern in uses["inner_fraction"]:
         inner = float(given["inner_fraction"])
     if pattern == "ring" and inner is not None:

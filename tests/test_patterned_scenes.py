@@ -267,6 +267,7 @@ def test_patterned_curves_go_to_csv_and_a_figure(tmp_path):
     [
         (["--pattern", "inner-circle"], ["--inner-fraction", "missing"]),
         (["--pattern", "inner-circle", "--inner-fraction", "1.5"], ["--inner-fraction", "between 0 and 1"]),
+        (["--pattern", "inner-circle", "--inner-fraction", "1"], ["--inner-fraction", 'is the "full" pattern']),
         (["--pattern", "ring", "--inner-fraction", "0.3"], ["--outer-fraction", "missing"]),
         (["--pattern", "ring", "--inner-fraction", "0.6", "--outer-fraction", "0.4"], ["--outer-fraction", "outside"]),
         (["--inner-fraction", "0.5"], ["--inner-fraction", 'the pattern is "full"']),
