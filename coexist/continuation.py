@@ -1019,8 +1019,8 @@ class Tracer:
         ran out. Such probes are passed over: the bracket's upper end is the first probe that fails for a
         physical reason, its lower end the last valid probe below that, and the search stops once a round
         narrows neither (every probe inside ran out of steps; the bracket then spans them, and the end's error
-        with it). Only when no probe fails for a physical reason is the code ``STEP_LIMIT`` (the caller may
-        raise the budget: :meth:`_budget_end`).
+        with it). When no probe fails for a physical reason and some ran out of steps, the code is
+        ``STEP_LIMIT`` (the caller may raise the budget: :meth:`_budget_end`).
 
         Parameters
         ----------
@@ -1042,6 +1042,7 @@ class Tracer:
             converges (that failure was the corrector's): undecided.
         """
         best, code, confirmed = cur, None, False
+        out_of_steps: list[float] = []  # offsets of the probes that ran out of integration steps
         tol = self.system.settings.event_tol if tol is None else max(tol, self.system.settings.event_tol)
         base = lo  # the offset of ``best``: each round predicts from the last valid point, so that the
         # predictor's error shrinks with the bracket and no Newton iterate is carried past the end (where
@@ -1060,20 +1061,20 @@ class Tracer:
             below = [k for k in range(RANGE_END_PROBES if j is None else j) if valid[k]]
             if j is not None and pts[j] is None and codes[j] is None:
                 return None  # the corrector failed on a valid state: undecided
+            out_of_steps += [float(mids[k]) for k in range(RANGE_END_PROBES) if codes[k] == STEP_LIMIT]
             if below:
                 k = below[-1]
                 lo, best, base = float(mids[k]), pts[k], float(mids[k])
-            out_of_steps = any(codes[k] == STEP_LIMIT for k in range(RANGE_END_PROBES if j is None else j))
             if j is not None:
                 confirmed = not loose
                 hi = float(mids[j])
                 code = codes[j] if codes[j] is not None else code
-            if out_of_steps:
-                # probes between the last valid one and the bracket's upper end ran out of steps: at this budget
-                # the bracket narrows no further (the end lies in it, and its error spans it)
-                if code is None:
-                    code = STEP_LIMIT  # nothing physical bounds it yet: the budget decides
-                break
+            elif not below:
+                break  # every probe inside ran out of steps: at this budget the bracket narrows no further
+        if code is None and any(o > lo for o in out_of_steps):
+            code = (
+                STEP_LIMIT  # probes beyond the last valid one ran out, and none failed physically: the budget decides
+            )
         if not confirmed:
             # no tight probe failed: the bracket closed on a failure of a loose probe or on the caller's ``hi`` (a
             # continuation step's, from its own predictor), whose Newton iterates may have crossed the end from a
