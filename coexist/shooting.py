@@ -55,6 +55,9 @@ BELOW_RESOLUTION = 19
 SLACK = 20
 PULL_IN = 21
 TOO_MANY_SWITCHES = 22
+#: a curve's state left unsolved: it lies beyond a state without equilibrium that ends the curve's first run of valid
+#: states (coexist.patterned: never part of a curve, which is that run)
+BEYOND_RUN = 23
 
 #: a short tag and a sentence for every way a state can fail
 REASONS = {
@@ -101,6 +104,10 @@ REASONS = {
     TOO_MANY_SWITCHES: (
         "no_equilibrium",
         "the meridian switches between taut and wrinkled more often than coexist.wrinkling.MAX_SWITCHES",
+    ),
+    BEYOND_RUN: (
+        "not_solved",
+        "not solved: it lies beyond a pole stretch without a valid state that ends the curve's first run of states",
     ),
 }
 

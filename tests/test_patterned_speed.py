@@ -244,3 +244,41 @@ def test_warm_interface_jumps_do_not_change_which_states_exist():
     one = [solve_states(zone, [l0[i]], 0.15, settings) for i in (97, 98, 120)]
     for i, a in zip((97, 98, 120), one):
         assert a.ok[0] and a.p_hat[0] == pytest.approx(curve.states.p_hat[i], rel=1e-9)
+
+
+def test_states_beyond_the_end_of_a_curve_are_not_solved():
+    """A ring electrode (neo-Hookean, ring 0.3–0.7, Φ̂ = 0.3) whose curve ends where it wrinkles (pole stretch
+    2.15191): the states beyond ran out of integration steps at every placement of the interfaces tried (λ0 ≥ 2.5:
+    up to 26 527 steps each) and the curve took 2.4 s. Once a state of the Newton iteration has ended without a valid
+    state beyond a valid one, the states beyond it are no longer solved: 13 397 integration steps in all passes
+    (1 401 230 before; 446 trajectories, 2 304 before), the same curve (its states solved alone, its end, its
+    pressure maximum)."""
+    import coexist.patterned as pat
+
+    model, ring = build_model("neo-hookean"), ZonePattern.ring(0.3, 0.7)
+    steps = []
+    original = pat._pass
+
+    def counted(*args, **kwargs):
+        out = original(*args, **kwargs)
+        steps.append(int(np.sum(out[4])))  # the integration steps of every trajectory of the pass
+        return out
+
+    pat._pass = counted
+    try:
+        curve = pat.patterned_pressure_volume_curve(model, ring, 0.3)
+    finally:
+        pat._pass = original
+    assert sum(steps) < 50_000, sum(steps)
+    st = curve.states
+    assert st.pole_stretch[-1] == pytest.approx(2.1519095477, abs=1e-9)
+    assert curve.stopped_because.startswith("wrinkling: beyond pole stretch 2.15191 a tension turns negative")
+    (top,) = curve.limit_points
+    assert top.kind == "pressure_max" and top.pole_stretch == pytest.approx(1.6793113639, abs=2e-9)
+    alone = solve_patterned_states(model, ring, st.pole_stretch, 0.3)
+    assert np.all(alone.status == OK)
+    np.testing.assert_allclose(st.p_hat, alone.p_hat, rtol=1e-9, atol=0)
+    np.testing.assert_allclose(st.v_hat, alone.v_hat, rtol=1e-9, atol=0)
+    # the next pole stretch is where it wrinkles, solved alone as well
+    beyond = solve_patterned_states(model, ring, [2.1669346734], 0.3)
+    assert beyond.status[0] != OK
