@@ -54,6 +54,9 @@ from .settings import SolverSettings
 MAX_SWITCHES = 8
 #: relative Newton step below which the natural width has converged
 WIDTH_TOL = 1e-13
+#: a Newton step of the natural width below WIDTH_TOL that falls on an end of its bracket ends it where
+#: ``λ2 ∂T̂2/∂λ2`` exceeds this there (a root where the hoop tension rises, not its underflow far out)
+WIDTH_STIFFNESS = 1e-6
 #: iterations of the natural width's safeguarded Newton method before it gives up (no root: NaN)
 WIDTH_MAX_ITER = 200
 #: Newton steps polishing the integrated width at every right-hand side evaluation (the row is
@@ -131,6 +134,14 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
             fallback = np.where(np.isfinite(hi), 0.5 * (lo + hi), 2 * lo)
             new = np.where(ok, new, fallback)
             conv = ok & (np.abs(step) <= WIDTH_TOL * x)
+            # at the root T̂2 of either sign at roundoff puts x itself at one end of the bracket, and the Newton step
+            # of a few ulp (or zero) is not strictly inside it: it had been refused and the bracket bisected down to
+            # roundoff from its far end, ~50 more iterations (the tension-field ring curves). Such a step ends it
+            # too where T̂2 rises measurably there (x ∂T̂2/∂λ2 above WIDTH_STIFFNESS), not where T̂2 and its slope
+            # merely underflow towards zero far out (no width: Φ̂λ1 = 1 for a neo-Hookean membrane)
+            at_end = np.isfinite(step) & (T22 * x > WIDTH_STIFFNESS) & (np.abs(step) <= WIDTH_TOL * x) & ~ok
+            new = np.where(at_end, x, new)
+            conv |= at_end
             # a bracket below roundoff (the root sits between two neighbouring floats)
             conv |= np.isfinite(hi) & (hi - lo <= 4 * np.finfo(float).eps * hi)
             x = np.where(done, x, new)

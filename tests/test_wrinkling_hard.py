@@ -538,6 +538,29 @@ def test_natural_width_finds_the_root_below_gent_locking():
     np.testing.assert_allclose(natural_width(model, l1, phi), expected, rtol=1e-10)
 
 
+def test_natural_width_stops_at_the_root_instead_of_bisecting_down_to_it(monkeypatch):
+    """At the root a Newton step of a few ulp (or zero, T̂2 = 0 exactly) does not fall strictly inside the bracket,
+    one of whose ends is the point itself: it had been refused, and the bracket bisected from its far end down to
+    roundoff, ~50 more evaluations of the tensions (Gent 97, Φ̂ = 0.4: 53 for λ1 = 7.7746, 58 for λ1 = 1.5962; one
+    such input keeps a whole batch iterating: a tension-field ring curve spent 20 s of 35 s there). A Newton step
+    below the tolerance from a valid point now ends it: 13 and 7 evaluations, the same root (scalar brentq on the
+    bracket, 1e-13)."""
+    model = taut("gent", 97.0)
+    calls = []
+    tensions = type(model).tensions
+
+    def counted(self, *args):
+        calls.append(1)
+        return tensions(self, *args)
+
+    monkeypatch.setattr(type(model), "tensions", counted)
+    for l1, at_most in ((7.774644782269529, 15), (1.5962428193346114, 10)):
+        calls.clear()
+        w = natural_width(model, np.array([l1]), np.array([0.4]))[0]
+        assert len(calls) <= at_most, (l1, len(calls))
+        assert w == pytest.approx(bracketed_width(model, l1, 0.4), rel=1e-13)
+
+
 # --- 2e. random inputs ------------------------------------------------------------------------------------------
 
 MATERIALS = [("neo-hookean", None), ("gent", 10.0), ("gent", 30.0), ("gent", 97.0)]
