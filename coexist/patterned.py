@@ -2669,10 +2669,12 @@ def patterned_pressure_volume_curve(
             for k, v in known_jump.items():
                 v.append(np.where(again, np.nan, kept["jump"][k])[ok])
         unsolved = st.status == BEYOND_RUN
-        if unsolved.any() and st.ok.any():
-            run = first_valid_run(st.ok)
-            if run.stop < x.size and unsolved[run.stop]:
-                # the state that ended the run in the Newton iteration was found valid after all: the rest too
+        if unsolved.any():
+            # the states left unsolved lay beyond one that ended the first run of valid states in the Newton
+            # iteration; where the run now reaches them (that state found valid by the retry from the cap), or no
+            # run comes before them (the states taken as valid there failed their relaxation), they are solved
+            run = first_valid_run(st.ok) if st.ok.any() else None
+            if run is None or unsolved[: run.stop + 1].any():
                 rest = solve(x[unsolved], bool(known_l0), at=at, derivatives=derivatives)
                 st = _merge(x, ~unsolved, _take_patterned(st, ~unsolved), rest)
         return st
