@@ -140,7 +140,7 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
             # too where T̂2 rises measurably there (x ∂T̂2/∂λ2 above WIDTH_STIFFNESS), not where T̂2 and its slope
             # merely underflow towards zero far out (no width: Φ̂λ1 = 1 for a neo-Hookean membrane)
             at_end = np.isfinite(step) & (T22 * x > WIDTH_STIFFNESS) & (np.abs(step) <= WIDTH_TOL * x) & ~ok
-            new = np.where(at_end, x, new)
+            new = np.where(at_end, np.clip(x - step, lo, hi), new)  # the Newton point, kept in the bracket
             conv |= at_end
             # a bracket below roundoff (the root sits between two neighbouring floats)
             conv |= np.isfinite(hi) & (hi - lo <= 4 * np.finfo(float).eps * hi)
