@@ -492,6 +492,30 @@ def _first_jump(states: MembraneStates, quantities, slopes) -> int | None:
     return first
 
 
+def _jump_within(states, bracket, slopes, samples, quantities) -> bool:
+    """Do the states jump inside the grid interval of ``bracket``, between two of the states the exact-slope
+    iteration evaluated there (``samples``, :func:`_slope_extrema`) or its ends: a change ten times what the exact
+    slopes on both sides allow (:data:`JUMP_FACTOR`, :data:`JUMP_CHANGE`, as :func:`_first_jump`)? A tension-field
+    ring electrode at Φ̂ = 0.4 (Gent 97, ring 0.3–0.7) bulges down (p̂, V̂ < 0) below λ0 = 1.01133 and up above:
+    p̂ −0.0237 → 0.0238 within 5e-5 where the slopes are ±2.3; on the default grid that lies inside the first
+    interval, whose end slopes allow the change, and pressure and volume minima had been reported there."""
+    grid = states.pole_stretch
+    points = [
+        (grid[i], {a: getattr(states, a)[i] for a in quantities}, {a: slopes[a][i] for a in slopes})
+        for i in (bracket.lo, bracket.hi)
+    ]
+    points = sorted(points + list(samples), key=lambda p: p[0])
+    for (xa, va, ta), (xb, vb, tb) in zip(points[:-1], points[1:]):
+        for attr in quantities:
+            if attr not in ta or attr not in tb or not np.isfinite(ta[attr] + tb[attr] + va[attr] + vb[attr]):
+                continue
+            change = abs(vb[attr] - va[attr])
+            allowed = JUMP_FACTOR * (xb - xa) * max(abs(ta[attr]), abs(tb[attr]))
+            if change > allowed and change > JUMP_CHANGE * max(abs(va[attr]), abs(vb[attr])):
+                return True
+    return False
+
+
 def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None, same_states=False):
     """Locate every extremum of the named quantities that the grid shows (:func:`_grid_extrema`).
 
@@ -501,27 +525,38 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     the root of its slope (:func:`_slope_extrema`, from the extremum of the interval's cubic Hermite
     interpolant), its state then evaluated again by ``evaluate_states`` unless ``same_states`` (``slopes_at`` gives
     the same states); every other one, and any such root not located, by the extremum of the interpolated values
-    (:func:`_refine_brackets`). Where the states jump (:func:`_first_jump`) only those before the jump are searched.
+    (:func:`_refine_brackets`). Where the states jump only those before the jump are searched (after it, for a jump
+    in the first interval).
 
     Returns
     -------
     limit_points : list of LimitPoint
+    start : int
+        The first node of the curve: 1 where the states jump in the first interval (:func:`_across_jump`), else 0.
     jump : int or None
-        The node after which the states jump, if they do.
+        The node after which the states jump, if they do (found between nodes by :func:`_first_jump`, inside an
+        interval by :func:`_jump_within`): the curve's last.
     """
     node = None if slopes_at is None else (lambda rows: slopes_at(states.pole_stretch[rows])[1])
     slopes = _node_slopes(states, quantities, node)
     jump = _first_jump(states, quantities, slopes)
-    if jump is not None:  # the curve ends before the jump (its end node's exact slopes are known: a bend)
-        states = _take(states, slice(0, jump + 1))
-        slopes = {k: v[: jump + 1] for k, v in slopes.items()} if slopes is not None else None
+    if jump is not None:
+        return _across_jump(states, jump, quantities, evaluate_states, settings, slopes_at, same_states)
     probe = None if slopes_at is None else (lambda x: slopes_at(x)[1])
     brackets = _grid_extrema(states, quantities, slopes, settings.rtol, probe) if states.pole_stretch.size > 1 else []
     if not brackets:
-        return [], jump
+        return [], 0, None
     found: list = [None] * len(brackets)
     if slopes_at is not None and slopes is not None:
-        found = _slope_extrema(states, brackets, slopes, slopes_at, settings)
+        samples: list = [[] for _ in brackets]
+        found = _slope_extrema(states, brackets, slopes, slopes_at, settings, samples)
+        inside = [
+            b.lo
+            for b, lp, sm in zip(brackets, found, samples)
+            if lp is None and b.hi - b.lo == 1 and _jump_within(states, b, slopes, sm, quantities)
+        ]
+        if inside:
+            return _across_jump(states, min(inside), quantities, evaluate_states, settings, slopes_at, same_states)
         done = [j for j, lp in enumerate(found) if lp is not None]
         # the states at the roots as the curve's own evaluation gives them (a shot with derivatives takes other
         # steps: 1e-11 apart), unless they are the same
@@ -533,7 +568,23 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     if rest:
         for j, lp in zip(rest, _refine_brackets(states, [brackets[j] for j in rest], evaluate_states, settings)):
             found[j] = lp
-    return sorted(found, key=lambda lp: lp.pole_stretch), jump
+    return sorted(found, key=lambda lp: lp.pole_stretch), 0, None
+
+
+def _across_jump(states, i, quantities, evaluate_states, settings, slopes_at, same_states):
+    """:func:`_find_limit_points` on the states before a jump in grid interval ``[i, i + 1]`` (the curve ends
+    there), or, for a jump in the first interval, on those after it (the curve starts there: a single state before
+    it is no curve). Returns ``(limit points, start, end)`` with ``start``, ``end`` indices of ``states``."""
+    n = states.pole_stretch.size
+    if i == 0 and n > 2:
+        limits, start, end = _find_limit_points(
+            _take(states, slice(1, n)), quantities, evaluate_states, settings, slopes_at, same_states
+        )
+        return limits, 1 + start, None if end is None else 1 + end
+    limits, start, end = _find_limit_points(
+        _take(states, slice(0, i + 1)), quantities, evaluate_states, settings, slopes_at, same_states
+    )
+    return limits, start, i if end is None else end
 
 
 def _cubic_extremum(poly, h, is_max) -> float:
@@ -545,7 +596,7 @@ def _cubic_extremum(poly, h, is_max) -> float:
     return float(roots[0]) if roots.size else np.nan
 
 
-def _slope_extrema(states, brackets, slopes, slopes_at, settings) -> list:
+def _slope_extrema(states, brackets, slopes, slopes_at, settings, samples=None) -> list:
     """Extrema at a fixed parameter (a ``p̂–V̂`` curve's ``Φ̂``) as roots of their exact slopes ``t(λ0)``.
 
     A bracket of one interval with the exact slope at both ends starts at the extremum of the cubic Hermite
@@ -554,7 +605,9 @@ def _slope_extrema(states, brackets, slopes, slopes_at, settings) -> list:
     :func:`_slope_roots` locates them (the step at most ``limit_point_xtol/10``, or at most ``limit_point_xtol``
     and no longer shrinking; the slope falls through a maximum); None for a bracket without a start, or whose
     step leaves it or meets an invalid state. (The extremum of interpolated values is located only to about the
-    square root of the values' noise where the curve is flat: 1e-7 in λ0 at rtol 1e-10, review, helper-61.)"""
+    square root of the values' noise where the curve is flat: 1e-7 in λ0 at rtol 1e-10, review, helper-61.)
+    ``samples``, if given (a list per bracket), receives ``(λ0, values, exact slopes)`` of every valid state the
+    iteration evaluates (:func:`_jump_within`)."""
     grid = states.pole_stretch
     m = len(brackets)
     lam, curvature = np.full(m, np.nan), np.full(m, np.nan)
@@ -577,6 +630,11 @@ def _slope_extrema(states, brackets, slopes, slopes_at, settings) -> list:
         if idx.size == 0:
             break
         st, slope = slopes_at(lam[idx])
+        if samples is not None:
+            for row, b_j in enumerate(idx.tolist()):
+                if st.ok[row]:
+                    values = {a: getattr(st, a)[row] for a in slope}
+                    samples[b_j].append((lam[b_j], values, {a: slope[a][row] for a in slope}))
         t = np.array([slope[brackets[j].attr][k] for k, j in enumerate(idx)])
         iterate = (lam, lam_prev, t_prev, curvature, step_prev)
         _, located, done = _secant_round(idx, t, st.ok, st.ok, iterate, is_max, lo_b, hi_b, settings.limit_point_xtol)
@@ -784,18 +842,27 @@ def _trace(
     states = evaluate(l0)
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
-    limits, jump = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
-    if jump is not None:
-        grid = states.pole_stretch
-        changes = ", ".join(
-            f"{name} {getattr(states, attr)[jump]:.6g} → {getattr(states, attr)[jump + 1]:.6g}"
+    limits, start, jump = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
+    grid = states.pole_stretch
+
+    def changes(i):
+        return ", ".join(
+            f"{name} {getattr(states, attr)[i]:.6g} → {getattr(states, attr)[i + 1]:.6g}"
             for name, attr in (("p̂", "p_hat"), ("V̂", "v_hat"))
         )
+
+    if jump is not None:
         stopped = (
             f"jump: beyond pole stretch {grid[jump]:.6g} the states change discontinuously (at {grid[jump + 1]:.6g}: "
-            f"{changes}), to another branch of equilibria; the curve ends before it"
+            f"{changes(jump)}), to another branch of equilibria; the curve ends before it"
         )
-        states = _take(states, slice(0, jump + 1))
+    if start:
+        starts = (
+            f"jump: below pole stretch {grid[start]:.6g} the states change discontinuously (from "
+            f"{grid[start - 1]:.6g}: {changes(start - 1)}), from another branch of equilibria; the curve starts "
+            "after it"
+        )
+    states = _take(states, slice(start, None if jump is None else jump + 1))
     if errors_along is not None:
         _limit_point_errors(limits, quantities, settings.rtol, "phi_hat", errors_along)
     return Curve(family, float(fixed), states, limits, starts, stopped, settings.rtol)

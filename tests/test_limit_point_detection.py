@@ -276,3 +276,27 @@ def test_smooth_curves_show_no_jump():
         for points in (15, 60):
             curve = pressure_volume_curve(model, phi, np.linspace(1.01, 4, points))
             assert curve.stopped_because is None or not curve.stopped_because.startswith("jump"), curve.stopped_because
+
+
+def test_a_jump_inside_the_first_interval_starts_the_curve_after_it():
+    """A tension-field ring electrode at Φ̂ = 0.4 (Gent 97, ring 0.3–0.7) bulges down (p̂, V̂ < 0) up to λ0 = 1.01133
+    and up beyond: p̂ −0.0237 → 0.0238 and V̂ −0.300 → 0.301 within 5e-5 in λ0, where the exact slopes are about ±2.3
+    and ±7. On a grid whose first interval holds that jump the end slopes allow the change, and a pressure minimum
+    and a volume minimum had been reported at λ0 ≈ 1.0112 (one ± 8e-2, the other "error not measured"). The
+    iteration on the exact slope meets the jump between its own states (−2.3 at 1.01091, +2.3 at 1.01139): the curve
+    now starts after it and says why; the pressure maximum stays. On a fine grid around it the same jump ends the
+    curve (the states before it are the down-bulged branch)."""
+    from coexist.patterned import ZonePattern, patterned_pressure_volume_curve
+
+    model = build_model("gent", 97.0, voltage=True, wrinkling="tension-field")
+    ring = ZonePattern.ring(0.3, 0.7, 1)
+    grid = np.linspace(1.01, 1.9, 60)
+    curve = patterned_pressure_volume_curve(model, ring, 0.4, grid)
+    assert curve.starts_because.startswith("jump: below pole stretch"), curve.starts_because
+    assert curve.states.pole_stretch[0] == grid[1] and np.all(curve.states.v_hat > 0)
+    assert [lp.kind for lp in curve.limit_points] == ["pressure_max"]
+    assert curve.limit_points[0].pole_stretch == pytest.approx(1.49978689, abs=1e-7)
+    fine = patterned_pressure_volume_curve(model, ring, 0.4, np.linspace(1.0105, 1.0125, 41))
+    assert fine.stopped_because.startswith("jump: beyond pole stretch")
+    assert fine.states.pole_stretch[-1] < 1.01133 < fine.states.pole_stretch[-1] + 5e-5
+    assert np.all(fine.states.v_hat < 0) and fine.limit_points == []
