@@ -516,6 +516,56 @@ def _jump_within(states, bracket, slopes, samples, quantities) -> bool:
     return False
 
 
+def _slope_sign_bisection(states, brackets, slopes, slopes_at, samples) -> None:
+    """Bisect each one-interval ``bracket`` whose exact-slope iteration located nothing on the sign of its exact
+    slope (opposite at its ends), appending every valid state to its ``samples``, until the slope there is below
+    :data:`KINK_SLOPE` of its end slopes (an extremum is near: the values' extremum locates it) or
+    :data:`KINK_BISECTIONS` halvings: across a jump the slope keeps its size on both sides and the last two states
+    straddle it (:func:`_jump_within`). On a 15-point grid of a tension-field ring electrode at Φ̂ = 0.4, and on
+    60 points at Φ̂ = 0.45, whose first interval holds the jump from down- to up-bulged states, the iteration had
+    no start and minima had been reported at λ0 ≈ 1.0108 and 1.0128 (review, helper-68)."""
+    if not brackets:
+        return
+    grid = states.pole_stretch
+    lo = np.array([grid[b.lo] for b in brackets])
+    hi = np.array([grid[b.hi] for b in brackets])
+    missing = sorted({i for b in brackets for i in (b.lo, b.hi) if not np.isfinite(slopes[b.attr][i])})
+    if missing:  # the exact slopes at the bracket's ends (only the curve's ends and bends have them)
+        st, slope = slopes_at(grid[missing])
+        for row, i in enumerate(missing):
+            for a in slopes:
+                if a in slope and st.ok[row]:
+                    slopes[a][i] = slope[a][row]
+    t_lo = np.array([slopes[b.attr][b.lo] for b in brackets])
+    t_hi = np.array([slopes[b.attr][b.hi] for b in brackets])
+    scale = np.maximum(np.abs(t_lo), np.abs(t_hi))
+    open_ = np.isfinite(t_lo * t_hi) & (t_lo * t_hi < 0)
+    for _ in range(KINK_BISECTIONS):
+        idx = np.flatnonzero(open_)
+        if idx.size == 0:
+            return
+        mid = 0.5 * (lo[idx] + hi[idx])
+        st, slope = slopes_at(mid)
+        for row, j in enumerate(idx.tolist()):
+            t = slope[brackets[j].attr][row]
+            if not (st.ok[row] and np.isfinite(t)):
+                open_[j] = False
+                continue
+            samples[j].append((mid[row], {a: getattr(st, a)[row] for a in slope}, {a: slope[a][row] for a in slope}))
+            if abs(t) <= KINK_SLOPE * scale[j]:
+                open_[j] = False  # near an extremum: the slope goes to zero
+            elif np.sign(t) == np.sign(t_lo[j]):
+                lo[j] = mid[row]
+            else:
+                hi[j] = mid[row]
+
+
+#: :func:`_slope_sign_bisection`: halvings at most, and the fraction of the end slopes below which the slope counts
+#: as going to zero (an extremum near) rather than jumping
+KINK_BISECTIONS = 24
+KINK_SLOPE = 1e-3
+
+
 def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None, same_states=False):
     """Locate every extremum of the named quantities that the grid shows (:func:`_grid_extrema`).
 
@@ -550,11 +600,9 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
     if slopes_at is not None and slopes is not None:
         samples: list = [[] for _ in brackets]
         found = _slope_extrema(states, brackets, slopes, slopes_at, settings, samples)
-        inside = [
-            b.lo
-            for b, lp, sm in zip(brackets, found, samples)
-            if lp is None and b.hi - b.lo == 1 and _jump_within(states, b, slopes, sm, quantities)
-        ]
+        unsure = [j for j, (b, lp) in enumerate(zip(brackets, found)) if lp is None and b.hi - b.lo == 1]
+        _slope_sign_bisection(states, [brackets[j] for j in unsure], slopes, slopes_at, [samples[j] for j in unsure])
+        inside = [brackets[j].lo for j in unsure if _jump_within(states, brackets[j], slopes, samples[j], quantities)]
         if inside:
             return _across_jump(states, min(inside), quantities, evaluate_states, settings, slopes_at, same_states)
         done = [j for j, lp in enumerate(found) if lp is not None]

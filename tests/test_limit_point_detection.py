@@ -300,3 +300,19 @@ def test_a_jump_inside_the_first_interval_starts_the_curve_after_it():
     assert fine.stopped_because.startswith("jump: beyond pole stretch")
     assert fine.states.pole_stretch[-1] < 1.01133 < fine.states.pole_stretch[-1] + 5e-5
     assert np.all(fine.states.v_hat < 0) and fine.limit_points == []
+
+
+@pytest.mark.parametrize("phi, grid", [(0.4, np.linspace(1.01, 1.9, 15)), (0.45, np.linspace(1.01, 1.9, 60))])
+def test_a_jump_in_an_interval_without_a_start_for_the_slope_iteration(phi, grid):
+    """The same ring on grids whose first interval holds the jump but where the exact-slope iteration has no start
+    (its end slope not yet known, or the interval's cubic without an extremum): minima had been reported at
+    λ0 ≈ 1.0108 (15 points, Φ̂ = 0.4) and 1.0128 (60 points, Φ̂ = 0.45) where p̂ and V̂ fall steadily on a fine
+    grid (review, helper-68). The exact slope is bisected on its sign: it keeps its size (±2.3 in p̂) on both sides
+    of λ0 = 1.0113473 (Φ̂ = 0.4), and the curve starts after the jump."""
+    from coexist.patterned import ZonePattern, patterned_pressure_volume_curve
+
+    model = build_model("gent", 97.0, voltage=True, wrinkling="tension-field")
+    curve = patterned_pressure_volume_curve(model, ZonePattern.ring(0.3, 0.7, 1), phi, grid)
+    assert curve.starts_because.startswith("jump: below pole stretch"), curve.starts_because
+    assert curve.states.pole_stretch[0] == grid[1] and np.all(curve.states.v_hat > 0)
+    assert [lp.kind for lp in curve.limit_points] == ["pressure_max"]
