@@ -1072,9 +1072,8 @@ class Tracer:
             elif not below:
                 break  # every probe inside ran out of steps: at this budget the bracket narrows no further
         if code is None and any(o > lo for o in out_of_steps):
-            code = (
-                STEP_LIMIT  # probes beyond the last valid one ran out, and none failed physically: the budget decides
-            )
+            # probes beyond the last valid one ran out of steps, and none failed physically: the budget decides
+            code = STEP_LIMIT
         if not confirmed:
             # no tight probe failed: the bracket closed on a failure of a loose probe or on the caller's ``hi`` (a
             # continuation step's, from its own predictor), whose Newton iterates may have crossed the end from a
