@@ -516,14 +516,17 @@ def _jump_within(states, bracket, slopes, samples, quantities) -> bool:
     return False
 
 
-def _slope_sign_bisection(states, brackets, slopes, slopes_at, samples) -> None:
+def _slope_sign_bisection(states, brackets, slopes, slopes_at, samples, quantities) -> None:
     """Bisect each one-interval ``bracket`` whose exact-slope iteration located nothing on the sign of its exact
     slope (opposite at its ends), appending every valid state to its ``samples``, until the slope there is below
-    :data:`KINK_SLOPE` of its end slopes (an extremum is near: the values' extremum locates it) or
-    :data:`KINK_BISECTIONS` halvings: across a jump the slope keeps its size on both sides and the last two states
-    straddle it (:func:`_jump_within`). On a 15-point grid of a tension-field ring electrode at Φ̂ = 0.4, and on
+    :data:`KINK_SLOPE` of its end slopes (an extremum is near: the values' extremum locates it), the states it
+    holds show a jump (:func:`_jump_within` on the ``quantities``: across a jump the slope keeps its size on both
+    sides, and once the two states straddling it are close enough their change exceeds what their slopes allow),
+    or :data:`KINK_BISECTIONS` halvings. On a 15-point grid of a tension-field ring electrode at Φ̂ = 0.4, and on
     60 points at Φ̂ = 0.45, whose first interval holds the jump from down- to up-bulged states, the iteration had
-    no start and minima had been reported at λ0 ≈ 1.0108 and 1.0128 (review, helper-68)."""
+    no start and minima had been reported at λ0 ≈ 1.0108 and 1.0128 (review, helper-68). On the default grid that
+    jump (Δp̂ ≈ 0.047 where the slopes are ±2.3) shows after 3 halvings; bisecting on to the 24th had cost 3.7 s
+    of relaxed tension-field states, three quarters of that curve's time."""
     if not brackets:
         return
     grid = states.pole_stretch
@@ -558,6 +561,8 @@ def _slope_sign_bisection(states, brackets, slopes, slopes_at, samples) -> None:
                 lo[j] = mid[row]
             else:
                 hi[j] = mid[row]
+            if open_[j] and _jump_within(states, brackets[j], slopes, samples[j], quantities):
+                open_[j] = False  # the jump is seen: nothing closer to it changes what the caller decides
 
 
 #: :func:`_slope_sign_bisection`: halvings at most, and the fraction of the end slopes below which the slope counts
@@ -601,7 +606,9 @@ def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=
         samples: list = [[] for _ in brackets]
         found = _slope_extrema(states, brackets, slopes, slopes_at, settings, samples)
         unsure = [j for j, (b, lp) in enumerate(zip(brackets, found)) if lp is None and b.hi - b.lo == 1]
-        _slope_sign_bisection(states, [brackets[j] for j in unsure], slopes, slopes_at, [samples[j] for j in unsure])
+        _slope_sign_bisection(
+            states, [brackets[j] for j in unsure], slopes, slopes_at, [samples[j] for j in unsure], quantities
+        )
         inside = [brackets[j].lo for j in unsure if _jump_within(states, brackets[j], slopes, samples[j], quantities)]
         if inside:
             return _across_jump(states, min(inside), quantities, evaluate_states, settings, slopes_at, same_states)

@@ -316,3 +316,32 @@ def test_a_jump_in_an_interval_without_a_start_for_the_slope_iteration(phi, grid
     assert curve.starts_because.startswith("jump: below pole stretch"), curve.starts_because
     assert curve.states.pole_stretch[0] == grid[1] and np.all(curve.states.v_hat > 0)
     assert [lp.kind for lp in curve.limit_points] == ["pressure_max"]
+
+
+def test_the_slope_bisection_stops_once_it_sees_the_jump(monkeypatch):
+    """The bisection of the exact slope across that jump stops as soon as two of its states straddle the jump closely
+    enough for the change to exceed what their slopes allow (Δp̂ ≈ 0.047 where |dp̂/dλ0| ≈ 2.3: an interval
+    below ~2e-3, three halvings of the default grid's 1.5e-2): it had gone on to its 24th halving, 24 relaxed
+    tension-field states per end of the jump (3.7 s; the whole curve 4.6 s, now 2.3 s). The curve is the same:
+    it starts after the jump, with the same pressure maximum."""
+    from coexist import curves
+    from coexist.patterned import ZonePattern, patterned_pressure_volume_curve
+
+    probes = []
+    bisection = curves._slope_sign_bisection
+
+    def counted(states, brackets, slopes, slopes_at, samples, *rest):
+        before = [len(s) for s in samples]
+        bisection(states, brackets, slopes, slopes_at, samples, *rest)
+        probes.append([len(s) - b for s, b in zip(samples, before)])
+
+    monkeypatch.setattr(curves, "_slope_sign_bisection", counted)
+    model = build_model("gent", 97.0, voltage=True, wrinkling="tension-field")
+    grid = np.linspace(1.01, 4.0, 200)
+    curve = patterned_pressure_volume_curve(model, ZonePattern.ring(0.3, 0.7, 1), 0.4, grid)
+    assert curve.starts_because.startswith("jump: below pole stretch"), curve.starts_because
+    assert curve.states.pole_stretch[0] == grid[1]
+    assert [lp.kind for lp in curve.limit_points] == ["pressure_max"]
+    assert curve.limit_points[0].pole_stretch == pytest.approx(1.49978689, abs=1e-7)
+    bisected = [n for call in probes for n in call]
+    assert bisected and max(bisected) <= 6, probes

@@ -561,6 +561,34 @@ def test_natural_width_stops_at_the_root_instead_of_bisecting_down_to_it(monkeyp
         assert w == pytest.approx(bracketed_width(model, l1, 0.4), rel=1e-13)
 
 
+def test_natural_width_without_a_root_ends_at_the_width_limit(monkeypatch):
+    """A neo-Hookean membrane has no natural width where Φ̂λ1 ≥ 1 (``T̂2 = λ2(1 − Φ̂²λ1²) − λ1⁻²λ2⁻³ < 0`` for every
+    λ2): the bracket's lower end had been doubled for all 200 iterations, holding its whole batch that long (535 of
+    735 calls of a neo-Hookean tension-field ring curve at Φ̂ = 0.35, 7.7 of its 8.9 s). Beyond ``WIDTH_LIMIT``
+    (1e6) it now ends with NaN, in some 25–35 evaluations, alone or in a batch with inputs that have one; the roots of
+    the others are those of the closed form (a width of 63 where ``1 − Φ̂²λ1² = 1e-8``: to the 1e-8 that this
+    difference keeps of the rounding of Φ̂λ1)."""
+    from coexist.wrinkling import WIDTH_LIMIT, natural_width_neo_hookean
+
+    model = taut("neo-hookean", None)
+    calls = []
+    tensions = type(model).tensions
+
+    def counted(self, *args):
+        calls.append(1)
+        return tensions(self, *args)
+
+    monkeypatch.setattr(type(model), "tensions", counted)
+    phi = 0.4
+    l1 = np.array([1.0 / phi * (1 + 1e-9), 1.0 / phi * 1.5, 4.0, 1.2, 1.0 / phi * math.sqrt(1 - 1e-8)])
+    w = natural_width(model, l1, phi)
+    assert len(calls) <= 40, len(calls)
+    assert np.all(np.isnan(w[:3]))
+    expected = natural_width_neo_hookean(l1[3:], phi)
+    assert 50 < expected[-1] < WIDTH_LIMIT
+    np.testing.assert_allclose(w[3:], expected, rtol=1e-7)
+
+
 # --- 2e. random inputs ------------------------------------------------------------------------------------------
 
 MATERIALS = [("neo-hookean", None), ("gent", 10.0), ("gent", 30.0), ("gent", 97.0)]
