@@ -562,12 +562,15 @@ def test_natural_width_stops_at_the_root_instead_of_bisecting_down_to_it(monkeyp
 
 
 def test_natural_width_without_a_root_ends_at_the_width_limit(monkeypatch):
-    """A neo-Hookean membrane has no natural width where Φ̂λ1 ≥ 1 (``T̂2 = λ2(1 − Φ̂²λ1²) − λ1⁻²λ2⁻³ < 0`` for every
-    λ2): the bracket's lower end had been doubled for all 200 iterations, holding its whole batch that long (535 of
-    735 calls of a neo-Hookean tension-field ring curve at Φ̂ = 0.35, 7.7 of its 8.9 s). Beyond ``WIDTH_LIMIT``
-    (1e6) it now ends with NaN, in some 25–35 evaluations, alone or in a batch with inputs that have one; the roots of
-    the others are those of the closed form (a width of 63 where ``1 − Φ̂²λ1² = 1e-8``: to the 1e-8 that this
-    difference keeps of the rounding of Φ̂λ1)."""
+    """Inputs that kept a whole batch of natural widths iterating: a neo-Hookean membrane has no width where Φ̂λ1 ≥ 1
+    (``T̂2 = λ2(1 − Φ̂²λ1²) − λ1⁻²λ2⁻³ < 0`` for every λ2), and the bracket's lower end had been doubled for all 200
+    iterations (535 of 735 calls of a neo-Hookean tension-field ring curve at Φ̂ = 0.35, 7.7 of its 8.9 s); beyond
+    ``WIDTH_LIMIT`` (1e6) it now ends with NaN, in some 25 evaluations. A NaN stretch had iterated 200 times too
+    (157 of 730 calls of another ring curve): it ends at once. Where Φ̂λ1 → 1 the width is far out (~600 for
+    ``1 − Φ̂²λ1² = 1e-12``) and T̂2 is zero to rounding over ~1e-5 of it: an exact zero had been passed over and the
+    bracket bisected down to roundoff (82 evaluations); it is the root now (30). The roots of the others are those
+    of the closed form (a width of 63 where ``1 − Φ̂²λ1² = 1e-8``: to the 1e-8 that this difference keeps of the
+    rounding of Φ̂λ1; the one at 600 only to what 1e-12 keeps, 1e-4)."""
     from coexist.wrinkling import WIDTH_LIMIT, natural_width_neo_hookean
 
     model = taut("neo-hookean", None)
@@ -580,13 +583,17 @@ def test_natural_width_without_a_root_ends_at_the_width_limit(monkeypatch):
 
     monkeypatch.setattr(type(model), "tensions", counted)
     phi = 0.4
-    l1 = np.array([1.0 / phi * (1 + 1e-9), 1.0 / phi * 1.5, 4.0, 1.2, 1.0 / phi * math.sqrt(1 - 1e-8)])
-    w = natural_width(model, l1, phi)
+    no_root = [1.0 / phi * (1 + 1e-9), 1.0 / phi * 1.5, 4.0, np.nan]
+    roots = [1.2, 1.0 / phi * math.sqrt(1 - 1e-8), 1.0 / phi * math.sqrt(1 - 1e-12)]
+    w = natural_width(model, np.array(no_root + roots), phi)
     assert len(calls) <= 40, len(calls)
-    assert np.all(np.isnan(w[:3]))
-    expected = natural_width_neo_hookean(l1[3:], phi)
-    assert 50 < expected[-1] < WIDTH_LIMIT
-    np.testing.assert_allclose(w[3:], expected, rtol=1e-7)
+    assert np.all(np.isnan(w[: len(no_root)]))
+    expected = natural_width_neo_hookean(np.array(roots), phi)
+    assert 50 < expected[1] and 500 < expected[2] < WIDTH_LIMIT
+    for got, want, rtol in zip(w[len(no_root) :], expected, (1e-12, 1e-7, 1e-4)):
+        assert got == pytest.approx(want, rel=rtol)
+    calls.clear()
+    assert np.isnan(natural_width(model, np.array([np.nan]), phi)[0]) and len(calls) <= 1
 
 
 # --- 2e. random inputs ------------------------------------------------------------------------------------------
