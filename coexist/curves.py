@@ -520,13 +520,18 @@ def _slope_sign_bisection(states, brackets, slopes, slopes_at, samples, quantiti
     """Bisect each one-interval ``bracket`` whose exact-slope iteration located nothing on the sign of its exact
     slope (opposite at its ends), appending every valid state to its ``samples``, until the slope there is below
     :data:`KINK_SLOPE` of its end slopes (an extremum is near: the values' extremum locates it), the states it
-    holds show a jump (:func:`_jump_within` on the ``quantities``: across a jump the slope keeps its size on both
-    sides, and once the two states straddling it are close enough their change exceeds what their slopes allow),
-    or :data:`KINK_BISECTIONS` halvings. On a 15-point grid of a tension-field ring electrode at Φ̂ = 0.4, and on
-    60 points at Φ̂ = 0.45, whose first interval holds the jump from down- to up-bulged states, the iteration had
-    no start and minima had been reported at λ0 ≈ 1.0108 and 1.0128 (review, helper-68). On the default grid that
-    jump (Δp̂ ≈ 0.047 where the slopes are ±2.3) shows after 3 halvings; bisecting on to the 24th had cost 3.7 s
-    of relaxed tension-field states, three quarters of that curve's time."""
+    holds show a jump in :data:`KINK_CONFIRM` rounds in a row (:func:`_jump_within` on the ``quantities``: across a
+    jump the slope keeps its size on both sides, and once the two states straddling it are close enough their
+    change exceeds what their slopes allow, the more so the closer they get), or :data:`KINK_BISECTIONS` halvings.
+    On a 15-point grid of a tension-field ring electrode at Φ̂ = 0.4, and on 60 points at Φ̂ = 0.45, whose first
+    interval holds the jump from down- to up-bulged states, the iteration had no start and minima had been reported
+    at λ0 ≈ 1.0108 and 1.0128 (review, helper-68). On the default grid that jump (Δp̂ ≈ 0.047 where the slopes are
+    ±2.3) shows after one halving; bisecting on to the 24th had cost 3.7 s of relaxed tension-field states, three
+    quarters of that curve's time. A smooth rise steep enough to pass for a jump once is resolved as the states
+    close in (review, helper-69: a tanh step of width 0.024 in a unit interval, 70 times steeper than the slopes at
+    its ends, had been taken for a jump when the first sighting ended the bisection; on 3986 random such steps with
+    a parabola, 4 still are with five rounds in a row, 31 with three, 0 with eight; 255 tension-field curves
+    showed no such case)."""
     if not brackets:
         return
     grid = states.pole_stretch
@@ -543,6 +548,7 @@ def _slope_sign_bisection(states, brackets, slopes, slopes_at, samples, quantiti
     t_hi = np.array([slopes[b.attr][b.hi] for b in brackets])
     scale = np.maximum(np.abs(t_lo), np.abs(t_hi))
     open_ = np.isfinite(t_lo * t_hi) & (t_lo * t_hi < 0)
+    seen = np.zeros(len(brackets), dtype=int)  # rounds in a row whose states show a jump
     for _ in range(KINK_BISECTIONS):
         idx = np.flatnonzero(open_)
         if idx.size == 0:
@@ -561,14 +567,19 @@ def _slope_sign_bisection(states, brackets, slopes, slopes_at, samples, quantiti
                 lo[j] = mid[row]
             else:
                 hi[j] = mid[row]
-            if open_[j] and _jump_within(states, brackets[j], slopes, samples[j], quantities):
-                open_[j] = False  # the jump is seen: nothing closer to it changes what the caller decides
+            # a jump seen in KINK_CONFIRM rounds in a row (its straddling states each time twice as close) ends it: a
+            # smooth rise steep enough to pass for a jump once is resolved as the states close in (review, helper-69)
+            seen[j] = seen[j] + 1 if _jump_within(states, brackets[j], slopes, samples[j], quantities) else 0
+            if open_[j] and seen[j] >= KINK_CONFIRM:
+                open_[j] = False
 
 
 #: :func:`_slope_sign_bisection`: halvings at most, and the fraction of the end slopes below which the slope counts
 #: as going to zero (an extremum near) rather than jumping
 KINK_BISECTIONS = 24
 KINK_SLOPE = 1e-3
+#: ... and the rounds in a row whose states must show the jump (:func:`_jump_within`) before it stops there
+KINK_CONFIRM = 5
 
 
 def _find_limit_points(states, quantities, evaluate_states, settings, slopes_at=None, same_states=False):

@@ -59,12 +59,14 @@ WIDTH_TOL = 1e-13
 WIDTH_STIFFNESS = 1e-6
 #: iterations of the natural width's safeguarded Newton method before it gives up (no root: NaN)
 WIDTH_MAX_ITER = 200
-#: a natural width not bracketed below this hoop stretch has none: the search (doubling its lower end while the hoop
-#: tension stays negative) stops there with NaN. A neo-Hookean width beyond 1e4 needs ``1 − Φ̂²λ1²`` below 1e-16
-#: (the closed form ``λ2* = [λ1²(1 − Φ̂²λ1²)]^(−1/4)``), i.e. below the rounding of ``Φ̂λ1``; a Gent width lies before
-#: locking (``λ2² < Jlim + 3``). Without it an input without a root doubled its bracket for all
-#: :data:`WIDTH_MAX_ITER` iterations, and held its whole batch that long (535 of 735 calls on a neo-Hookean
-#: tension-field ring curve at Φ̂ = 0.35: 7.7 of its 8.9 s)
+#: a natural width not bracketed below this hoop stretch (or below twice the material's locking stretch, where that
+#: is larger) has none: the search (doubling its lower end while the hoop tension stays negative) stops there with
+#: NaN. A neo-Hookean width beyond 1e4 needs ``1 − Φ̂²λ1²`` below 1e-16 (the closed form
+#: ``λ2* = [λ1²(1 − Φ̂²λ1²)]^(−1/4)``), i.e. below the rounding of ``Φ̂λ1``; a Gent width lies before locking
+#: (``λ2² < Jlim + 3``, below twice the locking stretch ``√((Jlim + 3)/2)``: Jlim up to 1e13 was checked, review
+#: helper-69). Without it an input without a root doubled its bracket for all :data:`WIDTH_MAX_ITER` iterations, and
+#: held its whole batch that long (535 of 735 calls on a neo-Hookean tension-field ring curve at Φ̂ = 0.35: 7.7 of
+#: its 8.9 s)
 WIDTH_LIMIT = 1e6
 #: Newton steps polishing the integrated width at every right-hand side evaluation (the row is
 #: accurate to the integration tolerance, so one step leaves its square; the second is roundoff)
@@ -112,7 +114,8 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
     -------
     float or ndarray
         ``λ2*`` of the broadcast shape (a float for float inputs); NaN where there is no root (at fixed
-        voltage ``W*`` then has no minimum in ``λ2``: electromechanical pull-in).
+        voltage ``W*`` then has no minimum in ``λ2``: electromechanical pull-in), none below
+        :data:`WIDTH_LIMIT` (or twice the locking stretch), or an input is not finite.
     """
     l1a, phia = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(phi, dtype=float))
     scalar = l1a.ndim == 0
@@ -128,6 +131,8 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
     done = ~(np.isfinite(l1a) & np.isfinite(phia))
     x = np.where(done, np.nan, x)
     lo_zero = np.zeros(l1a.shape, dtype=bool)  # T̂2 is exactly zero at the bracket's lower end
+    locking = getattr(getattr(model, "elasticity", None), "locking_stretch", None)
+    limit = max(WIDTH_LIMIT, 2 * locking) if locking is not None else WIDTH_LIMIT
     with np.errstate(all="ignore"):
         for _ in range(WIDTH_MAX_ITER):
             if done.all():
@@ -167,8 +172,8 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
             conv |= zero
             # a bracket below roundoff (the root sits between two neighbouring floats)
             conv |= np.isfinite(hi) & (hi - lo <= 4 * np.finfo(float).eps * hi)
-            # the hoop tension still negative beyond WIDTH_LIMIT: no width (NaN below, where T̂22 is not positive)
-            none = ~done & ~conv & ~np.isfinite(hi) & (lo > WIDTH_LIMIT)
+            # the hoop tension still negative beyond the limit: no width (NaN below, where T̂22 is not positive)
+            none = ~done & ~conv & ~np.isfinite(hi) & (lo > limit)
             new = np.where(none, np.nan, new)
             x = np.where(done, x, new)
             done |= conv | none

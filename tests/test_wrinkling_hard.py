@@ -596,6 +596,21 @@ def test_natural_width_without_a_root_ends_at_the_width_limit(monkeypatch):
     assert np.isnan(natural_width(model, np.array([np.nan]), phi)[0]) and len(calls) <= 1
 
 
+def test_natural_width_of_a_gent_membrane_far_from_locking_is_not_cut_at_the_width_limit():
+    """A Gent width lies below locking, ``λ2² < Jlim + 3``: for Jlim above ~1e12 that is beyond ``WIDTH_LIMIT``, and the
+    search goes on to twice the locking stretch there (review, helper-69: Jlim = 1e13, λ1 = 1.2755, Φ̂ = 1.3088 has its
+    width at 2.53e6, where the hoop tension vanishes and rises)."""
+    from coexist.wrinkling import WIDTH_LIMIT
+
+    model = taut("gent", 1e13)
+    l1, phi = 1.2755407092095203, 1.3087728098190738
+    w = natural_width(model, l1, phi)
+    assert w > WIDTH_LIMIT
+    assert w == pytest.approx(2532143.1466937964, rel=1e-12)
+    t = model.tensions(np.float64(l1), np.float64(w), np.float64(phi))
+    assert abs(float(t[1])) <= 1e-12 * w and float(t[6]) > 0
+
+
 # --- 2e. random inputs ------------------------------------------------------------------------------------------
 
 MATERIALS = [("neo-hookean", None), ("gent", 10.0), ("gent", 30.0), ("gent", 97.0)]
