@@ -409,17 +409,45 @@ def _resolved(brackets: list, values: np.ndarray, resolution: float, grid=None, 
     return items
 
 
+class _FailsInside(SolverError):
+    """A state between two valid grid states fails (met while locating a limit point): the curve's first run of
+    valid states ends before it (:func:`_trace`). Where nobody ends the curve there, the solver error it is."""
+
+    def __init__(self, message: str, pole_stretch: float, status: int):
+        super().__init__(message)
+        self.pole_stretch, self.status = pole_stretch, status
+
+
+def _before(states: MembraneStates, gap: _FailsInside) -> tuple[MembraneStates, str]:
+    """The states of a run up to the grid state before the failing one of ``gap``, and why the run ends there: the run
+    of valid states ends before it, as it would on a grid that held it (a tension-field ring at Φ̂ = 0.47 on 15
+    points: the states between λ0 = 1.01 and 1.2236 pull in, and the curve had failed as a whole; on 200 points it
+    ends at 1.01)."""
+    grid = states.pole_stretch
+    i = int(np.searchsorted(grid, gap.pole_stretch)) - 1
+    if not 0 <= i < grid.size - 1:
+        raise gap
+    stopped = (
+        f"{reason_tag(gap.status)}: beyond pole stretch {grid[i]:.6g} (at {gap.pole_stretch:.6g}, before the next "
+        f"state of the grid) {reason_text(gap.status)}"
+    )
+    return _take(states, slice(0, i + 1)), stopped
+
+
 def _refine_brackets(states: MembraneStates, brackets, evaluate_states, settings) -> list[LimitPoint]:
     """Locate the extremum in every bracket (:func:`_grid_extrema`) by Chebyshev interpolation on a shrinking
     bracket (:func:`~coexist.numerics.roots.chebyshev_extremum`; the extremum of its kind with the largest
-    or smallest value in the bracket), all brackets of one quantity in one call per round."""
+    or smallest value in the bracket), all brackets of one quantity in one call per round. A state there that fails
+    raises :class:`_FailsInside` (the first such pole stretch and its status)."""
     grid = states.pole_stretch
     found: list = [None] * len(brackets)
     for attr in dict.fromkeys(b.attr for b in brackets):
         sel = [j for j, b in enumerate(brackets) if b.attr == attr]
+        failed: list = []  # (pole stretch, status) of every state that failed
 
-        def g_of(x, attr=attr):
+        def g_of(x, attr=attr, failed=failed):
             st = evaluate_states(x)
+            failed.extend(zip(np.asarray(x, dtype=float)[~st.ok].tolist(), st.status[~st.ok].tolist()))
             return np.where(st.ok, getattr(st, attr), np.nan)
 
         lo = np.array([grid[brackets[j].lo] for j in sel])
@@ -435,7 +463,11 @@ def _refine_brackets(states: MembraneStates, brackets, evaluate_states, settings
                 nodes=settings.limit_point_nodes,
             )
         except ValueError as exc:
-            raise SolverError(f"no valid state near a limit point of {attr}: {exc}") from None
+            message = f"no valid state near a limit point of {attr}: {exc}"
+            if not failed:
+                raise SolverError(message) from None
+            x_bad, code = min(failed)
+            raise _FailsInside(message, x_bad, int(code)) from None
         at = evaluate_states(x_star)
         for k, j in enumerate(sel):
             found[j] = _limit_point(brackets[j].kind, _take(at, slice(k, k + 1)))
@@ -849,7 +881,8 @@ def pressure_volume_curve(
     ModelRangeError
         No valid state anywhere on the grid (the reason of the first).
     SolverError
-        No valid state near a limit point while refining it.
+        No valid state near a limit point while refining it (a state found failing between two valid states of
+        the grid ends the curve before it instead: ``stopped_because`` names it).
 
     Examples
     --------
@@ -908,7 +941,12 @@ def _trace(
     states = evaluate(l0)
     run, starts, stopped = _valid_run(states, l0)
     states = _take(states, run)
-    limits, start, jump = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
+    while True:
+        try:
+            limits, start, jump = _find_limit_points(states, quantities, evaluate, settings, slopes_at, same_states)
+            break
+        except _FailsInside as gap:
+            states, stopped = _before(states, gap)
     grid = states.pole_stretch
 
     def changes(i):
@@ -1872,7 +1910,8 @@ def voltage_charge_curve(
     ModelRangeError
         No pole stretch of the grid carries ``p̂`` (the reason of the first).
     SolverError
-        No valid state near a limit point while refining it.
+        No valid state near a limit point while refining it (a state found failing between two valid states of
+        the grid ends the curve before it instead: ``stopped_because`` names it).
     """
     p_hat, settings = _checked_voltage_inputs(model, p_hat, settings)
     if pole_stretch is None:
@@ -1884,9 +1923,14 @@ def voltage_charge_curve(
     states, roots = _voltage_charge_states(model, l0, p_hat, settings)
     run, starts, stopped = _valid_run(states, l0, roots.why_no_voltage)
     states = _take(states, run)
-    limits = _charge_limit_points(
-        model, p_hat, states, settings, lambda x: voltage_at_pressure(model, x, p_hat, settings)
-    )
+    while True:
+        try:
+            limits = _charge_limit_points(
+                model, p_hat, states, settings, lambda x: voltage_at_pressure(model, x, p_hat, settings)
+            )
+            break
+        except _FailsInside as gap:
+            states, stopped = _before(states, gap)
     tight = error_reference(settings)
 
     def along(x, phi):

@@ -2610,7 +2610,8 @@ def patterned_pressure_volume_curve(
     ModelRangeError
         No valid state anywhere on the grid.
     SolverError
-        No valid state near a limit point while refining it.
+        No valid state near a limit point while refining it (a state found failing between two valid states of
+        the grid ends the curve before it instead: ``stopped_because`` names it).
     """
     settings = validation.settings_or_default(settings)
     validation.membrane_model(model)

@@ -344,3 +344,44 @@ def test_the_slope_bisection_stops_once_it_sees_the_jump(monkeypatch):
     assert curve.limit_points[0].pole_stretch == pytest.approx(1.49978689, abs=1e-7)
     bisected = [n for call in probes for n in call]
     assert bisected and max(bisected) <= 8, probes
+
+
+def test_a_state_that_fails_inside_a_bracket_ends_the_curve_there():
+    """A tension-field ring electrode (Gent 97, ring 0.3–0.7) at Φ̂ = 0.47 on 15 points: the states at λ0 = 1.01 and
+    1.2236 are valid, those between pull in. Locating the pressure extremum the grid showed there met them, and the
+    whole curve had failed (``SolverError: no valid state near a limit point of p_hat``; review, helper-69). The run
+    of valid states ends before them now, as on a grid that holds them: on 200 points the curve is the single state
+    at 1.01 too, ending in the same pull-in. The command line prints the curve, the note and no limit point."""
+    from coexist.patterned import ZonePattern, patterned_pressure_volume_curve
+
+    model = build_model("gent", 97.0, voltage=True, wrinkling="tension-field")
+    ring = ZonePattern.ring(0.3, 0.7, 1)
+    grid = np.linspace(1.01, 4.0, 15)
+    coarse = patterned_pressure_volume_curve(model, ring, 0.47, grid)
+    fine = patterned_pressure_volume_curve(model, ring, 0.47, np.linspace(1.01, 4.0, 200))
+    for c in (coarse, fine):
+        assert c.states.pole_stretch.tolist() == [1.01] and c.limit_points == []
+        assert c.stopped_because.startswith("electromechanical_instability: beyond pole stretch 1.01 ")
+    at = float(coarse.stopped_because.split("(at ")[1].split(",")[0])
+    assert grid[0] < at < grid[1]
+    args = ["curves", "--material", "gent", "--jlim", "97", "--wrinkling", "tension-field", "--pattern", "ring"]
+    args += ["--inner-fraction", "0.3", "--outer-fraction", "0.7", "--phi-hat", "0.47", "--p-hat", "none"]
+    r = CliRunner().invoke(cli, [*args, "--points", "15"])
+    assert r.exit_code == 0, r.output
+    assert "stops early: electromechanical_instability" in r.output and "none on these curves" in r.output
+
+
+def test_a_gap_before_the_end_keeps_the_limit_points_before_it():
+    """A ring 0.1–0.5 (Gent 97, tension-field) at Φ̂ = 0.45 on 30 points: a state pulls in between the grid states at
+    λ0 = 1.42241 and 1.52552 (at 1.45924; it had failed the whole curve). The curve ends at 1.42241, before the end
+    on 200 points (1.44573), with the same pressure maximum (λ0 = 1.3598)."""
+    from coexist.patterned import ZonePattern, patterned_pressure_volume_curve
+
+    model = build_model("gent", 97.0, voltage=True, wrinkling="tension-field")
+    ring = ZonePattern.ring(0.1, 0.5, 1)
+    coarse = patterned_pressure_volume_curve(model, ring, 0.45, np.linspace(1.01, 4.0, 30))
+    fine = patterned_pressure_volume_curve(model, ring, 0.45, np.linspace(1.01, 4.0, 200))
+    assert coarse.stopped_because.startswith("electromechanical_instability: beyond pole stretch 1.42241 (at ")
+    assert coarse.states.pole_stretch[-1] <= fine.states.pole_stretch[-1]
+    assert [lp.kind for lp in coarse.limit_points] == [lp.kind for lp in fine.limit_points] == ["pressure_max"]
+    assert coarse.limit_points[0].pole_stretch == pytest.approx(fine.limit_points[0].pole_stretch, abs=1e-7)

@@ -332,3 +332,5 @@ def _summary(pv, vq, settings, err=False):
                 )
                 note = "" if lp.errors is not None else "  (error not measured)"
                 click.echo(f"  {held} = {c.fixed:<6g} {lp.kind:<13} {numbers}{note}", err=err)
+    if not any(c.limit_points for c in (*pv, *vq)):
+        click.echo("  none on these curves", err=err)
