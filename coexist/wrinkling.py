@@ -120,15 +120,17 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
     l1a, phia = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(phi, dtype=float))
     scalar = l1a.ndim == 0
     l1a, phia = np.atleast_1d(l1a).astype(float), np.atleast_1d(phia).astype(float)
-    lo = l1a**-0.5  # T̂2(λ1, lo) = −Φ̂²λ1²lo ≤ 0
+    with np.errstate(all="ignore"):
+        lo = l1a**-0.5  # T̂2(λ1, lo) = −Φ̂²λ1²lo ≤ 0
     hi = np.full_like(lo, np.inf)
     x = lo.copy()
     if guess is not None:
         g = np.broadcast_to(np.asarray(guess, dtype=float), l1a.shape)
         x = np.where(np.isfinite(g) & (g > 0), g, x)
-    # an input that is not finite has no width (NaN): it had iterated all WIDTH_MAX_ITER times, and held its batch
-    # (a tension-field ring's search for its interface stretch passes such inputs: 157 of 730 calls of one curve)
-    done = ~(np.isfinite(l1a) & np.isfinite(phia))
+    # an input that is not finite (or λ1 ≤ 0) has no width (NaN): it had iterated all WIDTH_MAX_ITER times, and held
+    # its batch (a tension-field ring's search for its interface stretch passes such inputs: 157 of 730 calls of one
+    # curve)
+    done = ~(np.isfinite(l1a) & np.isfinite(phia) & (l1a > 0))
     x = np.where(done, np.nan, x)
     lo_zero = np.zeros(l1a.shape, dtype=bool)  # T̂2 is exactly zero at the bracket's lower end
     locking = getattr(getattr(model, "elasticity", None), "locking_stretch", None)
@@ -144,7 +146,9 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
             # beyond Gent locking: too far (the tensions there can be finite, with T̂2 < 0, and would move
             # the bracket's lower end past the root)
             bad = ~np.isfinite(T2) | ~(margin > 0)
-            hi = np.where(~done & (bad | (T2 > 0)), np.minimum(hi, x), hi)
+            # (only a point above the lower end bounds the root: a guess below λ1^(−1/2) past locking had set the upper
+            # end below the lower one, and the bracket, "closed", returned their mean, no root; review, helper-70)
+            hi = np.where(~done & (bad | (T2 > 0)) & (x > lo), np.minimum(hi, x), hi)
             moved = ~done & ~bad & (T2 <= 0) & (x >= lo)
             lo = np.where(moved, x, lo)
             lo_zero = np.where(moved, T2 == 0, lo_zero)

@@ -27,6 +27,7 @@ The scipy study (:func:`coexist.studies.wrinkled_shooting.shoot_relaxed`) calls
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -609,6 +610,22 @@ def test_natural_width_of_a_gent_membrane_far_from_locking_is_not_cut_at_the_wid
     assert w == pytest.approx(2532143.1466937964, rel=1e-12)
     t = model.tensions(np.float64(l1), np.float64(w), np.float64(phi))
     assert abs(float(t[1])) <= 1e-12 * w and float(t[6]) > 0
+
+
+def test_natural_width_with_a_guess_below_its_lower_end_is_a_root():
+    """A guess below ``λ1^(−1/2)`` past Gent locking had set the bracket's upper end below its lower end; the bracket
+    counted as closed and the mean of the two came back, no root (Gent 97, λ1 = 1.5, Φ̂ = 0.3, guess 0.05: 0.4332
+    where T̂2 = −5.2; 18 of 4000 random guesses for Gent 97, 55 for Gent 10; review, helper-70). Only a point above
+    the lower end bounds the root now: the width is the one found without a guess. A λ1 ≤ 0 has none, at once."""
+    model = taut("gent", 97.0)
+    w = natural_width(model, 1.5, 0.3, guess=0.05)
+    assert w == natural_width(model, 1.5, 0.3)
+    t = model.tensions(np.float64(1.5), np.float64(w), np.float64(0.3))
+    assert abs(float(t[1])) < 1e-12 and float(t[6]) > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = natural_width(model, np.array([-1.0, 0.0, 1.5]), 0.3)
+    assert np.isnan(out[:2]).all() and out[2] == w
 
 
 # --- 2e. random inputs ------------------------------------------------------------------------------------------
