@@ -111,7 +111,10 @@ class Curve:
     limit_points : list of LimitPoint
         The refined extrema (pressure and volume, or voltage and charge), by pole stretch.
     starts_because, stopped_because : str or None
-        Why the curve starts later or ends earlier than the requested pole-stretch range.
+        Why the curve starts later or ends earlier than the requested pole-stretch range: the first state of the grid
+        that fails beyond its first run of valid states, one that fails between two valid states of the grid (met
+        while locating a limit point: "(at λ0, before the next state of the grid)"), or a jump of the states to
+        another branch.
     rtol : float
         Relative tolerance of the integration the curve was shot with.
     """
