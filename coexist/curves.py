@@ -202,6 +202,25 @@ def _take(states: MembraneStates, index) -> MembraneStates:
     return MembraneStates(**kw)
 
 
+#: at most this many stretches of one failure are named in a curve's "no valid state anywhere" (the rest counted)
+FAILURES_NAMED = 3
+
+
+def _failures_along(status, pole_stretch, why) -> str:
+    """The failures along a grid without a valid state, a stretch of equal status at a time: "at 2.394: <why>; from
+    2.508 to 4 (14 states), at 2.508: <why>" (the first :data:`FAILURES_NAMED` stretches; a user had been told only
+    the first state's, which may be the odd one out)."""
+    cuts = np.flatnonzero(np.diff(status) != 0) + 1
+    starts, ends = np.r_[0, cuts], np.r_[cuts, status.size] - 1
+    parts = []
+    for a, b in zip(starts[:FAILURES_NAMED], ends[:FAILURES_NAMED]):
+        group = "" if a == b else f"from {pole_stretch[a]:.4g} to {pole_stretch[b]:.4g} ({b - a + 1} states), "
+        parts.append(f"{group}at {pole_stretch[a]:.4g}: {why(a)}")
+    if starts.size > FAILURES_NAMED:
+        parts.append(f"and {starts.size - FAILURES_NAMED} more stretches of failures")
+    return "; ".join(parts)
+
+
 def _valid_run(states: MembraneStates, pole_stretch, explain=None):
     """The first contiguous run of valid states, and why the range was cut before and after it (``explain(i)``, if
     given, says why state ``i`` has no voltage, for the status ``NO_VOLTAGE``)."""
@@ -214,11 +233,10 @@ def _valid_run(states: MembraneStates, pole_stretch, explain=None):
 
     ok = states.ok
     if not ok.any():
-        i = 0
         raise NoStateInRange(
             f"no valid state anywhere in pole stretch {pole_stretch[0]:.4g}..{pole_stretch[-1]:.4g}"
-            f" (at {pole_stretch[i]:.4g}: {reason_text(states.status[i])})",
-            reason_tag(states.status[i]),
+            f" ({_failures_along(states.status, pole_stretch, why)})",
+            reason_tag(states.status[0]),
         )
     run = first_valid_run(ok)
     first, last = run.start, run.stop - 1

@@ -164,3 +164,19 @@ def test_volume_maximum_does_not_move_with_the_sampling():
     for points in ("50", "200"):
         lam, p = volume_max("--points", points)
         assert abs(lam - l_ref) <= 3e-9 * l_ref and abs(p - p_ref) <= 6e-10, (points, lam - l_ref, p - p_ref)
+
+
+def test_no_state_anywhere_names_every_failure_along_the_range():
+    """A prestretched inner-circle electrode at a high voltage (Gent 300, λpre 2.37, Φ̂ = 0.412, two passive layers,
+    tension-field) has no state on the grid: the first pole stretch runs out of integration steps, all the others
+    wrinkle at the pole. The message had named only the first failure, the odd one out; it names each stretch of
+    equal failures now, with where it starts."""
+    r = CliRunner().invoke(
+        cli,
+        ["curves", "--material", "gent", "--jlim", "300", "--prestretch", "2.37", "--wrinkling", "tension-field"]
+        + ["--pattern", "inner-circle", "--inner-fraction", "0.45", "--passive-layers", "2", "--phi-hat", "0.412"]
+        + ["--p-hat", "none", "--points", "15"],
+    )
+    assert r.exit_code == 2 and "Traceback" not in r.output
+    assert "the zone has no state at Φ̂ = 0.412 in pole stretch 2.394..4 (at 2.394: " in r.output
+    assert "from 2.508 to 4 (14 states), at 2.508: the tension at the pole is not positive" in r.output
