@@ -768,9 +768,11 @@ def load_scene(name_or_path: str | Path | None = None) -> Scene:
         )
     text = str(name_or_path)
     looks_like_path = isinstance(name_or_path, Path) or text.endswith(".toml") or "/" in text or "\\" in text
+    path = Path(name_or_path)
+    if path.is_dir():
+        raise SceneError(f"{str(path)!r} is a folder, not a scene (a .toml file or a built-in scene's name)")
     if not looks_like_path and (text in _builtin_names() or not Path(text).is_file()):
         return parse_scene(builtin_scene_text(text), source=text)
-    path = Path(name_or_path)
     try:
         data = path.read_bytes()
     except FileNotFoundError:
@@ -778,7 +780,7 @@ def load_scene(name_or_path: str | Path | None = None) -> Scene:
     except OSError as exc:
         raise SceneError(f"cannot read scene file {str(path)!r}: {exc.strerror or exc}") from None
     try:
-        source = data.decode("utf-8")
+        source = data.decode("utf-8-sig")  # (a byte-order mark, as Windows Notepad writes one, is dropped)
     except UnicodeDecodeError as exc:
         raise SceneError(f"scene file {str(path)!r} is not UTF-8 text (byte {exc.start})") from None
     return parse_scene(source, source=str(path))

@@ -180,3 +180,15 @@ def test_no_state_anywhere_names_every_failure_along_the_range():
     assert r.exit_code == 2 and "Traceback" not in r.output
     assert "the zone has no state at Φ̂ = 0.412 in pole stretch 2.394..4 (at 2.394: " in r.output
     assert "from 2.508 to 4 (14 states), at 2.508: the tension at the pole is not positive" in r.output
+
+
+def test_a_prestretch_that_locks_the_gent_membrane_is_blamed_on_the_prestretch():
+    """``coexist curves --prestretch 3 --material gent --jlim 10`` had blamed ``--phi-hat`` ("no state at Φ̂ = 0 ...
+    the chains lock"); a scene with the same values names the prestretch, and so does the option now (review,
+    helper-71). 2 still runs."""
+    r = CliRunner().invoke(cli, ["curves", "--prestretch", "3", "--material", "gent", "--jlim", "10"])
+    assert r.exit_code == 2
+    (line,) = [x for x in r.output.splitlines() if x.startswith("Error:")]
+    assert line == "Error: --prestretch: a prestretch of 3 locks a Gent membrane with jlim = 10"
+    ok = ["curves", "--prestretch", "2", "--material", "gent", "--jlim", "10", "--p-hat", "none", "--phi-hat", "0"]
+    assert CliRunner().invoke(cli, ok).exit_code == 0

@@ -296,7 +296,7 @@ def test_file_level_errors(tmp_path):
         load_scene(tmp_path / "missing.toml")
     with pytest.raises(SceneError, match="did you mean 'tricircle'"):
         load_scene("tricirle")
-    with pytest.raises(SceneError, match="cannot read"):
+    with pytest.raises(SceneError, match="is a folder, not a scene"):
         load_scene(tmp_path)
     binary = tmp_path / "binary.toml"
     binary.write_bytes(b"\xff\xfe[membrane]")
@@ -573,3 +573,18 @@ def test_cli_check_closing_pressure_above_snap_through(tmp_path):
     assert r.exit_code == 2 and "[chamber].closing_pressure_mbar" in r.output and "snap-through" in r.output
     ok = CliRunner().invoke(cli, ["check", "tricircle"])
     assert ok.exit_code == 0 and "a stable start" in ok.output
+
+
+def test_a_scene_file_with_a_byte_order_mark_loads_and_a_folder_is_named(tmp_path):
+    """A scene saved by Windows Notepad starts with a UTF-8 byte-order mark: it had been "invalid TOML ... (at line 1,
+    column 1)"; it loads now, as the same file without it. A folder given as the scene is named as a folder, not as an
+    unknown built-in scene (review, helper-71)."""
+    text = builtin_scene_text("tricircle")
+    plain, bom = tmp_path / "plain.toml", tmp_path / "bom.toml"
+    plain.write_text(text, encoding="utf-8")
+    bom.write_bytes(b"\xef\xbb\xbf" + text.encode("utf-8"))
+    assert load_scene(bom).zone_count == load_scene(plain).zone_count == 3
+    folder = tmp_path / "s"
+    folder.mkdir()
+    with pytest.raises(SceneError, match="is a folder, not a scene"):
+        load_scene(str(folder))

@@ -129,7 +129,7 @@ def curves(
     from coexist.errors import ModelRangeError, SceneError
     from coexist.model import build_model
 
-    settings = settings_from(accuracy, rtol)
+    settings = settings_from(accuracy, rtol, events=False)
     material, jlim, prestretch = material_options(scene, material, jlim, prestretch)
     sc = load_scene_arg(scene) if scene is not None else None
     if wrinkling is None:
@@ -152,6 +152,9 @@ def curves(
         model = build_model(material, jlim=jlim, voltage=True, prestretch=prestretch, wrinkling=wrinkling)
     except SceneError as exc:
         raise InputError(f"--{(exc.field or 'material').replace('_', '-')}: {exc.message}") from None
+    lam = model.prestretch
+    if jlim is not None and 2 * lam**2 + lam**-4 - 3 >= jlim:  # as a scene's [membrane] is checked
+        raise InputError(f"--prestretch: a prestretch of {lam:g} locks a Gent membrane with jlim = {jlim:g}")
     if pole_stretch is None:  # the library's default range, which follows the prestretch
         lo, hi = 1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch)
     if lo <= model.prestretch:

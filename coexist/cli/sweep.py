@@ -146,7 +146,8 @@ def _report(result):
     for r in result.records:
         values = result.spec.values_at(r["index"])
         cells = "  ".join(f"{v:>24.6g}" if isinstance(v, float) else f"{v!s:>24}" for v in values)
-        hyst = f"{r['hysteresis_kV']:9.6f}" if r["hysteresis_kV"] is not None else f"{'-':>9}"
+        # (a hysteresis within rounding of zero, e.g. −7e-10 kV inside its ±4e-9, is printed 0.000000, not −0.000000)
+        hyst = f"{round(r['hysteresis_kV'], 6) + 0.0:9.6f}" if r["hysteresis_kV"] is not None else f"{'-':>9}"
         reason = f"  ({r['reason']})" if r["status"] != "bulges" and r["reason"] else ""
         jumps = f"{num(r.get('jump_up_kV'))} {num(r.get('jump_down_kV'))}"
         click.echo(
