@@ -423,7 +423,11 @@ class Simulation:
     def ramp(self, progress=None) -> RampReport:
         """The scene's voltage path, followed from the closing state (:class:`~coexist.ramp.Ramp`).
 
-        With ``settings.error_estimates`` every transition's error is measured (:meth:`measure_errors`).
+        With ``settings.error_estimates`` every transition's error is measured (:meth:`measure_errors`). Measured
+        errors hold for ``rtol ≤ 1e-6`` (draft): looser, the sign of a tension near zero is lost in the shooting's
+        error, and an event can move by far more than its error (the default scene at 1e-5: the wrinkling onset missed,
+        the end 0.008 kV late against ± 1e-4). The command line refuses such tolerances for its event commands; the
+        accuracy study runs them to show what looseness costs.
 
         Parameters
         ----------
