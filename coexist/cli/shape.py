@@ -89,7 +89,7 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
         stop = sc.voltage.peak / 1e3
         over = [v for v in kv if v > stop * (1 + 1e-12)]
         if over:
-            raise InputError(f"--voltage-kV: {over[0]:g} kV is above the scene's stop, {stop:g} kV ([voltage])")
+            raise InputError(f"--voltage-kV: {over[0]:.12g} kV is above the scene's stop, {stop:.12g} kV ([voltage])")
     from coexist.cost import MAX_GROUPS, shape_cost
 
     one_patterned = sc.patterned and sc.zone_count == 1
