@@ -879,17 +879,17 @@ def _attempts_serve(fns, m: int) -> bool:
     attempts per call, :func:`coexist.shooting.run_attempts`) rather than step by step from Python: the batch
     sizes :meth:`~coexist.shooting._Integrators.small_batch_limit` gives them (compiled: any, in chunks).
 
-    A batch the compiled functions would take counts as a use of a function not compiled yet (compiled from the
-    :data:`~coexist.shooting.COMPILE_AFTER`-th use on, :meth:`~coexist.shooting._Integrators.attempts`): without
-    it a process whose batches exceed the uncompiled limit would never use, so never compile, the function (its
-    curves then took twice the time on a machine whose cache lacked the ``radius_sens`` library)."""
-    from .shooting import COMPILED_BATCH_LIMIT
-
-    if m <= COMPILED_BATCH_LIMIT:
-        for kind in ("radius", "radius_sens"):
-            entry = fns._casadi.get(("attempts", kind))
-            if entry is not None and not entry.get("compiled"):
-                _attempts(fns, kind)
+    Every batch counts as a use of a function not compiled yet (the compiled functions take any size, in chunks;
+    compiled from the :data:`~coexist.shooting.COMPILE_AFTER`-th use on, and looked for in the cache while it
+    compiles in the background, :meth:`~coexist.shooting._Integrators.attempts`): without it a process whose
+    batches exceed the uncompiled limit would never use, so never compile, the function (its curves then took twice
+    the time on a machine whose cache lacked the ``radius_sens`` library), and one whose batches had grown past
+    :data:`~coexist.shooting.COMPILED_BATCH_LIMIT` never looked for it again (a single patterned zone's first
+    ``coexist coexistence``: 100 s of derivative passes in numpy, against 6 s once the library was loaded)."""
+    for kind in ("radius", "radius_sens"):
+        entry = fns._casadi.get(("attempts", kind))
+        if entry is not None and not entry.get("compiled"):
+            _attempts(fns, kind)
     return m <= min(fns.small_batch_limit("radius", m), fns.small_batch_limit("radius_sens", m))
 
 
