@@ -539,6 +539,19 @@ def test_natural_width_finds_the_root_below_gent_locking():
     np.testing.assert_allclose(natural_width(model, l1, phi), expected, rtol=1e-10)
 
 
+def counted_tensions(model, monkeypatch) -> list:
+    """A list that grows by one at every evaluation of ``model.tensions`` (its class's, for this test)."""
+    calls: list = []
+    tensions = type(model).tensions
+
+    def counted(self, *args):
+        calls.append(1)
+        return tensions(self, *args)
+
+    monkeypatch.setattr(type(model), "tensions", counted)
+    return calls
+
+
 def test_natural_width_stops_at_the_root_instead_of_bisecting_down_to_it(monkeypatch):
     """At the root a Newton step of a few ulp (or zero, T̂2 = 0 exactly) does not fall strictly inside the bracket,
     one of whose ends is the point itself: it had been refused, and the bracket bisected from its far end down to
@@ -547,14 +560,7 @@ def test_natural_width_stops_at_the_root_instead_of_bisecting_down_to_it(monkeyp
     below the tolerance from a valid point now ends it: 13 and 7 evaluations, the same root (scalar brentq on the
     bracket, 1e-13)."""
     model = taut("gent", 97.0)
-    calls = []
-    tensions = type(model).tensions
-
-    def counted(self, *args):
-        calls.append(1)
-        return tensions(self, *args)
-
-    monkeypatch.setattr(type(model), "tensions", counted)
+    calls = counted_tensions(model, monkeypatch)
     for l1, at_most in ((7.774644782269529, 15), (1.5962428193346114, 10)):
         calls.clear()
         w = natural_width(model, np.array([l1]), np.array([0.4]))[0]
@@ -575,14 +581,7 @@ def test_natural_width_without_a_root_ends_at_the_width_limit(monkeypatch):
     from coexist.wrinkling import WIDTH_LIMIT, natural_width_neo_hookean
 
     model = taut("neo-hookean", None)
-    calls = []
-    tensions = type(model).tensions
-
-    def counted(self, *args):
-        calls.append(1)
-        return tensions(self, *args)
-
-    monkeypatch.setattr(type(model), "tensions", counted)
+    calls = counted_tensions(model, monkeypatch)
     phi = 0.4
     no_root = [1.0 / phi * (1 + 1e-9), 1.0 / phi * 1.5, 4.0, np.nan]
     roots = [1.2, 1.0 / phi * math.sqrt(1 - 1e-8), 1.0 / phi * math.sqrt(1 - 1e-12)]
