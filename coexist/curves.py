@@ -1947,7 +1947,7 @@ def voltage_charge_curve(
     while True:
         try:
             limits = _charge_limit_points(
-                model, p_hat, states, settings, lambda x: voltage_at_pressure(model, x, p_hat, settings)
+                model, p_hat, states, settings, _warm_evaluate(model, p_hat, settings, states)
             )
             break
         except _FailsInside as gap:
@@ -1960,6 +1960,44 @@ def voltage_charge_curve(
 
     _limit_point_errors(limits, _CHARGE_QUANTITIES, settings.rtol, None, along)
     return Curve("voltage_charge", float(p_hat), states, limits, starts, stopped, settings.rtol)
+
+
+def _local_cubic(grid, values, x):
+    """The cubic through the ``values`` at the four grid nodes around each ``x`` (two on either side; the first
+    or last four at the ends), or the straight line on a grid of fewer than four nodes."""
+    if grid.size < 4:
+        return np.interp(x, grid, values)
+    i = np.clip(np.searchsorted(grid, x) - 2, 0, grid.size - 4)
+    nodes = i[:, None] + np.arange(4)
+    g, v = grid[nodes], values[nodes]
+    out = np.zeros(x.size)
+    for a in range(4):
+        w = np.ones(x.size)
+        for b in range(4):
+            if b != a:
+                w *= (x - g[:, b]) / (g[:, a] - g[:, b])
+        out += w * v[:, a]
+    return out
+
+
+def _warm_evaluate(model, p_hat, settings, states: MembraneStates):
+    """``evaluate(λ0)``: the states of :func:`voltage_at_pressure` at pole stretches between the curve's first
+    and last ``states``, the Newton iteration started at ``s = Φ̂²`` interpolated by the cubic through the four
+    states around each (:func:`_local_cubic`, :func:`_voltages_from`) instead of at the regula falsi point after
+    a zero-voltage shot (2–3 shots with derivatives instead of 6–7: the root is the same, the pressure falls
+    monotonically with the voltage). A batch with a pole stretch outside the curve, or one that fails this way,
+    is solved again by :func:`voltage_at_pressure` from scratch, so that a failure is named as there."""
+    grid, s = states.pole_stretch, states.phi_hat**2
+
+    def evaluate(x):
+        x = np.asarray(x, dtype=float)
+        if x.size and np.all((x >= grid[0]) & (x <= grid[-1])):
+            st = _voltages_from(model, x, p_hat, settings, np.sqrt(np.maximum(_local_cubic(grid, s, x), 0.0)))
+            if st.ok.all():
+                return st
+        return voltage_at_pressure(model, x, p_hat, settings)
+
+    return evaluate
 
 
 def _voltages_from(model, l0, p_hat, settings, phi_hat, iterations=60) -> MembraneStates:
