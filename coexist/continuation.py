@@ -1259,6 +1259,34 @@ class Tracer:
                 out.append(p)
         return out
 
+    @property
+    def tight_rtol(self) -> float:
+        """``rtol/100`` (at least ``RTOL_MIN``): the tolerance at which this tracer's doubtful decisions are
+        checked."""
+        from .settings import RTOL_MIN
+
+        return max(self.system.settings.rtol / 100, RTOL_MIN)
+
+    def with_settings(self, settings) -> Tracer:
+        """The same tracer (configuration, window, breakdown, step budget of reference) with other solver
+        settings.
+
+        Parameters
+        ----------
+        settings : SolverSettings
+            The settings of the new tracer's system.
+
+        Returns
+        -------
+        Tracer
+            A tracer of the same configuration whose system has ``settings``.
+        """
+        system = GroupSystem(self.system.model, self.system.gas, self.system.configuration, settings)
+        out = Tracer(system, (self.phi_lo, self.phi_hi), self.breakdown)
+        out.stable_only = getattr(self, "stable_only", False)
+        out.base_steps = self.base_steps
+        return out
+
     def with_budget(self, max_steps: int) -> Tracer:
         """The same tracer with another integration step budget (``SolverSettings.max_steps``).
 
@@ -1275,12 +1303,7 @@ class Tracer:
         """
         from dataclasses import replace
 
-        settings = replace(self.system.settings, max_steps=int(max_steps))
-        system = GroupSystem(self.system.model, self.system.gas, self.system.configuration, settings)
-        out = Tracer(system, (self.phi_lo, self.phi_hi), self.breakdown)
-        out.stable_only = getattr(self, "stable_only", False)
-        out.base_steps = self.base_steps
-        return out
+        return self.with_settings(replace(self.system.settings, max_steps=int(max_steps)))
 
     def _budget_end(self, prev, cur: Point, h, phi_fail: float) -> Event:
         """The end of a branch whose states stopped at ``phi_fail`` because their integration used up its step
@@ -1395,12 +1418,23 @@ class Tracer:
             onset = self._formal_onset(cur, h)
             if onset is not None:
                 # states past the onset (one within the bracket's tolerance of it may converge taut, its smallest
-                # tension of the order of rtol: no evidence) continue the branch when they carry a band
-                past = [onset[2], onset[2] + 0.125 * (float(h) - onset[2])]
-                if any(
-                    p is not None and p.tangent @ cur.tangent > 0 and any(_wrinkled(p))
-                    for p in self._points_at(cur, None, h, past, False)
-                ):
+                # tension of the order of rtol: no evidence) continue the branch when they carry a band; the band's
+                # own pull-in may come soon after the onset (5 V after it in the default scene, where a loose
+                # tolerance's long step probed only 1/8 of the way and took the onset for the end: review,
+                # helper-73), so they are probed at 8⁻¹ … 8⁻⁶ of the rest of the step
+                past = [onset[2]] + [onset[2] + (float(h) - onset[2]) / 8.0**k for k in range(1, ONSET_PROBES + 1)]
+
+                def banded(tracer):
+                    return any(
+                        p is not None and p.tangent @ cur.tangent > 0 and any(_wrinkled(p))
+                        for p in tracer._points_at(cur, None, h, past, False)
+                    )
+
+                # a band found by states at rtol/100 counts too: a loose tolerance's taut states can step over the
+                # hoop tension's narrow dip where the band starts (the default scene at rtol 1e-7: taut with
+                # T̂min = 0.118 where the formally continued states and those at 1e-9 carry a band, so the onset
+                # was taken for the end, 5 V before the band's pull-in: review, helper-73)
+                if banded(self) or banded(self.with_settings(self.system.settings.with_rtol(self.tight_rtol))):
                     onset = None  # the tension-field states go on past the onset: not this end
         if code == WRINKLED or onset is not None:
             found = onset if onset is not None else self._formal_onset(cur, h)
@@ -1507,6 +1541,10 @@ def _is_formal_end(note: str) -> bool:
     formally continued states' smallest tension, not by validity)?"""
     return _note_reason(note) in (tuple(failure_reason(WRINKLED)), _WRINKLE_PULL_IN)
 
+
+#: states past a taut branch's onset of wrinkling probed for a continuing band (:meth:`Tracer._range_end`): at
+#: ``8⁻ᵏ`` of the rest of the failing step, ``k = 1 … ONSET_PROBES``
+ONSET_PROBES = 6
 
 #: the reason of a tension-field branch's end at the onset of wrinkling (:meth:`Tracer._range_end`): the taut
 #: states wrinkle there (located as the root of the formally continued states' smallest tension) and no

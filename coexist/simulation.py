@@ -199,6 +199,21 @@ def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) 
     return snap_through(model, settings, pole_stretch_max(scene, settings))
 
 
+def _chamber_closed_at(scene: Scene, model, settings: SolverSettings, p_close: float, lam_c: float) -> GasChamber:
+    """The scene's chamber gas closed at gauge pressure ``p̂`` with every zone at pole stretch ``λc`` (its volume
+    shot with ``settings``)."""
+    chamber = scene.chamber
+    if chamber is None:
+        raise SceneError("internal: a gas chamber for a scene without a [chamber]", "[chamber]")
+    v_c = float(solve_states(model, [lam_c], 0.0, settings).v_hat[0])
+    return GasChamber.closed_at(
+        float(scene.v_hat(chamber.volume)),
+        float(scene.p_hat(chamber.atmospheric_pressure)),
+        p_close,
+        scene.zone_count * v_c,
+    )
+
+
 def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: float, lam_hi: float) -> float:
     """The pole stretch in ``(lam_lo, lam_hi)`` (a rising piece of the zero-voltage curve) at which one zone
     holds ``p̂``: Newton's method on exact states with exact derivatives, safeguarded by the bracket.
@@ -393,13 +408,7 @@ class Simulation:
             raise SceneError(f"{exc.message}; raise it", field_name) from None
         gas: PressureSource
         if scene.chamber is not None:
-            v_c = float(solve_states(model, [lam_c], 0.0, settings).v_hat[0])
-            gas = GasChamber.closed_at(
-                float(scene.v_hat(scene.chamber.volume)),
-                float(scene.p_hat(scene.chamber.atmospheric_pressure)),
-                p_close,
-                scene.zone_count * v_c,
-            )
+            gas = _chamber_closed_at(scene, model, settings, p_close, lam_c)
         else:
             gas = PressureReservoir(p_close)
         breakdown = None if scene.breakdown_field is None else Breakdown(scene.breakdown_field / scene.field_scale)
@@ -526,14 +535,28 @@ class Simulation:
             t.measured = ev.measured
 
     def _tight_map(self) -> EquilibriumMap:
+        tight = tight_settings(self.settings)
         return EquilibriumMap(
-            self.model,
-            self.gas,
-            self.scene.zone_count,
-            tight_settings(self.settings),
-            self.phi_window,
-            self.emap.breakdown,
+            self.model, self._gas_at(tight), self.scene.zone_count, tight, self.phi_window, self.emap.breakdown
         )
+
+    def _gas_at(self, settings: SolverSettings) -> PressureSource:
+        """The scene's gas closed with the zones' volume at the closing pressure computed with ``settings``: the
+        gas amount carries the error of that volume, and a transition located again at a tighter tolerance on
+        the loose gas left it out of the measured error (Gent 300: 4× too small, review helper-73; the
+        transitions move by ~60–85 kV per unit relative change of the gas amount). The closing state is found
+        again within ``1e-3 (λc − λpre)`` of the loose one; where it is not, and under pressure control, the
+        loose gas."""
+        if self.scene.chamber is None or not isinstance(self.gas, GasChamber):
+            return self.gas
+        lam_c, pre = self.closing_stretch, self.model.prestretch
+        width = 1e-3 * (lam_c - pre)
+        p_close = float(self.scene.p_hat(self.scene.chamber.closing_pressure))
+        try:
+            lam = state_at_pressure(self.model, p_close, settings, lam_c - width, lam_c + width)
+            return _chamber_closed_at(self.scene, self.model, settings, p_close, lam)
+        except (SceneError, SolverError):
+            return self.gas
 
     def _measure_event(self, ev: Event, counts, tight_map) -> None:
         if ev.measured or ev.kind == "window":
