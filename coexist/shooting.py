@@ -1172,6 +1172,12 @@ def clamped_derivatives(trial: dict, p_trial, R, v_hat, q_hat, bad=None) -> Stat
     return StateDerivatives(**parts)
 
 
+#: below this pole tension ``T̂0`` the search radius ``max_radius_factor`` grows like ``1/T̂0`` (:func:`_shoot`)
+SEARCH_TENSION = 1e-2
+#: ... up to this factor (``T̂0 = 1e-5``): a trajectory that does not return below that costs thousands of steps
+SEARCH_GROWTH_MAX = 1e3
+
+
 def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivatives: bool, pole_tension=None):
     """The integrator's start at the series radius, and its tolerances, for pole stretches ``l0``.
 
@@ -1379,7 +1385,11 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
         result[crossed] = _int.CROSSED
         return result
 
-    R_end = np.full(m, settings.max_radius_factor)
+    # the trial pressure is proportional to the pole tension T̂0 while the pressure itself stays finite as T̂0 → 0 (the
+    # tension off the pole carries it): the clamp's trial radius grows like 1/T̂0, and so does the search radius
+    # below T̂0 = SEARCH_TENSION (Gent 97 at p̂ = 1.2, λ0 3.265: T̂0 = 1.9e-3 needed R ≈ 1.8e3 and was refused as "no
+    # equilibrium" at 1000, which ended the Φ̂–Q̂ spiral early and with the wrong reason: review, helper-72)
+    R_end = settings.max_radius_factor * np.clip(SEARCH_TENSION / np.maximum(T0, 1e-300), 1.0, SEARCH_GROWTH_MAX)
     small = shapes is None and m <= fns.small_batch_limit(kind, m)
     if shapes is None and not small:
         # a large batch counts as a use too (compiled from the COMPILE_AFTER-th, looked for while it compiles): a

@@ -845,3 +845,21 @@ def test_failures_are_library_errors_naming_their_cause(nh):
     with pytest.raises(ModelRangeError, match="wrinkles") as out_of_range:
         s.require_ok()
     assert isinstance(out_of_range.value, CoexistError)
+
+
+def test_states_near_the_pole_wrinkling_voltage_reach_their_clamp():
+    """Near the voltage where the pole tension vanishes the trial pressure (∝ T̂0) falls to zero while the pressure stays
+    finite, so the clamp's trial radius grows like 1/T̂0: at T̂0 = 1.9e-3 (Gent 97, p̂ = 1.2, λ0 = 3.265) it lies near
+    1.8e3 and was refused as "no equilibrium" at max_radius_factor 1000, which ended the Φ̂–Q̂ spiral early with that
+    reason (review, helper-72: an independent solver gives Φ̂ = 0.339871482895, 0.339871482743). The search radius
+    grows like 1/T̂0 below T̂0 = 1e-2; the 400-point curve then ends where the pole tension does."""
+    from coexist.curves import voltage_at_pressure, voltage_charge_curve
+    from coexist.model import build_model
+
+    model = build_model("gent", 97.0)
+    st = voltage_at_pressure(model, [3.265, 3.266], 1.2)
+    assert np.all(st.ok), st.status
+    np.testing.assert_allclose(st.phi_hat, [0.339871482895, 0.339871482743], rtol=0, atol=1e-10)
+    curve = voltage_charge_curve(model, 1.2, np.linspace(1.01, 4, 400))
+    assert curve.states.pole_stretch[-1] > 3.265  # 3.25812 before
+    assert "the tension at the pole is not positive" in curve.stopped_because
