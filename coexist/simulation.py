@@ -24,6 +24,7 @@ from .equilibria import Configuration, Equilibrium, zone_index_on_curve
 from .errors import ModelRangeError, SceneError, SolverError
 from .model import MembraneModel
 from .numerics.roots import newton
+from .numerics.sets import unique_sorted
 from .ramp import Ramp, RampResult, Transition, equal_free_energy, equal_free_energy_voltage
 from .scene import Scene
 from .settings import SolverSettings, tight_settings
@@ -197,6 +198,10 @@ def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) 
     model = MembraneModel(base.elasticity, NoElectrostatics(), base.prestretch)
     settings = settings or SolverSettings()
     return snap_through(model, settings, pole_stretch_max(scene, settings))
+
+
+#: :meth:`Simulation.discover` also seeds at this fraction of each known segment's range inside its ends
+DISCOVERY_INSET = 1e-3
 
 
 def _chamber_closed_at(scene: Scene, model, settings: SolverSettings, p_close: float, lam_c: float) -> GasChamber:
@@ -584,9 +589,15 @@ class Simulation:
     # ---------------------------------------------------------------------------------------------
     def discover(self, bulged=None, voltages: int | None = None) -> None:
         """Seed the map with every stable equilibrium found at ``voltages`` voltages (default: the settings'
-        ``discovery_voltages``) across the window
+        ``discovery_voltages``) across the window, and just inside both ends of every segment already traced
         (first guesses on zone curves shot at each voltage, then converged exactly; each new one is
         traced). Configurations: homogeneous and ``(N − k, k)`` for ``k`` in ``bulged``.
+
+        The segment ends matter where a configuration is stable only on a narrow range between the ends of
+        others: two zones under pressure control are independent, and one bulged with one unbulged is stable
+        exactly where both states of a zone are (4.3144–4.4619 kV in one scene), which 13 voltages 0.5 kV apart
+        missed ("never stable", while the ramp's two homogeneous segments gave its equal free energy: review,
+        helper-74).
 
         Parameters
         ----------
@@ -603,6 +614,14 @@ class Simulation:
         u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), self.settings.zone_curve_points)
         voltages = voltages or self.settings.discovery_voltages
         phis = np.linspace(lo, hi, voltages) if hi > lo else np.array([lo])
+        if hi > lo:
+            ends = [
+                x
+                for a, b in (seg.phi_range for seg in self.emap.segments)
+                if b > a
+                for x in (a + DISCOVERY_INSET * (b - a), b - DISCOVERY_INSET * (b - a))
+            ]
+            phis = unique_sorted(np.r_[phis, [x for x in ends if lo <= x <= hi]])
         st = solve_states(self.model, np.tile(pre + u**2, phis.size), np.repeat(phis, u.size), self.settings)
         n = u.size
         for i, phi in enumerate(phis):

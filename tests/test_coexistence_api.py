@@ -24,3 +24,43 @@ def test_a_number_of_bulged_zones_outside_1_to_n_minus_1_is_refused(sim, bulged,
 def test_one_bulged_zone_of_three_is_listed(sim):
     (entry,) = sim.coexistence(bulged=[1])
     assert entry.k == 1
+
+
+PRESSURE_CONTROLLED_PAIR = """
+name = "pc2"
+[membrane]
+material = "gent"
+jlim = 40
+shear_modulus_kPa = 45
+relative_permittivity = 4.7
+thickness_mm = 0.5
+zone_radius_mm = 10
+[zones]
+count = 2
+pressure_mbar = 36
+[voltage]
+start_kV = 0
+stop_kV = 6
+step_kV = 0.02
+"""
+
+
+def test_a_configuration_stable_only_between_the_ends_of_others_is_found():
+    """Two zones under pressure control are independent: one bulged beside one unbulged is stable exactly where both
+    states of a zone are, between the all-bulged state's fold on the way down (4.314376697 kV) and the homogeneous
+    state's on the way up (4.461922641 kV), and has the homogeneous state's free energy where the ramp's two
+    homogeneous segments do (4.358031994 kV). Seeded only at 13 voltages 0.5 kV apart, it was "never stable"
+    (review, helper-74); the discovery now also seeds just inside the ends of the segments already traced."""
+    from coexist.scene import parse_scene
+
+    sim = Simulation.from_scene(parse_scene(PRESSURE_CONTROLLED_PAIR))
+    (entry,) = sim.coexistence([1])
+    (seg,) = entry.segments
+    kV = sim.scene.voltage_of
+    lo, hi = (kV(x) / 1e3 for x in seg.phi_range)
+    assert lo == pytest.approx(4.314376697, abs=2e-8) and hi == pytest.approx(4.461922641, abs=2e-8)
+    (crossing,) = entry.crossings
+    ramp = sim.ramp().result.equal_free_energy
+    assert len(ramp) == 1
+    assert abs(crossing.phi_hat - ramp[0].phi_hat) <= crossing.phi_hat_error + ramp[0].phi_hat_error
+    assert kV(crossing.phi_hat) / 1e3 == pytest.approx(4.358031994, abs=2e-7)

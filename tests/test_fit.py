@@ -49,3 +49,29 @@ def test_an_unreachable_target_says_what_the_radii_give(scene_and_shared):
     scene, shared = scene_and_shared
     with pytest.raises(ModelRangeError, match="the radii give transitions between"):
         fit_zone_radius(scene, 4.9e3, "spinodal", shared, bracket_mm=(21.0, 22.0))
+
+
+def test_the_printed_radius_puts_the_transition_within_its_error():
+    """``coexist fit`` printed the radius with six decimals, 21.416519 mm: a scene with that radius ramps to 3.8999994
+    kV, 6.3e-7 kV from the target, 140 times the printed ± 5e-9 (review, helper-74). The radius is printed with the
+    digits its own error supports, ``δA = (δVt + |Vt − Vtarget|)/|dVt/dA|``; the printed value, ramped, lies within
+    twice the transition's error plus its distance to the target (the rounding moves it by at most ``δA |dVt/dA|``)."""
+    import json
+    import re
+
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+
+    text = CliRunner().invoke(cli, ["fit", "--transition-kV", "3.9", "--no-sensitivity"])
+    assert text.exit_code == 0, text.output
+    m = re.search(r"fitted zone radius: ([0-9.]+) ± ([0-9.e+-]+) mm", text.stdout)
+    assert m, text.stdout
+    printed, err_mm = float(m.group(1)), float(m.group(2))
+    data = json.loads(CliRunner().invoke(cli, ["fit", "--transition-kV", "3.9", "--no-sensitivity", "--json"]).stdout)
+    assert err_mm == pytest.approx(data["zone_radius_error_mm"], rel=0.5) and 0 < err_mm < 1e-7
+    assert abs(printed - data["zone_radius_mm"]) <= err_mm
+    scene = load_scene("tricircle")
+    voltage, _ = transition_voltage(replace(scene, zone_radius=printed / 1e3))
+    slack = 2 * data["transition_error_kV"] + abs(data["transition_kV_at_fit"] - 3.9)
+    assert abs(voltage / 1e3 - 3.9) <= slack, (voltage, slack)
