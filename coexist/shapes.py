@@ -1060,11 +1060,28 @@ def _gaps_to_failures(X, F):
     return out
 
 
+def _fold_on_the_way(X, F, start, root):
+    """The neighbours ``(a, b)`` of a sampled local maximum of ``F`` below 0 strictly between ``start`` (the previous
+    voltage's pole stretch, or the prediction) and a rising ``root`` of the samples, or None: the branch through
+    ``start`` folds there (its root vanished), and ``root`` belongs to another branch. A step past the fold of a
+    patterned zone on its gas otherwise took the far branch's root: ``coexist shape inner-circle --voltage-kV
+    0,4.1,4.178,4.18`` printed a bulged state at 4.18 kV without a snap, and ``0,4.178,4.179`` ended the states
+    between 4.178988 and 4.179 kV, above the fold at 4.178657 (review, helper-74)."""
+    lo, hi = min(start, root), max(start, root)
+    valid = np.isfinite(F) & (X >= lo) & (X <= hi)
+    Xv, Fv = X[valid], F[valid]
+    for k in range(1, Xv.size - 1):
+        if Fv[k] < 0 and Fv[k] >= Fv[k - 1] and Fv[k] >= Fv[k + 1] and lo < Xv[k] < hi:
+            return Xv[k - 1], Xv[k + 1]
+    return None
+
+
 def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
     """Look between ``a`` and ``b``, around a sampled maximum of ``F`` below 0, for a value ``F ≥ 0``: batches of
     ``samples`` points, each round narrowed to the two intervals around the largest. Returns the rising bracket
     ``(lo, hi, F(lo), F(hi))`` if one is found; raises :class:`_NoState` ``"snap-through"`` once the bracket
     is ``1e-9 λ0`` narrow with every value below 0 and the parabola through the three largest below 0 too."""
+    a0, b0 = a, b
     for _ in range(rounds):
         xs = np.linspace(a, b, samples + 2)[1:-1]
         F = bal(xs)
@@ -1073,6 +1090,7 @@ def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
         F = np.where(np.isfinite(F), F, -np.inf)
         x_all = bal.x
         order = np.argsort(x_all)
+        order = order[(x_all[order] >= a0) & (x_all[order] <= b0)]  # between a and b only: not a far branch's root
         xa, Fa = x_all[order], bal.F[order]
         up = np.flatnonzero((Fa[:-1] < 0) & (Fa[1:] >= 0))
         if up.size:
@@ -1132,9 +1150,12 @@ def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH
     centre = guess
     for attempt in range(MAX_STENCILS + 60):
         xs = centre + h * np.arange(-2, 4)
-        if attempt == 0 and last is not None and abs(guess - last) > 2 * h:
+        if attempt == 0 and last is not None:
+            # the previous state's pole stretch and one beside it too: a fold's maximum of F just past it is then
+            # an interior sample (_fold_on_the_way)
             bridge = np.linspace(last, guess, min(BRIDGE_SAMPLES, int(abs(guess - last) / h) + 2))
-            xs = unique_sorted(np.r_[bridge[1:-1], xs])
+            side = last - h if guess >= last else last + h
+            xs = unique_sorted(np.r_[side, bridge[:-1], xs])
         xs = xs[xs > lam_floor]
         if xs.size < 2:
             raise _NoState("no-state", f"at Φ̂ = {phi:.6g} the branch reaches the flat membrane")
@@ -1143,6 +1164,10 @@ def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH
         up = _rising_pairs(X, F)
         if up.size:
             j = int(up[np.argmin(np.abs(X[up] - guess))])
+            fold = _fold_on_the_way(X, F, guess if last is None else last, X[j])
+            if fold is not None:  # the branch folded before this root: another branch's
+                lo, hi, Flo, Fhi = _fold_or_bracket(bal, fold[0], fold[1], phi)
+                break
             lo, hi, Flo, Fhi = X[j], X[j + 1], F[j], F[j + 1]
             break
         valid = np.isfinite(F)

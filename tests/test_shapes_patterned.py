@@ -193,3 +193,25 @@ def test_voltage_range_parses():
     assert parse_voltages("0:1:0.25") == [0.0, 0.25, 0.5, 0.75, 1.0]
     assert parse_voltages("0:0.95:0.1")[-1] == 0.9
     assert parse_voltages("0,2") == [0.0, 2.0]
+
+
+@pytest.mark.parametrize("voltages", ["0,4.1,4.178,4.18", "0,4.178,4.179", "0,4.179", "4.17,4.1786,4.17866"])
+def test_a_step_past_the_snap_through_ends_the_states_at_the_fold(voltages):
+    """One patterned zone on its gas snaps through at 4.178656594 kV (``coexist ramp inner-circle``, ± 5e-9). A step
+    past that fold took the root of the far branch: ``0,4.1,4.178,4.18`` printed a bulged state at 4.18 kV, and
+    ``0,4.178,4.179`` ended the states between 4.178988 and 4.179 kV, above the fold (review, helper-74). Whatever the
+    voltages asked for, the states end in a bracket holding the fold, and none is given above it."""
+    import json
+
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+
+    r = CliRunner().invoke(cli, ["shape", "inner-circle", "--voltage-kV", voltages, "--json"])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.stdout)
+    lo, hi = data["end"]["voltage_kV"]
+    assert data["end"]["kind"] == "snap-through"
+    assert lo - 1e-8 <= 4.178656594 <= hi + 1e-8 and hi - lo < 1e-4
+    for e in data["voltages"]:
+        assert bool(e["groups"]) == (e["voltage_kV"] <= lo), e

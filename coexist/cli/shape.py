@@ -289,7 +289,7 @@ def _table(data):
     )
     for e in data["voltages"]:
         if not e["groups"]:
-            click.echo(f"{e['voltage_kV']:>10.3f} {'-':>5} no state: {e.get('note') or 'outside the model range'}")
+            click.echo(f"{_kv(e['voltage_kV']):>10} {'-':>5} no state: {e.get('note') or 'outside the model range'}")
             continue
         for label, g in _zones(e):
             roc = "inf" if g["radius_of_curvature_mm"] is None else f"{g['radius_of_curvature_mm']:.4f}"
@@ -297,13 +297,19 @@ def _table(data):
             bands = g.get("wrinkled_radii") or []
             wrinkled = "".join(f"; wrinkled for R/A {a:.4f}-{b:.4f}" for a, b in bands)
             click.echo(
-                f"{e['voltage_kV']:>10.3f} {label:>5} {g['pole_stretch']:>12.6f} {g['apex_height_mm']:>14.6f} "
+                f"{_kv(e['voltage_kV']):>10} {label:>5} {g['pole_stretch']:>12.6f} {g['apex_height_mm']:>14.6f} "
                 f"{g['apex_curvature_per_m']:>20.6f} {roc:>22} {edge:>{width}}  {e['configuration']}{wrinkled}"
             )
     click.echo(
         f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e}; "
         "apex curvature from the Laplace law at the pole)"
     )
+
+
+def _kv(v: float) -> str:
+    """A voltage asked for, in kV: three decimals, or as many as it has (3.90003 and 3.90004 kV both printed 3.900,
+    one state uniform and the other with a zone bulged: review, helper-74)."""
+    return f"{v:.3f}" if abs(v - round(v, 3)) <= 1e-12 else f"{v:.10g}"
 
 
 def _figure(sc, rows, path):
