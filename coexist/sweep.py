@@ -851,11 +851,22 @@ def summarise(index: int, sim, report) -> dict:
         rec["hysteresis_kV"] = rec["spinodal_up_kV"] - rec["spinodal_down_kV"]
     for direction in ("up", "down"):
         seen: dict = {}
+        current = None  # the number of bulged zones the ramp is in, from the last transition's landing
         for t in trans:
-            if t.direction != direction or t.state_before is None:
+            if t.direction != direction:
                 continue
-            if t.kind in ("spinodal", "merge", "no_stable_state", "breakdown"):
-                seen.setdefault(int(t.state_before.k), report.transition_dict(t)["voltage_kV"])
+            # the configuration left is the one the ramp is in (a merge's own state is the symmetric one, k = 0); a
+            # jump to another state of it (two zones: the 1-of-2 branch's folds at 4.106 and 3.949 kV) does not leave
+            # it: the ramp leaves it at 4.352 (range end) and 3.852 kV (merge) (review, helper-74)
+            before = current if current is not None else (None if t.state_before is None else int(t.state_before.k))
+            after = None if t.state_after is None else int(t.state_after.k)
+            if (
+                t.kind in ("spinodal", "merge", "no_stable_state", "breakdown")
+                and before is not None
+                and after != before
+            ):
+                seen.setdefault(before, report.transition_dict(t)["voltage_kV"])
+            current = after
         rec[f"loss_{direction}"] = sorted([k, v] for k, v in seen.items())
     if result.steps:
         top = max(range(len(result.steps)), key=lambda i: (result.steps[i].phi_hat, -i))

@@ -57,3 +57,22 @@ def test_three_zones_jump_at_the_split(records):
     assert three["jump_down_kV"] == pytest.approx(three["spinodal_down_kV"], abs=1e-12)
     assert three["jump_up_kV"] == pytest.approx(3.900030858, abs=1e-8)
     assert three["jump_hysteresis_kV"] == pytest.approx(three["hysteresis_kV"], abs=1e-12)
+
+
+def test_a_fold_within_a_configuration_does_not_leave_it():
+    """Two zones: on the way up the 1-of-2 branch folds at 4.106048950 kV onto another 1-of-2 state and is left only at
+    its range end, 4.352468013 kV; on the way down it folds at 3.948982644 kV and is left at the merge, 3.852155214
+    kV (``coexist ramp``). The sweep's ``loss_up``/``loss_down`` took the first transition out of a state, the folds
+    (review, helper-74)."""
+    import re
+
+    from coexist.scene import builtin_scene_text, parse_scene
+    from coexist.simulation import Simulation
+    from coexist.sweep import summarise
+
+    scene = parse_scene(re.sub(r"^count = 3$", "count = 2", builtin_scene_text("tricircle"), flags=re.M))
+    sim = Simulation.from_scene(scene)
+    rec = summarise(0, sim, sim.ramp())
+    up, down = dict(rec["loss_up"]), dict(rec["loss_down"])
+    assert up[0] == pytest.approx(3.852155214, abs=2e-8) and up[1] == pytest.approx(4.352468013, abs=2e-8)
+    assert down[1] == pytest.approx(3.852155214, abs=2e-8)
