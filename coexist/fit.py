@@ -238,10 +238,10 @@ def fit_zone_radius(
     if kind not in TRANSITION_KINDS:
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
     top_volts = scene.voltage.peak
-    if target_voltage > top_volts:
+    if target_voltage >= top_volts:  # a transition at the top itself is where the ramp turns: not located
         raise SceneError(
-            f"the target {target_voltage / 1e3:.6g} kV is above the highest voltage of the scene's path, "
-            f"{top_volts / 1e3:.6g} kV ({voltage_top_field(scene)}): no ramp of the scene reaches it",
+            f"the target {target_voltage / 1e3:.6g} kV is not below the highest voltage of the scene's path, "
+            f"{top_volts / 1e3:.6g} kV ({voltage_top_field(scene)}): no ramp of the scene reaches past it",
             "target_voltage",
         )
     if shared is not None and not isinstance(shared, Shared):

@@ -83,6 +83,33 @@ class Transition:
         return (self.phi_hat - self.phi_hat_error, self.phi_hat + self.phi_hat_error)
 
 
+#: a transition is a jump when some zone's volume changes by more than this fraction between the lost and the landing
+#: state (a heuristic: a continuous split lands 1e-5 Φ̂ past its pitchfork, a change of ~0.3 %; the jumps of the
+#: default membrane change a volume by 27-110 %)
+JUMP_VOLUME = 0.02
+
+
+def is_jump(t: Transition) -> bool:
+    """Whether transition ``t`` (a spinodal, fold, split or merge) moves the zones' state discontinuously: some zone's
+    volume, zones sorted by volume on either side, changes by more than :data:`JUMP_VOLUME` of it.
+
+    Parameters
+    ----------
+    t : Transition
+        A transition of a ramp.
+
+    Returns
+    -------
+    bool
+        False for other kinds, or without both states.
+    """
+    if t.kind not in ("spinodal", "merge") or t.state_before is None or t.state_after is None:
+        return False
+    before = np.sort(np.asarray(t.state_before.zone_volumes, dtype=float))
+    after = np.sort(np.asarray(t.state_after.zone_volumes, dtype=float))
+    return before.size == after.size and bool(np.max(np.abs(after - before) / np.abs(before)) > JUMP_VOLUME)
+
+
 @dataclass
 class RampResult:
     """The path, its transitions and the equal-free-energy voltages of the configurations it visits."""

@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import CoexistError, ModelRangeError, SceneError, SolverError
+from .ramp import JUMP_VOLUME, is_jump
 from .scene import Chamber, Scene, VoltagePath, load_scene
 from .scene_format import SCHEMA, UNITS, _resolve, _value, did_you_mean, read_document
 from .settings import SolverSettings
@@ -63,10 +64,6 @@ from .settings import SolverSettings
 MAX_POINTS = 100_000
 #: values one ``START:STOP:N`` range may hold
 MAX_AXIS_POINTS = 10_000
-#: a transition is a jump when some zone's volume changes by more than this fraction between the lost and the landing
-#: state (a heuristic: a continuous split lands 1e-5 Φ̂ past its pitchfork, a change of ~0.3 %; the jumps of the
-#: default membrane change a volume by 27-110 %)
-JUMP_VOLUME = 0.02
 #: a sweep whose estimated wall time (with its workers) passes this is refused before it starts (s)
 MAX_WALL_SECONDS = 24 * 3600.0
 #: format of the parts folder (its manifest says which)
@@ -839,8 +836,8 @@ def summarise(index: int, sim, report) -> dict:
         if t.direction == "down" and t.to_label == "homogeneous" and t.kind in ("spinodal", "merge"):
             down = t
     put("spinodal_down", down)
-    jump_up = put("jump_up", next((t for t in trans if t.direction == "up" and _is_jump(t)), None))
-    jump_down = put("jump_down", next((t for t in trans if t.direction == "down" and _is_jump(t)), None))
+    jump_up = put("jump_up", next((t for t in trans if t.direction == "up" and is_jump(t)), None))
+    jump_down = put("jump_down", next((t for t in trans if t.direction == "down" and is_jump(t)), None))
     if jump_up is not None and jump_down is not None:
         rec["jump_hysteresis_kV"] = rec["jump_up_kV"] - rec["jump_down_kV"]
     broke = put("breakdown", first(lambda t: t.kind == "breakdown"))
@@ -893,16 +890,6 @@ def summarise(index: int, sim, report) -> dict:
     if missing:
         rec["reason"] = _one_line("; ".join(([rec["reason"]] if rec["reason"] else []) + missing))
     return rec
-
-
-def _is_jump(t) -> bool:
-    """Whether transition ``t`` (a spinodal, fold, split or merge) moves the zones' state discontinuously: some zone's
-    volume, zones sorted by volume on either side, changes by more than :data:`JUMP_VOLUME` of it."""
-    if t.kind not in ("spinodal", "merge") or t.state_before is None or t.state_after is None:
-        return False
-    before = np.sort(np.asarray(t.state_before.zone_volumes, dtype=float))
-    after = np.sort(np.asarray(t.state_after.zone_volumes, dtype=float))
-    return before.size == after.size and bool(np.max(np.abs(after - before) / np.abs(before)) > JUMP_VOLUME)
 
 
 def _missing_reasons(rec: dict, sim, report) -> list:

@@ -192,3 +192,18 @@ def test_a_prestretch_that_locks_the_gent_membrane_is_blamed_on_the_prestretch()
     assert line == "Error: --prestretch: a prestretch of 3 locks a Gent membrane with jlim = 10"
     ok = ["curves", "--prestretch", "2", "--material", "gent", "--jlim", "10", "--p-hat", "none", "--phi-hat", "0"]
     assert CliRunner().invoke(cli, ok).exit_code == 0
+
+
+@pytest.mark.parametrize(
+    "args", [["ramp", "--rtol", "1e-3"], ["ramp", "nosuchscene"], ["ramp", "--foo"], ["curves", "--points", "abc"]]
+)
+def test_bad_input_is_one_line_on_stderr_with_exit_code_2(args):
+    """Bad input gets one line, ``Error: ...``, and exit code 2: click's usage errors had printed the usage and a hint
+    above it, four lines (review, helper-74); click's own faults point to ``--help`` on the same line."""
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, "-m", "coexist", *args], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stdout == ""
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("Error: ") and "Traceback" not in r.stderr, r.stderr

@@ -58,7 +58,8 @@ def cli():
 def main():
     """Entry point of the ``coexist`` console script: runs :func:`cli` with the program name ``coexist``.
 
-    Exit codes: 0 success, 2 bad input (click's usage errors and :class:`~coexist.errors.SceneError`),
+    Exit codes: 0 success, 2 bad input (click's usage errors and :class:`~coexist.errors.SceneError`: one line,
+    ``Error: ...``, with a pointer to ``--help`` where click found the fault),
     1 when the physics or a solver fails, 130 when interrupted (Ctrl-C). An unexpected exception (a bug)
     is one line on stderr with exit code 1; ``COEXIST_DEBUG=1`` shows its traceback.
     """
@@ -70,6 +71,13 @@ def main():
     except click.exceptions.Abort:
         click.echo("interrupted", err=True)
         sys.exit(130)
+    except click.UsageError as exc:  # bad input: one line (click's own would add the usage and a hint above it)
+        from .common import InputError
+
+        where = exc.ctx.command_path if exc.ctx is not None else "coexist"
+        hint = "" if isinstance(exc, InputError) else f" (see '{where} --help')"
+        click.echo(f"Error: {exc.format_message()}{hint}", err=True)
+        sys.exit(exc.exit_code)
     except click.ClickException as exc:
         exc.show()
         sys.exit(exc.exit_code)
