@@ -181,7 +181,8 @@ def _table(data):
     if not data["transitions"]:
         kv = [s["voltage_kV"] for s in data["steps"]]
         click.echo(
-            f"  none between {min(kv):g} and {max(kv):g} kV: the zones stay on one stable branch"
+            f"  none between {min(kv):g} and {max(kv):g} kV: the zones stay on one stable branch (states the ramp "
+            "does not visit, and their equal free energy with it, are listed by `coexist coexistence`)"
             if kv
             else "  none: the path has no voltage"
         )
