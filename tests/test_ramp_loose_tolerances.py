@@ -89,3 +89,18 @@ def test_loose_transitions_lie_within_their_errors_of_the_default_ones(name, tmp
         assert abs(a["voltage_kV"] - b["voltage_kV"]) <= a["voltage_error_kV"] + b["voltage_error_kV"], (a, b)
     ends = [t for t in loose if t["event"] == "range_end" and t["direction"] == "up"]
     assert ends and all("leaves the model's range: electromechanical_instability" in t["reason"] for t in ends), ends
+
+
+def test_a_fold_and_a_split_at_one_voltage_are_named_the_split_at_every_accuracy(tmp_path):
+    """Identical zones under pressure control: the symmetric and antisymmetric modes are one ``dp̂/dV̂`` and vanish
+    together, so the homogeneous state's fold and split are one event. Whichever rounding located first named it:
+    ``fold`` at the default accuracy, ``split`` at high (review, helper-73). It is the split at both (as in the limit
+    of a stiff chamber's gas, where the split comes first), at one voltage."""
+    text = builtin_scene_text("tricircle")
+    text = re.sub(r"\[chamber\][^\[]*", "", text)
+    text = re.sub(r"^count = 3$", "count = 3\npressure_mbar = 20", text, flags=re.M)
+    runs = [transitions(tmp_path, text, *opts) for opts in ([], ["--accuracy", "high"])]
+    ups = [[t for t in run if t["kind"] == "spinodal" and t["direction"] == "up"] for run in runs]
+    assert [[t["event"] for t in up] for up in ups] == [["split"], ["split"]]
+    (a,), (b,) = ups
+    assert abs(a["voltage_kV"] - b["voltage_kV"]) <= a["voltage_error_kV"] + b["voltage_error_kV"]
