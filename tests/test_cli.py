@@ -207,3 +207,9 @@ def test_bad_input_is_one_line_on_stderr_with_exit_code_2(args):
     assert r.returncode == 2 and r.stdout == ""
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("Error: ") and "Traceback" not in r.stderr, r.stderr
+
+
+def test_shape_refuses_a_voltage_given_twice():
+    """``shape --voltage-kV 3,3`` printed the same state twice (sweep refuses a repeated value: review, helper-74)."""
+    r = CliRunner().invoke(cli, ["shape", "--voltage-kV", "3,4,3"])
+    assert r.exit_code == 2 and "3 kV is given more than once" in r.output

@@ -141,7 +141,11 @@ def parse_voltages(text: str) -> list[float]:
     import math
 
     if ":" not in str(text):
-        return parse_floats(text, "--voltage-kV", nonnegative=True)
+        values = parse_floats(text, "--voltage-kV", nonnegative=True)
+        twice = sorted({v for v in values if values.count(v) > 1})
+        if twice:  # the same state twice (sweep refuses a repeated value too: review, helper-74)
+            raise InputError(f"--voltage-kV: {twice[0]:g} kV is given more than once")
+        return values
     parts = str(text).replace(" ", "").split(":")
     if len(parts) != 3:
         raise InputError(f"--voltage-kV: a range is START:STOP:STEP, got {text!r}")
