@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -1055,6 +1055,41 @@ def solve_states(
 
         return shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)
     settings, l0, phi = checked_state_inputs(model, pole_stretch, phi_hat, settings)
+    states = _solve_uniform(model, l0, phi, settings, shape, derivatives, formal)
+    # the trial pressure is proportional to the pole tension T̂0 while the pressure stays finite as T̂0 → 0 (the tension
+    # off the pole carries it): the clamp's trial radius grows like 1/T̂0. A state that found no clamp within
+    # max_radius_factor there is shot again with the search radius grown so (Gent 97 at p̂ = 1.2, λ0 3.265: T̂0 =
+    # 1.9e-3 needed R ≈ 1.8e3 and was refused as "no equilibrium", which ended the Φ̂–Q̂ spiral early with that reason:
+    # review, helper-72); only those, so that every other state is the same whatever it is batched with, and one
+    # that finds no clamp again keeps its first failure (a wider search of a trajectory that never returns costs
+    # many steps: review, helper-75)
+    with np.errstate(all="ignore"):
+        T0 = np.asarray(model.pole(l0, phi)[0], dtype=float) * np.ones(l0.size)
+    again = np.flatnonzero((states.status == NO_CLAMP) & (T0 > 0) & (T0 < SEARCH_TENSION))
+    if again.size:
+        growth = float(np.clip(SEARCH_TENSION / T0[again].min(), 1.0, SEARCH_GROWTH_MAX))
+        wider = replace(settings, max_radius_factor=settings.max_radius_factor * growth)
+        found = _solve_uniform(model, l0[again], phi[again], wider, shape, derivatives, formal)
+        _put(states, found, again, found.status == OK)
+    return states
+
+
+def _put(states: MembraneStates, new: MembraneStates, rows, take) -> None:
+    """``states[rows[take]] = new[take]`` for every per-state field (derivatives, shapes and bands included)."""
+    idx, sub = rows[take], np.flatnonzero(take)
+    for name, value in states.__dict__.items():
+        if isinstance(value, np.ndarray):
+            value[idx] = getattr(new, name)[sub]
+        elif name in ("shapes", "wrinkled_radii") and value is not None:
+            for i, j in zip(idx, sub):
+                value[i] = getattr(new, name)[j]
+        elif name == "derivatives" and value is not None:
+            for k in value.__dict__:
+                getattr(value, k)[idx] = getattr(new.derivatives, k)[sub]
+
+
+def _solve_uniform(model, l0, phi, settings, shape, derivatives, formal) -> MembraneStates:
+    """:func:`solve_states` of a uniform zone on checked inputs, with ``settings.max_radius_factor`` as given."""
     n = l0.size
     lam_clamp = model.prestretch
     status = np.zeros(n, dtype=int)
@@ -1172,9 +1207,10 @@ def clamped_derivatives(trial: dict, p_trial, R, v_hat, q_hat, bad=None) -> Stat
     return StateDerivatives(**parts)
 
 
-#: below this pole tension ``T̂0`` the search radius ``max_radius_factor`` grows like ``1/T̂0`` (:func:`_shoot`)
+#: a state that finds no clamp while its pole tension ``T̂0`` is below this is shot again with the search radius
+#: ``max_radius_factor`` grown like ``1/T̂0`` (:func:`solve_states`)
 SEARCH_TENSION = 1e-2
-#: ... up to this factor (``T̂0 = 1e-5``): a trajectory that does not return below that costs thousands of steps
+#: ... up to this factor (``T̂0 = 1e-5``)
 SEARCH_GROWTH_MAX = 1e3
 
 
@@ -1385,11 +1421,7 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
         result[crossed] = _int.CROSSED
         return result
 
-    # the trial pressure is proportional to the pole tension T̂0 while the pressure itself stays finite as T̂0 → 0 (the
-    # tension off the pole carries it): the clamp's trial radius grows like 1/T̂0, and so does the search radius
-    # below T̂0 = SEARCH_TENSION (Gent 97 at p̂ = 1.2, λ0 3.265: T̂0 = 1.9e-3 needed R ≈ 1.8e3 and was refused as "no
-    # equilibrium" at 1000, which ended the Φ̂–Q̂ spiral early and with the wrong reason: review, helper-72)
-    R_end = settings.max_radius_factor * np.clip(SEARCH_TENSION / np.maximum(T0, 1e-300), 1.0, SEARCH_GROWTH_MAX)
+    R_end = np.full(m, settings.max_radius_factor)
     small = shapes is None and m <= fns.small_batch_limit(kind, m)
     if shapes is None and not small:
         # a large batch counts as a use too (compiled from the COMPILE_AFTER-th, looked for while it compiles): a
