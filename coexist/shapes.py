@@ -1061,17 +1061,13 @@ def _gaps_to_failures(X, F):
 
 
 def _fold_on_the_way(X, F, start, root):
-    """The neighbours ``(a, b)`` of a sampled local maximum of ``F`` below 0 strictly between ``start`` (the previous
-    voltage's pole stretch, or the prediction) and a rising ``root`` of the samples, or None: the branch through
-    ``start`` folds there (its root vanished), and ``root`` belongs to another branch. A step past the fold of a
-    patterned zone on its gas otherwise took the far branch's root: ``coexist shape inner-circle --voltage-kV
-    0,4.1,4.178,4.18`` printed a bulged state at 4.18 kV without a snap, and ``0,4.178,4.179`` ended the states
-    between 4.178988 and 4.179 kV, above the fold at 4.178657 (review, helper-74)."""
+    """The neighbours ``(a, b)`` of a sampled local maximum of ``F`` below 0 strictly between ``start`` and a rising
+    ``root`` of the samples, or None (``F`` rises from ``start`` to the root without falling on the way)."""
     lo, hi = min(start, root), max(start, root)
     valid = np.isfinite(F) & (X >= lo) & (X <= hi)
     Xv, Fv = X[valid], F[valid]
     for k in range(1, Xv.size - 1):
-        if Fv[k] < 0 and Fv[k] >= Fv[k - 1] and Fv[k] >= Fv[k + 1] and lo < Xv[k] < hi:
+        if Fv[k] < 0 and Fv[k] >= Fv[k - 1] and Fv[k] >= Fv[k + 1]:
             return Xv[k - 1], Xv[k + 1]
     return None
 
@@ -1130,9 +1126,11 @@ def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
 #: a gap between a valid state short of the balance and a failed one is narrowed until it is this narrow (relative
 #: to ``λ0``) before the failure is taken as the branch's end at that voltage
 FAILURE_GAP = 1e-9
+#: a root farther than this many stencil steps from the prediction is not taken at once (:func:`_branch_root`)
+FAR_ROOT = 5
 
 
-def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH_STENCIL, last=None):
+def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH_STENCIL, last=None, final=False):
     """The state at ``Φ̂`` on the branch through ``guess``: the root of ``F`` where it rises through 0 nearest
     ``guess``. Stencils of six pole stretches ``h`` apart are evaluated from ``guess`` until the samples hold a
     rising sign change between two valid states; a maximum of ``F`` below 0 among them is looked at closely
@@ -1164,10 +1162,21 @@ def _branch_root(model, pattern, source, phi, guess, lam_floor, settings, h=PATH
         up = _rising_pairs(X, F)
         if up.size:
             j = int(up[np.argmin(np.abs(X[up] - guess))])
-            fold = _fold_on_the_way(X, F, guess if last is None else last, X[j])
-            if fold is not None:  # the branch folded before this root: another branch's
-                lo, hi, Flo, Fhi = _fold_or_bracket(bal, fold[0], fold[1], phi)
-                break
+            if last is not None and abs(X[j] - guess) > FAR_ROOT * h:
+                # a root far from the prediction: the branch moved fast, or it folded and this is another branch's
+                # root. One voltage's balance cannot tell on a long step (a dip below 0 on the way is a fold, or a
+                # wiggle the root has moved past: review, helper-75): the caller halves the step (zone_path)
+                if not final:
+                    raise _NoState("far-root", f"at Φ̂ = {phi:.6g} the nearest root lies far from the prediction")
+                # the smallest step: the branch folded if the balance has a maximum below 0 from the last state on
+                # (it falls past the vanished root before it rises to the far one); if it rises all the way, the
+                # root is the branch's own, moving fast (a zone on a large chamber, nearly at its fold: review,
+                # helper-75)
+                back = last - h if X[j] > last else last + h
+                fold = _fold_on_the_way(X, F, back, X[j])
+                if fold is not None:
+                    lo, hi, Flo, Fhi = _fold_or_bracket(bal, fold[0], fold[1], phi)
+                    break
             lo, hi, Flo, Fhi = X[j], X[j + 1], F[j], F[j + 1]
             break
         valid = np.isfinite(F)
@@ -1301,14 +1310,18 @@ def zone_path(
             guess = predict(target)
             last = None if phi_ok is None else lam_prev[-1]
             try:
-                lam, p, v, F = _branch_root(model, pattern, source, target, guess, floor, settings, last=last)
+                final = phi_ok is not None and target - phi_ok <= END_TOLERANCE
+                lam, p, v, F = _branch_root(
+                    model, pattern, source, target, guess, floor, settings, last=last, final=final
+                )
             except _NoState as failure:
                 if phi_ok is None or target - phi_ok <= END_TOLERANCE:
                     end = (target, failure)
                     break
-                if tried is not None and tried[0] == target:
-                    bad = (target, failure)
-                tried = (target, failure)
+                if failure.kind != "far-root":  # a property of the step, not of the voltage: never "no state there"
+                    if tried is not None and tried[0] == target:
+                        bad = (target, failure)
+                    tried = (target, failure)
                 target = 0.5 * (phi_ok + target)
                 continue
             step = target - (phi_ok if phi_ok is not None else target)

@@ -215,3 +215,49 @@ def test_a_step_past_the_snap_through_ends_the_states_at_the_fold(voltages):
     assert lo - 1e-8 <= 4.178656594 <= hi + 1e-8 and hi - lo < 1e-4
     for e in data["voltages"]:
         assert bool(e["groups"]) == (e["voltage_kV"] <= lo), e
+
+
+def _inner_circle_with_volume(tmp_path, volume_ml):
+    import re
+
+    from coexist.scene import builtin_scene_text
+
+    text, n = re.subn(r"^volume_ml = .*$", f"volume_ml = {volume_ml}", builtin_scene_text("inner-circle"), flags=re.M)
+    assert n == 1
+    path = tmp_path / f"v{volume_ml}.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def _shape_json(scene, voltages):
+    import json
+
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+
+    r = CliRunner().invoke(cli, ["shape", scene, "--voltage-kV", voltages, "--json"])
+    assert r.exit_code == 0, r.output
+    return json.loads(r.stdout)
+
+
+@pytest.mark.parametrize("voltages", ["0,1.7,3.1,3.77,4.03,4.41", "0,4.22,4.3"])
+def test_the_fold_of_a_zone_on_a_small_chamber_ends_the_states_whatever_the_list(tmp_path, voltages):
+    """The inner-circle zone on a 50 ml chamber folds at 4.223213 kV. The list ``0,1.7,3.1,3.77,4.03,4.41`` walked on to
+    the far branch (λ0 3.2456 -> 5.7443 on a step, the balance's maximum just behind the last state) and ended
+    "wrinkled" at 4.3612 kV (review, helper-75). A root far from the prediction is not taken on a long step: the step
+    is halved, and at the smallest one the balance decides."""
+    data = _shape_json(_inner_circle_with_volume(tmp_path, 50), voltages)
+    assert data["end"]["kind"] == "snap-through"
+    lo, hi = data["end"]["voltage_kV"]
+    assert 4.22320 <= lo <= hi <= 4.22323
+
+
+def test_a_root_that_moves_fast_past_a_wiggle_of_the_balance_is_the_branch(tmp_path):
+    """On a 3000 ml chamber the zone's root runs from λ0 3.48 at 3.80 kV to 4.73 at 3.85 kV, while the balance at 3.85
+    kV has a maximum below 0 behind it (a wiggle, no fold). ``0,3.8,3.85`` took that maximum for a fold and ended the
+    states, where ``0,3.83,3.85`` gave λ0 4.7286 (review, helper-75): both give the state now."""
+    scene = _inner_circle_with_volume(tmp_path, 3000)
+    for voltages in ("0,3.8,3.85", "0,3.83,3.85"):
+        (state,) = [e for e in _shape_json(scene, voltages)["voltages"] if e["voltage_kV"] == 3.85]
+        assert state["groups"] and state["groups"][0]["pole_stretch"] == pytest.approx(4.728646, abs=1e-5), voltages
