@@ -136,8 +136,8 @@ def complete_scene(text: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def variant(**changes):
-    """The tricircle scene with some of its keys changed (``values_kV`` replaces the ramp)."""
+def variant_text(**changes):
+    """The tricircle scene's TOML text with some of its keys changed (``values_kV`` replaces the ramp)."""
     text = builtin_scene_text("tricircle")
     for key, val in changes.items():
         if key == "values_kV":
@@ -145,7 +145,12 @@ def variant(**changes):
         else:
             text, n = re.subn(rf"^{key} = .*$", f"{key} = {val}", text, flags=re.M)
             assert n == 1, key
-    return parse_scene(text)
+    return text
+
+
+def variant(**changes):
+    """The tricircle scene with some of its keys changed (``values_kV`` replaces the ramp)."""
+    return parse_scene(variant_text(**changes))
 
 
 def one_line_error(result, *fragments):

@@ -44,17 +44,10 @@ import re
 
 import pytest
 from click.testing import CliRunner
+from conftest import variant_text
 
 from coexist.cli.main import cli
 from coexist.scene import builtin_scene_text
-
-
-def variant_text(**changes):
-    text = builtin_scene_text("tricircle")
-    for key, val in changes.items():
-        text, n = re.subn(rf"^{key} = .*$", f"{key} = {val!r}", text, flags=re.M)
-        assert n == 1, key
-    return text
 
 
 def transitions(tmp_path, text, *options):
