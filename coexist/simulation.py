@@ -200,6 +200,36 @@ def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) 
     return snap_through(model, settings, pole_stretch_max(scene, settings))
 
 
+def _distinct(segments: list) -> list:
+    """The segments without those that repeat an earlier one: the same ends (kinds, and voltages within their
+    errors) and the same state in the middle (:meth:`~coexist.continuation.StableSegment.matches`). At draft
+    accuracy a seed near a pitchfork does not match its segment's loosely converged state there and is traced
+    again: two zones listed their 1-of-2 range three times (review, helper-75)."""
+    out: list = []
+    for seg in segments:
+        if not any(_same_segment(seg, kept) for kept in out):
+            out.append(seg)
+    return out
+
+
+def _same_segment(a: StableSegment, b: StableSegment) -> bool:
+    if a.configuration.counts != b.configuration.counts:
+        return False
+    rtol = a.tracer.system.settings.rtol
+    for end_a, end_b, phi_a, phi_b in zip((a.low, a.high), (b.low, b.high), a.phi_range, b.phi_range):
+        if getattr(end_a, "kind", None) != getattr(end_b, "kind", None):
+            return False
+        err = getattr(end_a, "error", 0.0) + getattr(end_b, "error", 0.0) + 2 * error_floor(phi_a, rtol)
+        if abs(phi_a - phi_b) > err:
+            return False
+    middle = 0.5 * (b.phi_range[0] + b.phi_range[1])
+    try:
+        (state,) = b.states([middle])
+    except SolverError:
+        return False
+    return a.matches(state)
+
+
 #: :meth:`Simulation.discover` also seeds at this fraction of each known segment's range inside its ends
 DISCOVERY_INSET = 1e-3
 
@@ -734,8 +764,11 @@ class Simulation:
         homog = [s for s in self.emap.segments if s.label == "homogeneous"]
         out = []
         for k in ks:
-            segs = sorted(
-                (s for s in self.emap.segments if s.configuration.counts == (N - k, k)), key=lambda s: s.phi_range[0]
+            segs = _distinct(
+                sorted(
+                    (s for s in self.emap.segments if s.configuration.counts == (N - k, k)),
+                    key=lambda s: s.phi_range[0],
+                )
             )
             crossings = equal_free_energy(homog + segs)
             labels = {s.label for s in segs}

@@ -64,3 +64,23 @@ def test_a_configuration_stable_only_between_the_ends_of_others_is_found():
     assert len(ramp) == 1
     assert abs(crossing.phi_hat - ramp[0].phi_hat) <= crossing.phi_hat_error + ramp[0].phi_hat_error
     assert kV(crossing.phi_hat) / 1e3 == pytest.approx(4.358031994, abs=2e-7)
+
+
+def test_a_stable_range_is_listed_once_at_draft_accuracy():
+    """At draft a seed near the 1-of-2 branch's pitchfork did not match its segment's loosely converged state there
+    and was traced again: two zones listed 3.85216–4.10605 kV three times (review, helper-75). The same two ranges
+    as at the default accuracy, within the draft errors."""
+    from conftest import variant_text
+
+    from coexist.scene import parse_scene
+    from coexist.settings import SolverSettings
+
+    scene = parse_scene(variant_text(count=2))
+    ranges = []
+    for settings in (SolverSettings.from_accuracy("draft"), SolverSettings()):
+        (entry,) = Simulation.from_scene(scene, settings).coexistence([1])
+        ranges.append(sorted(seg.phi_range for seg in entry.segments))
+    draft, default = ranges
+    assert len(draft) == len(default) == 2
+    for (a0, a1), (b0, b1) in zip(draft, default):
+        assert a0 == pytest.approx(b0, abs=1e-5) and a1 == pytest.approx(b1, abs=1e-5)
