@@ -1063,11 +1063,16 @@ def solve_states(
     # review, helper-72); only those, so that every other state is the same whatever it is batched with, and one
     # that finds no clamp again keeps its first failure (a wider search of a trajectory that never returns costs
     # many steps: review, helper-75)
-    with np.errstate(all="ignore"):
-        T0 = np.asarray(model.pole(l0, phi)[0], dtype=float) * np.ones(l0.size)
-    again = np.flatnonzero((states.status == NO_CLAMP) & (T0 > 0) & (T0 < SEARCH_TENSION))
+    none = np.flatnonzero(states.status == NO_CLAMP)  # the pole tension only for those (the hot path has none)
+    if none.size:
+        with np.errstate(all="ignore"):
+            T0 = np.asarray(model.pole(l0[none], phi[none])[0], dtype=float) * np.ones(none.size)
+        again = none[(T0 > 0) & (T0 < SEARCH_TENSION)]
+        T0 = T0[(T0 > 0) & (T0 < SEARCH_TENSION)]
+    else:
+        again = none
     if again.size:
-        growth = float(np.clip(SEARCH_TENSION / T0[again].min(), 1.0, SEARCH_GROWTH_MAX))
+        growth = float(np.clip(SEARCH_TENSION / T0.min(), 1.0, SEARCH_GROWTH_MAX))
         wider = replace(settings, max_radius_factor=settings.max_radius_factor * growth)
         found = _solve_uniform(model, l0[again], phi[again], wider, shape, derivatives, formal)
         _put(states, found, again, found.status == OK)

@@ -348,6 +348,7 @@ class Simulation:
     phi_window: tuple
     emap: EquilibriumMap
     _start: StableSegment | None = field(default=None, repr=False)
+    _tight_gas: dict = field(default_factory=dict, repr=False)  # rtol -> the gas closed at it (_gas_at)
 
     @classmethod
     def from_scene(
@@ -584,9 +585,18 @@ class Simulation:
         loose gas."""
         if self.scene.chamber is None or not isinstance(self.gas, GasChamber):
             return self.gas
+        if settings.rtol not in self._tight_gas:  # once per tolerance: every measurement of errors asks for it
+            self._tight_gas[settings.rtol] = self._closed_gas(settings)
+        return self._tight_gas[settings.rtol]
+
+    def _closed_gas(self, settings: SolverSettings) -> PressureSource:
+        """:meth:`_gas_at` computed (the scene has a chamber)."""
+        chamber = self.scene.chamber
+        if chamber is None:
+            return self.gas
         lam_c, pre = self.closing_stretch, self.model.prestretch
         width = 1e-3 * (lam_c - pre)
-        p_close = float(self.scene.p_hat(self.scene.chamber.closing_pressure))
+        p_close = float(self.scene.p_hat(chamber.closing_pressure))
         try:
             lam = state_at_pressure(self.model, p_close, settings, lam_c - width, lam_c + width)
             return _chamber_closed_at(self.scene, self.model, settings, p_close, lam)
