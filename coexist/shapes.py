@@ -1305,8 +1305,10 @@ def zone_path(
         bad: tuple | None = None  # a voltage that failed again from a closer state: no state there, not tried again
         while True:  # from the last state towards ``phi``: a failed step is halved, down to END_TOLERANCE
             if bad is not None and phi_ok is not None and bad[0] - phi_ok <= END_TOLERANCE:
-                end = bad
-                break
+                # the voltage that failed twice from states further down is tried once more from the state next to
+                # it: only a step of END_TOLERANCE decides that the branch ends there (a fold seen from far below
+                # may be a dip of the balance the branch passes round: a 3000 ml chamber, review of 2026-12-02)
+                target, bad = bad[0], None
             guess = predict(target)
             last = None if phi_ok is None else lam_prev[-1]
             try:

@@ -261,3 +261,17 @@ def test_a_root_that_moves_fast_past_a_wiggle_of_the_balance_is_the_branch(tmp_p
     for voltages in ("0,3.8,3.85", "0,3.83,3.85"):
         (state,) = [e for e in _shape_json(scene, voltages)["voltages"] if e["voltage_kV"] == 3.85]
         assert state["groups"] and state["groups"][0]["pole_stretch"] == pytest.approx(4.728646, abs=1e-5), voltages
+
+
+def test_a_voltage_that_failed_from_far_below_is_tried_again_from_the_state_next_to_it(tmp_path):
+    """On a 3000 ml chamber ``--voltage-kV 0:5:0.5`` ended with a snap-through at 3.875 kV, where ``coexist ramp`` of
+    the same scene continues to 4.338944742 kV (± 5e-9; wrinkling). From λ0 ≈ 3.0 the balance at 3.875 kV shows a
+    maximum below 0 (λ0 3.905, a dip: its root lies at 4.978); that "fold" was seen twice from far below and then
+    taken as the end once halved steps had crept up to within 1e-6 of it, without trying it from there. Now the
+    states pass it: at 4.0 kV the ramp's pole stretch 5.406707 (``ramp --json``), and they end at the wrinkling."""
+    data = _shape_json(_inner_circle_with_volume(tmp_path, 3000), "0:5:0.5")
+    (state,) = [e for e in data["voltages"] if e["voltage_kV"] == 4.0]
+    assert state["groups"][0]["pole_stretch"] == pytest.approx(5.406707, abs=1e-5)
+    assert data["end"]["kind"] == "wrinkled"
+    lo, hi = data["end"]["voltage_kV"]
+    assert lo - 1e-8 <= 4.338944742 <= hi + 1e-8 and hi - lo < 1e-4
