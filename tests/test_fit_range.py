@@ -151,3 +151,27 @@ def test_a_continuous_split_is_fitted_with_a_note_naming_the_first_jump(tmp_path
     assert float(re.search(r"first jump comes at ([0-9.]+) kV", note).group(1)) == pytest.approx(4.134, abs=1e-3)
     r = CliRunner().invoke(cli, ["fit", "--transition-kV", "3.9", "--no-sensitivity", "--json"])
     assert json.loads(r.stdout)["note"] is None  # three zones: the split is the jump
+
+
+@pytest.mark.parametrize(
+    "target_kV, words, at_kV",
+    [
+        ("3.9", "shows no jump on the way up (its first transition is no_stable_state at", 4.499507),
+        ("3.0", "shows its first jump at", 3.248703),
+    ],
+)
+def test_an_equal_free_energy_fit_says_what_a_ramp_of_the_fitted_scene_shows(target_kV, words, at_kV):
+    """Fitted to its equal free energy at 3.9 kV the default scene's radius is 21.0045 mm, and a slow ramp of that
+    scene bulges no zone: it stays homogeneous until no stable state is left at 4.499507148 kV (``coexist ramp`` of
+    the fitted scene). The fit said nothing (review, helper-74). At 3.0 kV (21.7526 mm) the ramp jumps at its
+    spinodal, 3.248703499 kV (the same). The note names what the ramp shows, with its voltage."""
+    import json
+
+    r = CliRunner().invoke(
+        cli, ["fit", "--kind", "equal_free_energy", "--transition-kV", target_kV, "--no-sensitivity", "--json"]
+    )
+    assert r.exit_code == 0, r.output
+    note = json.loads(r.stdout)["note"]
+    assert note and words in note, note
+    shown = float(re.search(words.replace("(", r"\(") + r" ([0-9.]+) kV", note).group(1))
+    assert shown == pytest.approx(at_kV, abs=6e-6)  # printed to six digits

@@ -67,7 +67,7 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
     fitted = replace(sc, zone_radius=radius)
     check, err = transition_voltage(fitted, kind, shared, measure=settings.error_estimates)
     radius_err = fitted_radius_error(fitted, kind, shared, check, err, target_kv * 1e3)
-    after = _what_follows(fitted, settings) if kind == "spinodal" else None
+    after = _what_follows(fitted, settings) if kind == "spinodal" else _what_a_ramp_shows(fitted, settings, check)
     if after:
         info(f"note: {after}")
     rows = []
@@ -139,6 +139,36 @@ def _what_follows(fitted, settings) -> str | None:
         f"at the fitted radius no stable state follows the loss of the homogeneous state at {kv:.6g} kV "
         f"(the ramp: no_stable_state [{first.event}]{': ' + first.reason if first.reason else ''}): the fitted "
         "transition is not a zone bulging"
+    )
+
+
+def _what_a_ramp_shows(fitted, settings, equal_v: float) -> str:
+    """What a slow ramp of the scene fitted to an equal-free-energy voltage ``equal_v`` (V) shows on the way up: its
+    first jump, which comes where the homogeneous state is lost (a spinodal, above the equal free energy), or that
+    it shows none, so that the fitted voltage is not one a ramp makes visible (review, helper-74: a radius with no
+    word that nothing bulges). One ramp of the fitted scene (about a second)."""
+    from coexist.ramp import is_jump
+    from coexist.simulation import Simulation
+
+    report = Simulation.from_scene(fitted, settings).ramp()
+    ups = [t for t in report.result.transitions if t.direction == "up"]
+    jump = next((t for t in ups if is_jump(t)), None)
+    if jump is not None:
+        return (
+            f"a slow ramp of the fitted scene shows its first jump at {report.voltage_kV(jump.phi_hat):.6g} kV "
+            f"({jump.from_label} -> {jump.to_label}, where that state is lost), not at the equal free energy "
+            f"{equal_v / 1e3:.6g} kV"
+        )
+    first = ups[0] if ups else None
+    seen = (
+        f"its first transition is {first.kind} at {report.voltage_kV(first.phi_hat):.6g} kV ({first.from_label} -> "
+        f"{first.to_label})"
+        if first is not None
+        else "it stays on one stable branch"
+    )
+    return (
+        f"a slow ramp of the fitted scene shows no jump on the way up ({seen}): the fitted equal free energy at "
+        f"{equal_v / 1e3:.6g} kV is not a voltage where a ramp is seen to bulge a zone"
     )
 
 
