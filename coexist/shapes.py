@@ -982,6 +982,14 @@ def _kind_of(status: int) -> str:
     return reason_tag(status)
 
 
+#: what the end of a patterned zone's states at the onset of wrinkling means in a tension-field scene: the zone goes
+#: on, hoop-wrinkled (its states are relaxed on the ramp), but the states here are the taut ones
+TENSION_FIELD_END = (
+    "; in this tension-field scene the zone goes on hoop-wrinkled, which `coexist ramp` follows: the states here, "
+    "and their profiles, are the taut ones (the wrinkled profiles of a patterned zone are not computed yet)"
+)
+
+
 class _Balance:
     """``F(λ0) = p̂(λ0, Φ̂) − p̂gas(V̂(λ0, Φ̂))`` of one patterned zone at one voltage, evaluated in batches.
 
@@ -1010,11 +1018,13 @@ class _Balance:
         for i in np.flatnonzero(~ok):
             detail = st.failure_detail[i]
             self.failed_x.append(float(lam[i]))
+            kind = _kind_of(int(st.status[i]))
             self.failures.append(
                 _NoState(
-                    _kind_of(int(st.status[i])),
+                    kind,
                     f"at Φ̂ = {self.phi:.6g}, pole stretch {lam[i]:.6g}: {reason_text(st.status[i])}"
-                    + (f" ({detail})" if detail else ""),
+                    + (f" ({detail})" if detail else "")
+                    + (TENSION_FIELD_END if kind == "wrinkled" and self.model.tension_field else ""),
                 )
             )
         F = np.full(lam.size, np.nan)
@@ -1114,7 +1124,8 @@ def _fold_or_bracket(bal, a, b, phi, samples: int = 7, rounds: int = 12):
                 "snap-through",
                 f"at Φ̂ = {phi:.6g} the zone–gas balance p̂ − p̂gas(V̂) has no root on the branch: its largest "
                 f"value is {peak:.3g} at pole stretch {xpeak:.6g} (the equilibrium folds where dp̂/dV̂ = −c, the gas "
-                "stiffness: the zone snaps through to another branch)",
+                "stiffness: the zone snaps through, to another branch if a stable one exists, as `coexist ramp` "
+                "finds)",
             )
     raise _NoState(
         "snap-through",
@@ -1354,8 +1365,10 @@ def scene_zone_path(scene, phi_hat, settings: SolverSettings | None = None) -> t
     voltages: :func:`zone_path` from the state the valves closed in.
 
     The closing state is the zone at the closing (or controlled) pressure at 0 V on the rising branch of its
-    ``p̂–V̂`` curve: a scan of pole stretches up to :func:`coexist.simulation.pole_stretch_max`, the first rising
-    crossing, polished as every state of the path. The chamber's gas is closed there
+    ``p̂–V̂`` curve: a scan of pole stretches up to its first pressure maximum (:func:`coexist.simulation.snap_through`;
+    a pressure at or above it is refused, as by :class:`coexist.simulation.Simulation`), or up to
+    :func:`coexist.simulation.pole_stretch_max` for a curve without one, the first rising crossing, polished as every
+    state of the path. The chamber's gas is closed there
     (:meth:`coexist.effects.GasChamber.closed_at`).
 
     Parameters
@@ -1381,7 +1394,7 @@ def scene_zone_path(scene, phi_hat, settings: SolverSettings | None = None) -> t
     """
     from .effects import GasChamber, PressureReservoir
     from .patterned import solve_patterned_states
-    from .simulation import pole_stretch_max
+    from .simulation import closing_pressure, pole_stretch_max, snap_through, zone_model
 
     settings = validation.settings_or_default(settings)
     validation.scene(scene)
@@ -1391,16 +1404,19 @@ def scene_zone_path(scene, phi_hat, settings: SolverSettings | None = None) -> t
             "on one gas share its pressure and may split, which needs the patterned states' derivatives)",
             "[zones].count",
         )
-    if scene.chamber is not None:
-        p_close, field_name = float(scene.p_hat(scene.chamber.closing_pressure)), scene.chamber.closing_pressure_field
-    elif scene.controlled_pressure is not None:
-        p_close, field_name = float(scene.p_hat(scene.controlled_pressure)), scene.controlled_pressure_field
-    else:
+    if scene.chamber is None and scene.controlled_pressure is None:
         raise SceneError(
             "this computation needs a [chamber] or a controlled pressure [zones].pressure_mbar", "[chamber]"
         )
     model, pattern = scene.model(), scene.zone_pattern()
     pre, top = model.prestretch, pole_stretch_max(scene, settings)
+    # the zone is closed in on the rising branch before its first pressure maximum, and a pressure at or above that
+    # maximum is refused, as `coexist ramp` and `coexist check` do: a first rising crossing on the stiffened branch
+    # beyond it was taken (review, helper-76: inner fraction 0.7 at 16 mbar, p̂max 2.092)
+    snap = snap_through(zone_model(scene), settings, top)
+    p_close, field_name = closing_pressure(scene, snap)
+    if snap.maximum:
+        top = snap.pole_stretch
     grid = pre * (1 + np.linspace(np.sqrt(2e-3), np.sqrt(top / pre - 1), 24) ** 2)
     st = solve_patterned_states(model, pattern, grid, 0.0, settings)
     F = np.where(st.ok, st.p_hat - p_close, np.nan)

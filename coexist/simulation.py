@@ -174,6 +174,48 @@ def snap_through(model, settings: SolverSettings, lam_max: float) -> Snap:
     return Snap(float(curve.states.p_hat[i]), float(curve.states.pole_stretch[i]), False)
 
 
+def closing_pressure(scene: Scene, snap: Snap) -> tuple[float, str]:
+    """The normalised pressure the zones are closed in (the chamber's closing pressure) or held at (a controlled
+    pressure), checked against the largest pressure one zone holds at zero voltage.
+
+    Parameters
+    ----------
+    scene : Scene
+        With a ``[chamber]`` or a controlled pressure.
+    snap : Snap
+        The zone's :func:`snap_through` at zero voltage.
+
+    Returns
+    -------
+    p_hat : float
+        The pressure ``p̂``, below ``snap.p_hat``: the closing state lies on the rising branch before the first
+        pressure maximum, at ``λ0 < snap.pole_stretch``.
+    field : str
+        The scene field that sets it.
+
+    Raises
+    ------
+    SceneError
+        If the scene has neither, or the pressure is at or above ``snap.p_hat`` (naming the field).
+    """
+    if scene.chamber is not None:
+        scene.check_closing_pressure(snap.p_hat, snap.maximum)
+        return float(scene.p_hat(scene.chamber.closing_pressure)), scene.chamber.closing_pressure_field
+    if scene.controlled_pressure is not None:
+        p_close = float(scene.p_hat(scene.controlled_pressure))
+        if not p_close < snap.p_hat:
+            raise SceneError(
+                f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar (p̂ = {p_close:.4g}): it is at or "
+                f"above their snap-through pressure p̂max = {snap.p_hat:.4g}",
+                scene.controlled_pressure_field,
+            )
+        return p_close, scene.controlled_pressure_field
+    raise SceneError(
+        "this computation needs a [chamber] (a gas the zones share) or a controlled pressure [zones].pressure_mbar",
+        "[chamber]",
+    )
+
+
 def snap_through_pressure(scene: Scene, settings: SolverSettings | None = None) -> Snap:
     """The largest normalised pressure one zone of the scene holds at zero voltage (its ``p̂max``), and
     whether it is a snap-through (:class:`Snap`).
@@ -417,26 +459,7 @@ class Simulation:
         if phi_window is None:
             path = scene.voltage_hat_path
             phi_window = (0.0, float(np.max(path)) if path is not None else 0.0)
-        if scene.chamber is not None:
-            scene.check_closing_pressure(p_max, snaps)
-            p_close = float(scene.p_hat(scene.chamber.closing_pressure))
-            field_name = scene.chamber.closing_pressure_field
-        elif scene.controlled_pressure is not None:
-            p_close = float(scene.p_hat(scene.controlled_pressure))
-            field_name = scene.controlled_pressure_field
-            if not p_close < p_max:
-                raise SceneError(
-                    f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar "
-                    f"(p̂ = {p_close:.4g}): it is at or above their snap-through pressure "
-                    f"p̂max = {p_max:.4g}",
-                    field_name,
-                )
-        else:
-            raise SceneError(
-                "this computation needs a [chamber] (a gas the zones share) or a controlled "
-                "pressure [zones].pressure_mbar",
-                "[chamber]",
-            )
+        p_close, field_name = closing_pressure(scene, Snap(p_max, lam_at_max, snaps))
         lam_lo = model.prestretch * (1 + 2e-3)
         try:
             lam_c = state_at_pressure(model, p_close, settings, lam_lo, lam_at_max)

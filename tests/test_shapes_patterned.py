@@ -12,6 +12,7 @@ import json
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import one_line_error
 from scipy.optimize import brentq
 
 from coexist.cli.main import cli
@@ -275,3 +276,47 @@ def test_a_voltage_that_failed_from_far_below_is_tried_again_from_the_state_next
     assert data["end"]["kind"] == "wrinkled"
     lo, hi = data["end"]["voltage_kV"]
     assert lo - 1e-8 <= 4.338944742 <= hi + 1e-8 and hi - lo < 1e-4
+
+
+def _inner_circle_with(tmp_path, **lines):
+    import re
+
+    from coexist.scene import builtin_scene_text
+
+    text = builtin_scene_text("inner-circle")
+    for key, value in lines.items():
+        text, n = re.subn(rf"^{key} = .*$", f"{key} = {value}", text, flags=re.M)
+        assert n == 1, key
+    path = tmp_path / "variant.toml"
+    path.write_text(text)
+    return str(path)
+
+
+def test_a_closing_pressure_above_the_snap_through_is_refused_as_by_the_ramp(tmp_path):
+    """With an electrode disc of 0.7 the zone holds at most p̂max = 2.092 (14.48 mbar) on its rising branch; the scene's
+    16 mbar lies above. `coexist ramp` and `coexist check` refuse it; `shape` closed the zone on the stiffened branch
+    beyond (λ0 5.447 at 0 V) and drew states there (review, helper-76). Both now exit 2 with the same line."""
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+
+    scene = _inner_circle_with(tmp_path, inner_fraction=0.7)
+    lines = []
+    for args in (["shape", scene, "--voltage-kV", "0,1,2,3,4"], ["ramp", scene]):
+        r = CliRunner().invoke(cli, args)
+        lines.append(one_line_error(r, "[chamber].closing_pressure_mbar", "p̂max = 2.092 (14.48 mbar)"))
+    assert lines[0] == lines[1]
+
+
+def test_a_tension_field_zone_that_wrinkles_says_the_ramp_goes_on(tmp_path):
+    """In a tension-field scene (3000 ml) the taut states end where the electrode disc's rim wrinkles, 4.33893 kV, and
+    the zone goes on hoop-wrinkled: `coexist ramp` follows it to λ0 5.818529 at 4.342474 kV and ends at 4.343473592
+    kV (review, helper-76). `shape` does not compute wrinkled patterned zones: it said "no state" there. It says
+    now that the zone goes on, and that those states are not computed here."""
+    data = _shape_json(_inner_circle_with(tmp_path, wrinkling='"tension-field"', volume_ml=3000), "0,4.342473592")
+    assert data["end"]["kind"] == "wrinkled"
+    lo, hi = data["end"]["voltage_kV"]
+    assert 4.33892 <= lo <= hi <= 4.33896
+    assert "goes on hoop-wrinkled, which `coexist ramp` follows" in data["end"]["reason"]
+    (late,) = [e for e in data["voltages"] if e["voltage_kV"] == 4.342473592]
+    assert not late["groups"] and "hoop-wrinkled states are not computed here" in late["note"]
