@@ -786,7 +786,8 @@ def patterned_profiles(
     SceneError
         If an input is out of range (names it).
     ModelRangeError
-        If a state does not exist (:meth:`coexist.patterned.PatternedStates.require_ok`, with its reason).
+        If a state does not exist (:meth:`coexist.patterned.PatternedStates.require_ok`, with its reason), or is
+        hoop-wrinkled in a tension-field model (a state, whose profile is not computed for patterned zones yet).
     SolverError
         If the re-integration does not land on the clamp or disagrees with the solver.
     """
@@ -794,7 +795,19 @@ def patterned_profiles(
 
     settings, A = _checked_profile_inputs(model, zone_radius, points, settings)
     validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
-    st = solve_patterned_states(model, pattern, pole_stretch, phi_hat, settings).require_ok()
+    st = solve_patterned_states(model, pattern, pole_stretch, phi_hat, settings)
+    from .shooting import WRINKLED
+
+    wrinkled = np.flatnonzero(st.status == WRINKLED)
+    if model.tension_field and wrinkled.size:
+        i = int(wrinkled[0])
+        raise ModelRangeError(
+            f"the patterned zone at pole stretch {st.pole_stretch[i]:.6g}, Φ̂ = {st.phi_hat[i]:.6g} is hoop-wrinkled: a "
+            "state of this tension-field scene (`coexist ramp` gives it), whose profile is not computed yet for "
+            "patterned zones (only for uniform ones)",
+            "wrinkled",
+        )
+    st.require_ok()
     l0 = np.asarray(st.pole_stretch, dtype=float)
     phi = np.asarray(st.phi_hat, dtype=float)
     kappa = np.atleast_1d(patterned_apex_curvature_hat(model, pattern, l0, phi, st.p_hat))

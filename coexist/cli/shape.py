@@ -75,7 +75,8 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
     (a snap-through, past which `coexist ramp` follows the zone on another branch if a stable one exists;
     wrinkling, past which a tension-field zone goes on hoop-wrinkled, not computed here; pull-in: named, the
     voltage bisected); -o draws the lens figure. Several patterned zones on one gas: the ramp's states, as for
-    uniform zones, each zone's profile region by region.
+    uniform zones, each zone's profile region by region (a hoop-wrinkled patterned zone is refused, naming it:
+    its profile is not computed yet).
     """
     from coexist.ramp import Ramp
     from coexist.shapes import equilibrium_profiles
