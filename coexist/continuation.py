@@ -410,6 +410,12 @@ def hermite(a_z, a_t, b_z, b_t, tau):
 SHORT_STEP = 0.02
 
 
+#: the voltages, relative to the onset of a wrinkled band's pull-in in the material (``Φ̂c``, where some stretch of
+#: a hoop-wrinkled strip first loses its stiffness: :func:`coexist.wrinkling.band_pull_in_onset`), probed inside a
+#: step of wrinkled states that crosses it: ``Φ̂c (1 + ε)``. The unstable stretches are born with zero width there and
+#: widen like ``√(Φ̂ − Φ̂c)``; a state whose band spans them is found invalid once they are wider than the shooting's
+#: steps (3e-7 above ``Φ̂c`` for the Gent membrane of helper-77's huge chamber, whose states are invalid over 1e-3)
+ONSET_PROBE_OFFSETS = (1e-6, 1e-5, 1e-4, 1e-3)
 #: a step whose voltage slope dips inside it below this fraction of its smaller end value is examined inside
 DIP_FRACTION = 0.9
 #: where a step is examined inside: its fractions of the chord (with the Hermite slope's minimum)
@@ -722,6 +728,17 @@ class Tracer:
                 # of another branch); the short step then meets the pull-in (a failed state) and ends the segment
                 h *= 0.5
                 continue
+            if any(_wrinkled(cur)) or any(_wrinkled(new)):
+                bad = self._past_band_onset(cur, new)
+                if bad is not None:
+                    # the material's wrinkled stiffness first vanishes inside the step, and a state just past that
+                    # voltage is invalid while both ends are valid (a huge chamber's zones: invalid from 3.72295 to
+                    # about 3.727 kV, stepped over and listed stable; review, helper-77): the end lies before it
+                    end = self._onset_end(cur, bad)
+                    if end is not None:
+                        break
+                    h *= 0.5
+                    continue
             if h > SHORT_STEP and any(_wrinkled(cur)) and self._hides_invalid(cur, new):
                 # a wrinkled band's states can stop being valid inside a step whose ends are both valid (a
                 # pressure-controlled zone at 17.8235 mbar: invalid, pulled in, over 2e-3 in Φ̂ within a step of
@@ -845,6 +862,88 @@ class Tracer:
             p is not None and (np.sign(p.tangent[self.M]) != fa or p.stable != a.stable)
             for p in self._points_at(a, b, sig_b, sigmas, loose=True)
         )
+
+    def _past_band_onset(self, a: Point, b: Point) -> float | None:
+        """The offset along ``a``'s tangent of an invalid state just past the voltage ``Φ̂c`` at which the material's
+        hoop-wrinkled stiffness first vanishes (:func:`coexist.wrinkling.band_pull_in_onset`), when the step
+        ``a -> b`` (both valid) crosses ``Φ̂c``; None otherwise (the usual case: one test of the material per step
+        at most, none once the step's voltages are known to lie on one side).
+
+        A state whose wrinkled band spans the first unstable stretch stops being valid at ``Φ̂c`` and can be valid
+        again just above (its band moves past the unstable stretches as they widen), so a step can cross the
+        invalid states with both ends valid. The states at ``Φ̂c (1 + ε)``, ``ε`` in :data:`ONSET_PROBE_OFFSETS`, on
+        the step's Hermite path (one batched corrector) decide. For a patterned zone the layers of its electrode
+        regions carry ``Φ̂/n``: the onset is that of the fewest layers, ``n Φ̂c``.
+
+        Parameters
+        ----------
+        a, b : Point
+            The step's ends, both valid, at least one with a wrinkled band.
+
+        Returns
+        -------
+        float or None
+            The offset of the first invalid probe (``self._last_failure`` holds its failure), or None.
+        """
+        from .wrinkling import band_pull_in_onset, softened_at
+
+        model = self.system.model
+        if not model.tension_field:
+            return None
+        layer = getattr(model, "uniform", model)
+        pattern = getattr(model, "pattern", None)
+        n = min((r.layers for r in pattern.regions if r.electrode), default=None) if pattern is not None else 1
+        if n is None:
+            return None
+        lo, hi = sorted((a.phi / n, b.phi / n))
+        if softened_at(layer, lo) or not (hi > 0 and softened_at(layer, hi)):
+            return None
+        onset = band_pull_in_onset(layer, max(hi, self.phi_hi / n))
+        if onset is None or not lo < onset < hi:
+            return None
+        sig_b = float(a.tangent @ (b.z - a.z))
+
+        def phi_at(tau):
+            return float(hermite(a.z, a.tangent, b.z, b.tangent, tau)[self.M] / self.w) / n
+
+        sigmas = []
+        rising = b.phi > a.phi
+        for eps in ONSET_PROBE_OFFSETS:
+            target = onset * (1 + eps)
+            if not lo < target < hi:
+                continue
+            t0, t1 = 0.0, 1.0
+            for _ in range(60):  # the step's voltage is monotone in it (folds inside a step are split off before)
+                mid = 0.5 * (t0 + t1)
+                if (phi_at(mid) < target) == rising:
+                    t0 = mid
+                else:
+                    t1 = mid
+            sigmas.append(0.5 * (t0 + t1) * sig_b)
+        if not sigmas:
+            return None
+        order = np.argsort(np.abs(sigmas))
+        pts = self._points_at(a, b, sig_b, np.asarray(sigmas)[order], loose=True)
+        failed = self._last_failure.failed_states
+        for k, p in zip(order, pts):
+            if p is None and any(c[2] is not None for c in failed.values()):
+                return float(sigmas[k])
+        return None
+
+    def _onset_end(self, cur: Point, bad: float) -> Event | None:
+        """The range end between ``cur`` and the invalid state at offset ``bad`` found by :meth:`_past_band_onset`:
+        bisection on validity (the stiffness that vanishes is inside a band, not at its outer end, so the
+        extrapolation of :meth:`pull_in_end` does not apply), or None when it finds no end there."""
+        codes = [c[2] for c in self._last_failure.failed_states.values() if c[2] is not None]
+        code = codes[0]
+        found = self.validity_bisection(cur, bad, 0.0, float(bad), _validity_tol(code))
+        if found is None:
+            return None
+        best, lo, hi, new_code = found
+        code = new_code if new_code is not None else code
+        if best is cur or code == STEP_LIMIT:
+            return None
+        return self._end_at(best, lo, hi, *failure_reason(code))
 
     def _hides_invalid(self, a: Point, b: Point) -> bool:
         """Whether the step ``a -> b`` (both valid) crosses states that are not valid: converged points at

@@ -187,6 +187,162 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
     return float(x[0]) if scalar else x
 
 
+#: meridional stretches at which the wrinkled stiffness is sampled for :func:`band_pull_in_onset`
+ONSET_STRETCHES = np.geomspace(1.001, 20.0, 160)
+#: voltages (fractions of the window's top) at which :func:`band_pull_in_onset` brackets the onset
+ONSET_VOLTAGES = 8
+#: relative tolerance of :func:`band_pull_in_onset`'s voltage (it places probes, it is not reported)
+ONSET_TOL = 1e-10
+
+
+def _onset_stretches(model: MembraneModel) -> np.ndarray:
+    """:data:`ONSET_STRETCHES` below the uniaxial locking stretch of a Gent membrane (``√2`` times its equibiaxial
+    one: ``λ1² + 2/λ1 − 3 = Jlim`` against ``2λ² + λ⁻⁴ − 3``), where no strip has a width at any voltage (each such
+    stretch costs the width's whole iteration)."""
+    locking = getattr(getattr(model, "elasticity", None), "locking_stretch", None)
+    if locking is None or not np.isfinite(locking):
+        return ONSET_STRETCHES
+    return ONSET_STRETCHES[ONSET_STRETCHES < math.sqrt(2.0) * locking]
+
+
+def _wrinkled_stiffness(model: MembraneModel, l1, phi) -> np.ndarray:
+    """``K/T̂11`` of hoop-wrinkled material at ``(λ1, Φ̂)`` (``K = T̂11 − T̂12²/T̂22`` at the natural width); ``inf``
+    where there is no natural width."""
+    l1, phi = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(phi, dtype=float))
+    w = natural_width(model, l1, phi)
+    with np.errstate(all="ignore"):
+        _, _, T11, T12, _, _, T22 = (np.asarray(a, dtype=float) * np.ones(l1.shape) for a in model.tensions(l1, w, phi))
+        k = (T11 - T12 * T12 / T22) / T11
+    return np.where(np.isfinite(k), k, np.inf)
+
+
+def band_pull_in_onset(model: MembraneModel, phi_hi: float) -> float | None:
+    """The lowest voltage ``Φ̂c ≤ phi_hi`` at which a hoop-wrinkled strip of the material loses its stiffness
+    somewhere: the root of ``g(Φ̂) = min_λ1 K(λ1; Φ̂)/T̂11``, where ``K = T̂11 − T̂12²/T̂22`` at the natural width
+    ``λ2*(λ1; Φ̂)`` is the slope ``dT̂1ʷ/dλ1`` of the wrinkled tension (docs/physics.md, section 10).
+
+    Above ``Φ̂c`` the stretches around the first zero of ``K`` are unstable (pull-in), an interval born with zero
+    width: a state whose wrinkled band spans it stops being valid just above ``Φ̂c``, and may be valid again a little
+    higher, once its band's stretches have moved past the unstable ones (a Gent membrane on a huge chamber: invalid
+    from 3.72295 to about 3.727 kV, ``λ1 ≈ 5.21`` unstable from ``Φ̂c``, 3.722945 kV; review, helper-77). The
+    continuation probes just past ``Φ̂c`` (:meth:`coexist.continuation.Tracer._one_way`).
+
+    ``K/T̂11`` is sampled on :data:`ONSET_STRETCHES` at :data:`ONSET_VOLTAGES` voltages up to ``phi_hi``; the first
+    that is not positive somewhere brackets ``Φ̂c``, whose ``g`` (the minimum over stretches refined by a parabola
+    through the three samples around it, the samples narrowing with the bracket) is then solved by regula falsi
+    (Illinois) to :data:`ONSET_TOL`. Cached per model and ``phi_hi``.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        One layer of a tension-field membrane (a patterned zone's layers carry ``Φ̂/n`` each).
+    phi_hi : float
+        The largest voltage of interest.
+
+    Returns
+    -------
+    float or None
+        ``Φ̂c``, or None when the stiffness stays positive up to ``phi_hi``.
+    """
+    key = ("band pull-in onset", float(phi_hi))
+    built = model._built
+    if key not in built:
+        built[key] = _band_pull_in_onset(model, float(phi_hi))
+    return built[key]
+
+
+def softened_at(model: MembraneModel, phi: float) -> bool:
+    """Whether hoop-wrinkled material loses its stiffness somewhere at voltage ``Φ̂``: ``K/T̂11 ≤ 0`` at some sampled
+    stretch (:data:`ONSET_STRETCHES`; :func:`band_pull_in_onset`). Monotone in ``Φ̂``: the largest voltage found
+    not softened and the smallest found softened are remembered per model, and a voltage outside them is
+    answered without evaluating the material.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        One layer of a tension-field membrane.
+    phi : float
+        The voltage ``Φ̂``.
+
+    Returns
+    -------
+    bool
+    """
+    memo = model._built.setdefault("band softened", [0.0, np.inf])  # [largest not softened, smallest softened]
+    if phi <= memo[0]:
+        return False
+    if phi >= memo[1]:
+        return True
+    soft = bool(np.any(_wrinkled_stiffness(model, _onset_stretches(model), phi) <= 0))
+    if soft:
+        memo[1] = phi
+    else:
+        memo[0] = phi
+    return soft
+
+
+def _band_pull_in_onset(model: MembraneModel, phi_hi: float) -> float | None:
+    if not phi_hi > 0:
+        return None
+    grid = _onset_stretches(model)
+    top = _wrinkled_stiffness(model, grid, phi_hi)
+    if not np.any(top <= 0):
+        return None
+    l1 = grid[np.isfinite(top)]  # beyond locking there is no width at any voltage: not sampled again
+    phis = phi_hi * np.arange(1, ONSET_VOLTAGES + 1) / ONSET_VOLTAGES
+    K = _wrinkled_stiffness(model, np.tile(l1, phis.size), np.repeat(phis, l1.size)).reshape(phis.size, l1.size)
+    j = int(np.argmax(np.any(K <= 0, axis=1)))
+    lo, hi = (phis[j - 1] if j else 0.0), phis[j]
+    i = int(np.argmin(K[j]))
+    centre, half = l1[i], 2.0 * (l1[min(i + 1, l1.size - 1)] - l1[max(i - 1, 0)])
+
+    def g(phi):
+        nonlocal centre, half
+        x = centre + half * np.linspace(-1.0, 1.0, 9)
+        x = x[x > 1.0]
+        k = _wrinkled_stiffness(model, x, phi)
+        m = int(np.argmin(k))
+        best = float(k[m])
+        if 0 < m < x.size - 1 and np.all(np.isfinite(k[m - 1 : m + 2])):
+            a, b, c = k[m - 1], k[m], k[m + 1]
+            curv = a - 2 * b + c
+            if curv > 0:
+                best = float(b - (a - c) ** 2 / (8 * curv))
+                centre = float(x[m] + 0.5 * (a - c) / curv * (x[1] - x[0]))
+            else:
+                centre = float(x[m])
+        else:
+            centre = float(x[m])
+        half = max(0.7 * half, 1e-6 * centre)
+        return best
+
+    g_hi = g(hi)  # first: around the sampled minimum
+    g_lo = g(lo) if lo > 0 else np.inf
+    if not g_hi <= 0:  # the refined minimum disagrees with the samples: the sampled voltage is the bound
+        return float(hi)
+    side = 0
+    for _ in range(100):
+        if hi - lo <= ONSET_TOL * hi:
+            break
+        if np.isfinite(g_lo):
+            x = hi - g_hi * (hi - lo) / (g_hi - g_lo)
+            x = min(max(x, lo + 0.01 * (hi - lo)), hi - 0.01 * (hi - lo))
+        else:
+            x = 0.5 * (lo + hi)
+        gx = g(x)
+        if gx <= 0:
+            hi, g_hi = x, gx
+            if side == -1:
+                g_lo *= 0.5
+            side = -1
+        else:
+            lo, g_lo = x, gx
+            if side == 1:
+                g_hi *= 0.5
+            side = 1
+    return float(hi)
+
+
 def natural_width_neo_hookean(l1, phi=0.0):
     """Closed form ``λ2* = [λ1²(1 − Φ̂²λ1²)]^(−1/4)`` of a neo-Hookean membrane (NaN for ``Φ̂λ1 ≥ 1``).
 
