@@ -749,7 +749,8 @@ class Simulation:
     def coexistence(self, bulged=None) -> list[CoexistenceEntry]:
         """For each ``k`` in ``bulged`` (default ``1..N−1``): the stable segments of ``k`` bulged zones
         (ranges with their exact ends) and the voltages where they have the free energy of the
-        homogeneous state, with the coexisting states there.
+        homogeneous state, or two of them (branches of the configuration) each other's, with the coexisting
+        states there.
 
         Every segment a slow ramp over :attr:`phi_window` (up and back, unless the window is one voltage)
         reaches is traced first, then :meth:`discover` seeds the others. A jump of that ramp that finds no
@@ -805,10 +806,14 @@ class Simulation:
             )
             crossings = equal_free_energy(homog + segs)
             labels = {s.label for s in segs}
+            # against the homogeneous state, and between two branches of this configuration (two zone-curve pieces of
+            # the bulged zones, both stable at one voltage: the ramp jumps between them; review, helper-77: two
+            # zones' 3.997852120 kV was in the ramp only)
             crossings = [
                 c
                 for c in crossings
-                if "homogeneous" in (c.from_label, c.to_label) and {c.from_label, c.to_label} & labels
+                if ("homogeneous" in (c.from_label, c.to_label) and {c.from_label, c.to_label} & labels)
+                or (c.from_label == c.to_label and c.from_label in labels)
             ]
             if self.settings.error_estimates:
                 self.measure_errors(crossings)
@@ -820,7 +825,7 @@ class Simulation:
                 f"{self.scene.voltage_of(self.phi_window[0]) / 1e3:.4g} and "
                 f"{self.scene.voltage_of(self.phi_window[1]) / 1e3:.4g} kV"
             )
-            if segs and homog and not crossings:
+            if segs and homog and not any("homogeneous" in (c.from_label, c.to_label) for c in crossings):
                 note = self._no_equal_free_energy(homog, segs)
             if unreached is not None:
                 note = unreached if note is None else f"{note}; {unreached}"
@@ -1134,7 +1139,9 @@ class CoexistenceEntry:
     segments : list of StableSegment
         Its stable segments, by increasing voltage.
     crossings : list of Transition
-        Its equal-free-energy voltages against the homogeneous state.
+        Its equal-free-energy voltages against the homogeneous state, and between two of its branches (segments of
+        one configuration on different pieces of the zone curve, stable at one voltage: ``from_label ==
+        to_label``).
     note : str or None
         Why there is no stable segment in the window, or why its stable segments have no equal free energy with
         the homogeneous state (never stable at one voltage together, or their free energies do not cross where

@@ -84,3 +84,39 @@ def test_a_stable_range_is_listed_once_at_draft_accuracy():
     assert len(draft) == len(default) == 2
     for (a0, a1), (b0, b1) in zip(draft, default):
         assert a0 == pytest.approx(b0, abs=1e-5) and a1 == pytest.approx(b1, abs=1e-5)
+
+
+def test_two_branches_of_one_configuration_and_their_equal_free_energy(tmp_path):
+    """Two zones: one bulged zone has two stable branches, 3.852155214-4.106048950 kV (bulged λ0 2.0 to 3.1) and
+    3.948982644-4.352468013 kV (5.0 to 5.8), and the ramp gives their equal free energy, 3.997852120 kV ("another
+    branch of the same configuration"). `coexistence` listed both ranges under one label with no word of which is
+    which, and not that crossing (review, helper-77). It gives each range's bulged pole stretch and the crossing,
+    with both states; the homogeneous state still has no equal free energy with either."""
+    import json
+    import re
+
+    from click.testing import CliRunner
+
+    from coexist.cli.main import cli
+    from coexist.scene import builtin_scene_text
+
+    text = re.sub(r"^count = 3$", "count = 2", builtin_scene_text("tricircle"), flags=re.M)
+    path = tmp_path / "two.toml"
+    path.write_text(text)
+    r = CliRunner().invoke(cli, ["coexistence", str(path), "--json"])
+    ramp = CliRunner().invoke(cli, ["ramp", str(path), "--json"])
+    assert r.exit_code == 0 and ramp.exit_code == 0, r.output + ramp.output
+    (entry,) = json.loads(r.stdout)["configurations"]
+    low, high = entry["stable_ranges"]
+    assert low["bulged_pole_stretch"][1] < 3.1 < 4.9 < high["bulged_pole_stretch"][0]
+    (efe,) = entry["equal_free_energy"]
+    assert efe["between"] == "branches"
+    (same,) = [
+        t for t in json.loads(ramp.stdout)["transitions"] if t["kind"] == "equal_free_energy" and t["from"] == t["to"]
+    ]
+    assert abs(efe["voltage_kV"] - same["voltage_kV"]) <= efe["voltage_error_kV"] + same["voltage_error_kV"]
+    assert efe["voltage_kV"] == pytest.approx(3.997852120, abs=2e-8)
+    assert sorted([efe["bulged_pole_stretch"], efe["other_branch"]["bulged_pole_stretch"]]) == pytest.approx(
+        [2.4833, 5.2901], abs=1e-4
+    )
+    assert "no equal free energy with the homogeneous state" in entry["note"]

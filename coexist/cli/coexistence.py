@@ -24,8 +24,9 @@ MAX_DEFAULT_CONFIGURATIONS = 12
 @library_errors
 def coexistence(scene, bulged, as_json, accuracy, rtol):
     """For each k bulged zones of SCENE (default: tricircle): the voltages where k bulged zones are
-    stable (each range with the events that end it, located on the exact equations), and the voltages
-    where they have the free energy of the homogeneous state, with the coexisting states there.
+    stable (each range with the events that end it, located on the exact equations; with the bulged zones'
+    pole stretch along it where the configuration has several branches), and the voltages where they have the
+    free energy of the homogeneous state, or two branches each other's, with the coexisting states there.
 
     The same stable segments as `coexist ramp` (one map of the exact equilibria): the ramp's
     transitions are ends of these ranges. A scene without [voltage] lists every equilibrium of its
@@ -62,10 +63,21 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
     rows = sim.coexistence(ks)
     kv = lambda phi: float(sc.voltage_of(phi) / 1e3)  # noqa: E731
     out = []
+
+    def state(st):
+        return {
+            "pressure_mbar": float(sc.pressure(st.p_hat) / 100),
+            "unbulged_volume_ml": float(sc.volume(st.v_unbulged) * 1e6),
+            "bulged_volume_ml": float(sc.volume(st.v_bulged) * 1e6),
+            "unbulged_pole_stretch": st.pole_stretch_unbulged,
+            "bulged_pole_stretch": st.pole_stretch_bulged,
+        }
+
     for r in rows:
         ranges = []
         for seg in r.segments:
             lo, hi = seg.low, seg.high
+            ends = [seg.points[i].eq.pole_stretch for i in (seg._order[0], seg._order[-1])]
             ranges.append(
                 {
                     "configuration": seg.label,
@@ -75,22 +87,20 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
                     "to_kV": kv(seg.end_phi(+1)),
                     "to_error_kV": kv(getattr(hi, "error", 0.0) or 0.0),
                     "to_event": getattr(hi, "kind", "window") if hi is not None else "window",
+                    # the bulged zones' pole stretch at the range's lowest and highest traced state: which branch
+                    "bulged_pole_stretch": [float(e[-1]) for e in ends],
                 }
             )
         equal = []
         for c in r.crossings:
-            st = c.state_after if c.to_label != "homogeneous" else c.state_before
-            equal.append(
-                {
-                    "voltage_kV": kv(c.phi_hat),
-                    "voltage_error_kV": kv(c.phi_hat_error),
-                    "pressure_mbar": float(sc.pressure(st.p_hat) / 100),
-                    "unbulged_volume_ml": float(sc.volume(st.v_unbulged) * 1e6),
-                    "bulged_volume_ml": float(sc.volume(st.v_bulged) * 1e6),
-                    "unbulged_pole_stretch": st.pole_stretch_unbulged,
-                    "bulged_pole_stretch": st.pole_stretch_bulged,
-                }
-            )
+            at = {"voltage_kV": kv(c.phi_hat), "voltage_error_kV": kv(c.phi_hat_error)}
+            if c.from_label == c.to_label:  # two branches of the configuration: both states
+                equal.append(
+                    at | {"between": "branches"} | state(c.state_after) | {"other_branch": state(c.state_before)}
+                )
+            else:
+                st = c.state_after if c.to_label != "homogeneous" else c.state_before
+                equal.append(at | {"between": "homogeneous"} | state(st))
         out.append(
             {
                 "bulged_zones": r.k,
@@ -109,24 +119,37 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
             click.echo(f"  never stable: {o.get('note', '')}")
         elif o.get("note"):  # e.g. the ramp over the window stopped at a jump: what was not reached
             click.echo(f"  note: {o['note']}")
+        several = len(o["stable_ranges"]) > 1
         for g in o["stable_ranges"]:
             plain = f"{o['bulged_zones']} of {o['zones']} bulged"
             which = "" if g["configuration"] == plain else f" [{g['configuration']}]"
+            if several:  # which branch: the bulged zones' pole stretch along it
+                which += " (bulged λ0 {:.4f} to {:.4f})".format(*g["bulged_pole_stretch"])
             click.echo(
                 f"  stable from {format_voltage(g['from_kV'], g['from_error_kV'])} ({g['from_event']}) "
                 f"to {format_voltage(g['to_kV'], g['to_error_kV'])} ({g['to_event']}){which}"
             )
         for e in o["equal_free_energy"]:
             at = format_voltage(e["voltage_kV"], e["voltage_error_kV"])
-            click.echo(
-                f"  equal free energy with the homogeneous state at {at}:"
-                f" {e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "
-                f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {e['bulged_volume_ml']:.4f} ml "
-                f"(λ0 {e['bulged_pole_stretch']:.4f})"
-            )
+            if e["between"] == "branches":
+                click.echo(
+                    f"  equal free energy between two of its branches at {at}: {_described(e['other_branch'])}; "
+                    f"and {_described(e)}"
+                )
+            else:
+                click.echo(f"  equal free energy with the homogeneous state at {at}: {_described(e)}")
     click.echo(
         f"(exact equilibria, solver rtol {sim.settings.rtol:.0e}; errors measured by locating each "
         "voltage again at rtol/100)"
+    )
+
+
+def _described(e) -> str:
+    """One coexisting state of an equal-free-energy entry: the pressure, each kind of zone's volume and pole stretch."""
+    return (
+        f"{e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "
+        f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {e['bulged_volume_ml']:.4f} ml "
+        f"(λ0 {e['bulged_pole_stretch']:.4f})"
     )
 
 
