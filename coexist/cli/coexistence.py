@@ -93,14 +93,14 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
             )
         equal = []
         for c in r.crossings:
-            at = {"voltage_kV": kv(c.phi_hat), "voltage_error_kV": kv(c.phi_hat_error)}
+            where = {"voltage_kV": kv(c.phi_hat), "voltage_error_kV": kv(c.phi_hat_error)}
             if c.from_label == c.to_label:  # two branches of the configuration: both states
                 equal.append(
-                    at | {"between": "branches"} | state(c.state_after) | {"other_branch": state(c.state_before)}
+                    where | {"between": "branches"} | state(c.state_after) | {"other_branch": state(c.state_before)}
                 )
             else:
                 st = c.state_after if c.to_label != "homogeneous" else c.state_before
-                equal.append(at | {"between": "homogeneous"} | state(st))
+                equal.append(where | {"between": "homogeneous"} | state(st))
         out.append(
             {
                 "bulged_zones": r.k,
