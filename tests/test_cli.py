@@ -213,3 +213,13 @@ def test_shape_refuses_a_voltage_given_twice():
     """``shape --voltage-kV 3,3`` printed the same state twice (sweep refuses a repeated value: review, helper-74)."""
     r = CliRunner().invoke(cli, ["shape", "--voltage-kV", "3,4,3"])
     assert r.exit_code == 2 and "3 kV is given more than once" in r.output
+
+
+def test_a_re_entry_past_a_pull_in_is_marked_as_the_models_convention():
+    """The default ramp leaves the model's range at the bulged zone's pull-in (4.336628993 kV) and, coming back down,
+    re-enters the state it left there. That is a convention of the model, not a prediction: the table said nothing of
+    it (review, helper-77). A line under the transitions says so."""
+    r = CliRunner().invoke(cli, ["ramp"])
+    assert r.exit_code == 0, r.output
+    assert "re_entry           down   4.336628993 kV" in r.output
+    assert "(re_entry: coming back below where the states left the model's range" in r.output

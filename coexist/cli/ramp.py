@@ -194,6 +194,12 @@ def _table(data):
             # an error that could not be measured (the re-location failed) is the location's bracket alone
             + ("" if t.get("error_measured", True) else "  (error not measured: its bracket only)")
         )
+    if any(t["kind"] == "re_entry" and t["event"] == "range_end" for t in data["transitions"]):
+        # the model's convention, not a prediction (review, helper-77): past a pull-in a real membrane may be damaged
+        click.echo(
+            "(re_entry: coming back below where the states left the model's range, the ramp takes the state it left; "
+            "a membrane that went past a pull-in may have thinned or broken down there, which the model cannot say)"
+        )
     click.echo(f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e})")
     for note in data["notes"]:
         info(f"note: {note}")
