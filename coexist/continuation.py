@@ -728,17 +728,6 @@ class Tracer:
                 # of another branch); the short step then meets the pull-in (a failed state) and ends the segment
                 h *= 0.5
                 continue
-            if any(_wrinkled(cur)) or any(_wrinkled(new)):
-                bad = self._past_band_onset(cur, new)
-                if bad is not None:
-                    # the material's wrinkled stiffness first vanishes inside the step, and a state just past that
-                    # voltage is invalid while both ends are valid (a huge chamber's zones: invalid from 3.72295 to
-                    # about 3.727 kV, stepped over and listed stable; review, helper-77): the end lies before it
-                    end = self._onset_end(cur, bad)
-                    if end is not None:
-                        break
-                    h *= 0.5
-                    continue
             if h > SHORT_STEP and any(_wrinkled(cur)) and self._hides_invalid(cur, new):
                 # a wrinkled band's states can stop being valid inside a step whose ends are both valid (a
                 # pressure-controlled zone at 17.8235 mbar: invalid, pulled in, over 2e-3 in Φ̂ within a step of
@@ -757,6 +746,19 @@ class Tracer:
                 # shorter step meets one fold at a time
                 h *= 0.5
                 continue
+            if any(_wrinkled(cur)) or any(_wrinkled(new)):
+                bad = self._past_band_onset(cur, new)
+                if bad is not None:
+                    # the material's wrinkled stiffness first vanishes inside the step, and a state just past that
+                    # voltage is invalid while both ends are valid (a huge chamber's zones: invalid from 3.72295 to
+                    # about 3.727 kV, stepped over and listed stable; review, helper-77): the end lies before it. With
+                    # an event in the step too, a shorter step separates them (the voltage is monotone along a step
+                    # without one, as the probes' placement takes it)
+                    end = None if found else self._onset_end(cur, bad)
+                    if end is not None:
+                        break
+                    h *= 0.5
+                    continue
             if getattr(self, "stable_only", False):
                 stop = [
                     e for e in found if (e.stable_before and not e.stable_after) or e.kind in ("merge", "breakdown")
@@ -913,7 +915,7 @@ class Tracer:
             if not lo < target < hi:
                 continue
             t0, t1 = 0.0, 1.0
-            for _ in range(60):  # the step's voltage is monotone in it (folds inside a step are split off before)
+            for _ in range(60):  # monotone along a step without events or hidden folds (checked before this)
                 mid = 0.5 * (t0 + t1)
                 if (phi_at(mid) < target) == rising:
                     t0 = mid

@@ -193,6 +193,8 @@ ONSET_STRETCHES = np.geomspace(1.001, 20.0, 160)
 ONSET_VOLTAGES = 8
 #: relative tolerance of :func:`band_pull_in_onset`'s voltage (it places probes, it is not reported)
 ONSET_TOL = 1e-10
+#: zoom rounds of the stencil that refines the smallest sampled stiffness (its spacing falls 4× a round)
+ONSET_ZOOMS = 3
 
 
 def _onset_stretches(model: MembraneModel) -> np.ndarray:
@@ -251,11 +253,43 @@ def band_pull_in_onset(model: MembraneModel, phi_hi: float) -> float | None:
     return built[key]
 
 
+def _stiffness_dip(model: MembraneModel, l1: np.ndarray, phi: float) -> tuple[float, bool]:
+    """The smallest ``K/T̂11`` of hoop-wrinkled material over the stretches ``l1`` (ascending) at ``phi``, and whether
+    the stiffness is positive again at a larger stretch (the material stiffens back, as a Gent membrane does; a
+    neo-Hookean strip's falls for good towards ``Φ̂λ1 = 1``: no interior onset, a band reaching it is an ordinary
+    pull-in; review, helper-78).
+
+    The minimum is taken over ``l1``, then on a stencil of 9 samples between the smallest one's neighbours, zoomed
+    :data:`ONSET_ZOOMS` times (near the onset the dip is narrower than the grid: at 3.725 kV, 2e-3 above it, the grid's
+    smallest is +0.019), and refined by the parabola through the three samples around the stencil's smallest.
+    Stateless: the minimum moves with the voltage (λ1 3.96 at Φ̂ 0.3, 5.21 at the onset for Gent 97), and a stencil
+    carried from the last voltage lost it (review, helper-78)."""
+    k = _wrinkled_stiffness(model, l1, phi)
+    i = int(np.argmin(k))
+    recovers = bool(np.any(np.isfinite(k[i:]) & (k[i:] > 0)))
+    best = float(k[i])
+    x = np.array([l1[max(i - 1, 0)], l1[i], l1[min(i + 1, l1.size - 1)]])
+    kx = k[max(i - 1, 0) : i + 2]
+    m = 0
+    for _ in range(ONSET_ZOOMS):  # 9 samples between the minimum's neighbours, a quarter of their spacing apart
+        x = np.linspace(x[0], x[-1], 9)
+        kx = _wrinkled_stiffness(model, x, phi)
+        m = int(np.argmin(kx))
+        best = min(best, float(kx[m]))
+        x = x[max(m - 1, 0) : m + 2]
+    if 0 < m < kx.size - 1 and np.all(np.isfinite(kx[m - 1 : m + 2])):
+        a, b, c = kx[m - 1], kx[m], kx[m + 1]
+        curv = a - 2 * b + c
+        if curv > 0:
+            best = min(best, float(b - (a - c) ** 2 / (8 * curv)))
+    return best, recovers
+
+
 def softened_at(model: MembraneModel, phi: float) -> bool:
-    """Whether hoop-wrinkled material loses its stiffness somewhere at voltage ``Φ̂``: ``K/T̂11 ≤ 0`` at some sampled
-    stretch (:data:`ONSET_STRETCHES`; :func:`band_pull_in_onset`). Monotone in ``Φ̂``: the largest voltage found
-    not softened and the smallest found softened are remembered per model, and a voltage outside them is
-    answered without evaluating the material.
+    """Whether hoop-wrinkled material loses its stiffness inside its range of stretches at voltage ``Φ̂``: the smallest
+    ``K/T̂11`` is not positive, and it is positive again at a larger stretch (:func:`_stiffness_dip`;
+    :func:`band_pull_in_onset`). Monotone in ``Φ̂``: the largest voltage found not softened and the smallest found
+    softened are remembered per model, and a voltage outside them is answered without evaluating the material.
 
     Parameters
     ----------
@@ -273,7 +307,8 @@ def softened_at(model: MembraneModel, phi: float) -> bool:
         return False
     if phi >= memo[1]:
         return True
-    soft = bool(np.any(_wrinkled_stiffness(model, _onset_stretches(model), phi) <= 0))
+    best, recovers = _stiffness_dip(model, _onset_stretches(model), phi)
+    soft = best <= 0 and recovers
     if soft:
         memo[1] = phi
     else:
@@ -282,62 +317,46 @@ def softened_at(model: MembraneModel, phi: float) -> bool:
 
 
 def _band_pull_in_onset(model: MembraneModel, phi_hi: float) -> float | None:
-    if not phi_hi > 0:
+    if not (phi_hi > 0 and softened_at(model, phi_hi)):
         return None
     grid = _onset_stretches(model)
-    top = _wrinkled_stiffness(model, grid, phi_hi)
-    if not np.any(top <= 0):
-        return None
-    l1 = grid[np.isfinite(top)]  # beyond locking there is no width at any voltage: not sampled again
+    l1 = grid[np.isfinite(_wrinkled_stiffness(model, grid, phi_hi))]  # beyond locking no width at any voltage
     phis = phi_hi * np.arange(1, ONSET_VOLTAGES + 1) / ONSET_VOLTAGES
     K = _wrinkled_stiffness(model, np.tile(l1, phis.size), np.repeat(phis, l1.size)).reshape(phis.size, l1.size)
-    j = int(np.argmax(np.any(K <= 0, axis=1)))
-    lo, hi = (phis[j - 1] if j else 0.0), phis[j]
-    i = int(np.argmin(K[j]))
-    centre, half = l1[i], 2.0 * (l1[min(i + 1, l1.size - 1)] - l1[max(i - 1, 0)])
+    soft_rows = [i for i in range(phis.size) if np.any(K[i] <= 0)]
+    j = soft_rows[0] if soft_rows else phis.size - 1  # the grid may miss a narrow dip: the top is soft (checked)
 
     def g(phi):
-        nonlocal centre, half
-        x = centre + half * np.linspace(-1.0, 1.0, 9)
-        x = x[x > 1.0]
-        k = _wrinkled_stiffness(model, x, phi)
-        m = int(np.argmin(k))
-        best = float(k[m])
-        if 0 < m < x.size - 1 and np.all(np.isfinite(k[m - 1 : m + 2])):
-            a, b, c = k[m - 1], k[m], k[m + 1]
-            curv = a - 2 * b + c
-            if curv > 0:
-                best = float(b - (a - c) ** 2 / (8 * curv))
-                centre = float(x[m] + 0.5 * (a - c) / curv * (x[1] - x[0]))
-            else:
-                centre = float(x[m])
-        else:
-            centre = float(x[m])
-        half = max(0.7 * half, 1e-6 * centre)
-        return best
+        return _stiffness_dip(model, l1, phi)[0]
 
-    g_hi = g(hi)  # first: around the sampled minimum
+    lo, hi = (phis[j - 1] if j else 0.0), phis[j]
+    g_hi = g(hi)
     g_lo = g(lo) if lo > 0 else np.inf
-    if not g_hi <= 0:  # the refined minimum disagrees with the samples: the sampled voltage is the bound
-        return float(hi)
+    while lo > 0 and not g_lo > 0:  # the grid missed a narrow dip below: the onset lies lower still
+        j -= 1
+        hi, g_hi = lo, g_lo
+        lo = phis[j - 1] if j else 0.0
+        g_lo = g(lo) if lo > 0 else np.inf
+    if not g_hi <= 0:  # the refined minimum disagrees with the samples: bisect on its sign alone
+        g_lo, g_hi = np.inf, -np.inf
     side = 0
-    for _ in range(100):
+    for _ in range(200):
         if hi - lo <= ONSET_TOL * hi:
             break
-        if np.isfinite(g_lo):
+        if np.isfinite(g_lo) and np.isfinite(g_hi):
             x = hi - g_hi * (hi - lo) / (g_hi - g_lo)
             x = min(max(x, lo + 0.01 * (hi - lo)), hi - 0.01 * (hi - lo))
         else:
             x = 0.5 * (lo + hi)
         gx = g(x)
         if gx <= 0:
-            hi, g_hi = x, gx
-            if side == -1:
+            hi, g_hi = x, (gx if np.isfinite(g_hi) else -np.inf)
+            if side == -1 and np.isfinite(g_lo):
                 g_lo *= 0.5
             side = -1
         else:
-            lo, g_lo = x, gx
-            if side == 1:
+            lo, g_lo = x, (gx if np.isfinite(g_lo) else np.inf)
+            if side == 1 and np.isfinite(g_hi):
                 g_hi *= 0.5
             side = 1
     return float(hi)
