@@ -25,8 +25,9 @@ MAX_DEFAULT_CONFIGURATIONS = 12
 def coexistence(scene, bulged, as_json, accuracy, rtol):
     """For each k bulged zones of SCENE (default: tricircle): the voltages where k bulged zones are
     stable (each range with the events that end it, located on the exact equations; with the bulged zones'
-    pole stretch along it where the configuration has several ranges: which branch), and the voltages where they have the
-    free energy of the homogeneous state, or two branches each other's, with the coexisting states there.
+    pole stretch along it where the configuration has several ranges: which branch), and the voltages
+    where they have the free energy of the homogeneous state, or two branches each other's, with the
+    coexisting states there.
 
     The same stable segments as `coexist ramp` (one map of the exact equilibria): the ramp's
     transitions are ends of these ranges. A scene without [voltage] lists every equilibrium of its
