@@ -189,32 +189,39 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
 
 #: meridional stretches at which the wrinkled stiffness is sampled for :func:`band_pull_in_onset`
 ONSET_STRETCHES = np.geomspace(1.001, 20.0, 160)
+#: ... whose ratio, a Gent membrane's sampled up to its uniaxial locking stretch instead (past 20 for Jlim ≳ 1300, where
+#: the unstable stretch lies beyond 20: review, helper-79)
+ONSET_RATIO = ONSET_STRETCHES[1] / ONSET_STRETCHES[0]
 #: voltages (fractions of the window's top) at which :func:`band_pull_in_onset` brackets the onset
 ONSET_VOLTAGES = 8
 #: relative tolerance of :func:`band_pull_in_onset`'s voltage (it places probes, it is not reported)
 ONSET_TOL = 1e-10
 #: zoom rounds of the stencil that refines the smallest sampled stiffness (its spacing falls 4× a round)
-ONSET_ZOOMS = 3
+ONSET_ZOOMS = 4
 
 
 def _onset_stretches(model: MembraneModel) -> np.ndarray:
-    """:data:`ONSET_STRETCHES` below the uniaxial locking stretch of a Gent membrane (``√2`` times its equibiaxial
-    one: ``λ1² + 2/λ1 − 3 = Jlim`` against ``2λ² + λ⁻⁴ − 3``), where no strip has a width at any voltage (each such
-    stretch costs the width's whole iteration)."""
+    """The stretches at which the wrinkled stiffness is sampled: :data:`ONSET_STRETCHES`, or for a Gent membrane the
+    same ratio of neighbours up to its uniaxial locking stretch (``√2`` times its equibiaxial one: ``λ1² + 2/λ1 − 3 =
+    Jlim`` against ``2λ² + λ⁻⁴ − 3``), beyond which no strip has a width at any voltage (each such stretch costs the
+    width's whole iteration)."""
     locking = getattr(getattr(model, "elasticity", None), "locking_stretch", None)
     if locking is None or not np.isfinite(locking):
         return ONSET_STRETCHES
-    return ONSET_STRETCHES[ONSET_STRETCHES < math.sqrt(2.0) * locking]
+    top = math.sqrt(2.0) * locking
+    n = int(math.ceil(math.log(top / ONSET_STRETCHES[0]) / math.log(ONSET_RATIO)))
+    return ONSET_STRETCHES[0] * ONSET_RATIO ** np.arange(n)
 
 
 def _wrinkled_stiffness(model: MembraneModel, l1, phi) -> np.ndarray:
-    """``K/T̂11`` of hoop-wrinkled material at ``(λ1, Φ̂)`` (``K = T̂11 − T̂12²/T̂22`` at the natural width); ``inf``
-    where there is no natural width."""
+    """``K/|T̂11|`` of hoop-wrinkled material at ``(λ1, Φ̂)`` (``K = T̂11 − T̂12²/T̂22`` at the natural width: its sign,
+    scaled; at high voltage ``T̂11`` is negative at small stretches, and ``K/T̂11`` had turned a negative ``K`` positive:
+    review, helper-79); ``inf`` where there is no natural width."""
     l1, phi = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(phi, dtype=float))
     w = natural_width(model, l1, phi)
     with np.errstate(all="ignore"):
         _, _, T11, T12, _, _, T22 = (np.asarray(a, dtype=float) * np.ones(l1.shape) for a in model.tensions(l1, w, phi))
-        k = (T11 - T12 * T12 / T22) / T11
+        k = (T11 - T12 * T12 / T22) / np.abs(T11)
     return np.where(np.isfinite(k), k, np.inf)
 
 
@@ -229,7 +236,7 @@ def band_pull_in_onset(model: MembraneModel, phi_hi: float) -> float | None:
     from 3.72295 to about 3.727 kV, ``λ1 ≈ 5.21`` unstable from ``Φ̂c``, 3.722945 kV; review, helper-77). The
     continuation probes just past ``Φ̂c`` (:meth:`coexist.continuation.Tracer._one_way`).
 
-    ``K/T̂11`` is sampled on :data:`ONSET_STRETCHES` at :data:`ONSET_VOLTAGES` voltages up to ``phi_hi``; the first
+    ``K/|T̂11|`` is sampled on :data:`ONSET_STRETCHES` at :data:`ONSET_VOLTAGES` voltages up to ``phi_hi``; the first
     that is not positive somewhere brackets ``Φ̂c``, whose ``g`` (the minimum over stretches refined by a parabola
     through the three samples around it, the samples narrowing with the bracket) is then solved by regula falsi
     (Illinois) to :data:`ONSET_TOL`. Cached per model and ``phi_hi``.
@@ -254,7 +261,7 @@ def band_pull_in_onset(model: MembraneModel, phi_hi: float) -> float | None:
 
 
 def _stiffness_dip(model: MembraneModel, l1: np.ndarray, phi: float) -> tuple[float, bool]:
-    """The smallest ``K/T̂11`` of hoop-wrinkled material over the stretches ``l1`` (ascending) at ``phi``, and whether
+    """The smallest ``K/|T̂11|`` of hoop-wrinkled material over the stretches ``l1`` (ascending) at ``phi``, and whether
     the stiffness is positive again at a larger stretch (the material stiffens back, as a Gent membrane does; a
     neo-Hookean strip's falls for good towards ``Φ̂λ1 = 1``: no interior onset, a band reaching it is an ordinary
     pull-in; review, helper-78).
@@ -266,7 +273,10 @@ def _stiffness_dip(model: MembraneModel, l1: np.ndarray, phi: float) -> tuple[fl
     carried from the last voltage lost it (review, helper-78)."""
     k = _wrinkled_stiffness(model, l1, phi)
     i = int(np.argmin(k))
-    recovers = bool(np.any(np.isfinite(k[i:]) & (k[i:] > 0)))
+    # positive again strictly past the minimum's neighbourhood (a neo-Hookean strip's smallest sample can be its last
+    # with a width, and the stencil then finds the singular fall towards Φ̂λ1 = 1 beside it: review, helper-79)
+    beyond = k[i + 2 :]
+    recovers = bool(np.any(np.isfinite(beyond) & (beyond > 0)))
     best = float(k[i])
     x = np.array([l1[max(i - 1, 0)], l1[i], l1[min(i + 1, l1.size - 1)]])
     kx = k[max(i - 1, 0) : i + 2]
@@ -287,7 +297,7 @@ def _stiffness_dip(model: MembraneModel, l1: np.ndarray, phi: float) -> tuple[fl
 
 def softened_at(model: MembraneModel, phi: float) -> bool:
     """Whether hoop-wrinkled material loses its stiffness inside its range of stretches at voltage ``Φ̂``: the smallest
-    ``K/T̂11`` is not positive, and it is positive again at a larger stretch (:func:`_stiffness_dip`;
+    ``K/|T̂11|`` is not positive, and it is positive again at a larger stretch (:func:`_stiffness_dip`;
     :func:`band_pull_in_onset`). Monotone in ``Φ̂``: the largest voltage found not softened and the smallest found
     softened are remembered per model, and a voltage outside them is answered without evaluating the material.
 
