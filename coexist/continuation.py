@@ -926,9 +926,9 @@ class Tracer:
             return None
         order = np.argsort(np.abs(sigmas))
         pts = self._points_at(a, b, sig_b, np.asarray(sigmas)[order], loose=True)
-        failed = self._last_failure.failed_states
-        for k, p in zip(order, pts):
-            if p is None and any(c[2] is not None for c in failed.values()):
+        failed = self._last_failure.failed_states  # per probe of the batch: its invalid state, if it had one
+        for i, (k, p) in enumerate(zip(order, pts)):
+            if p is None and failed.get(i, (None, None, None))[2] is not None:
                 return float(sigmas[k])
         return None
 
@@ -936,8 +936,7 @@ class Tracer:
         """The range end between ``cur`` and the invalid state at offset ``bad`` found by :meth:`_past_band_onset`:
         bisection on validity (the stiffness that vanishes is inside a band, not at its outer end, so the
         extrapolation of :meth:`pull_in_end` does not apply), or None when it finds no end there."""
-        codes = [c[2] for c in self._last_failure.failed_states.values() if c[2] is not None]
-        code = codes[0]
+        code = next(c[2] for c in self._last_failure.failed_states.values() if c[2] is not None)
         found = self.validity_bisection(cur, bad, 0.0, float(bad), _validity_tol(code))
         if found is None:
             return None
