@@ -510,9 +510,20 @@ class _Equations:
                     a = aux(l1, w, phi)
                     w = w - a[1] / a[6]
                 T1, T2, T11, T12, margin, E, T22 = aux(l1, w, phi)
-                # K relative to T̂11: near K = 0 the meridian's slope λ1' = −T̂1/(R̂K) diverges like an inverse
-                # square root and an integrator creeps towards it; below PULL_IN_TOLERANCE it is pull-in
-                out = [w - l2, fw - f1, T1, ca.fabs(E), (T11 - T12 * T12 / T22) / T11 - PULL_IN_TOLERANCE, margin, w]
+                # K relative to |T̂11|: near K = 0 the meridian's slope λ1' = −T̂1/(R̂K) diverges like an inverse
+                # square root and an integrator creeps towards it; below PULL_IN_TOLERANCE it is pull-in. The sign is
+                # K's: at high voltage T̂11 < 0 (Gent 200 at Φ̂ 0.3 for λ1 3.6-6.5), where K ≤ T̂11 < 0 too, and K/T̂11
+                # would read that unstable strip as stiff (no state with such a band was found: the pole pulls in
+                # first at those voltages; a safeguard, review helper-79)
+                out = [
+                    w - l2,
+                    fw - f1,
+                    T1,
+                    ca.fabs(E),
+                    (T11 - T12 * T12 / T22) / ca.fabs(T11) - PULL_IN_TOLERANCE,
+                    margin,
+                    w,
+                ]
             x = ca.vertcat(l1, l2, th, w0, phi, f0, f1, fw)
             store[key] = ca.Function("switching", [x], [ca.vertcat(*out)])
         return store[key]
