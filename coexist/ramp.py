@@ -509,6 +509,20 @@ class Ramp:
             except ModelRangeError as exc:
                 last_err = str(exc)
                 continue
+            beyond = (u < curve.grid[0]) | (u > curve.grid[-1])
+            if np.any(beyond):
+                # a zone of the lost state lies past the curve's first run of valid states (a wrinkled band's unstable
+                # stretches cut the run short below it: Gent 200 on a 1e6 ml chamber, the bulged zone at pole stretch
+                # 9.33 beyond invalid states from 8.78; review, helper-79): the flow, on the curve, cannot follow it
+                # (it had run off the curve and reported "stalled")
+                lam = self.emap.model.prestretch + float(u[np.flatnonzero(beyond)[0]]) ** 2
+                top = self.emap.model.prestretch + float(curve.grid[-1]) ** 2
+                last_err = (
+                    f"a zone of {seg.label} (pole stretch {lam:.6g}) lies past the zone curve at Φ̂ = {phi_f:.8g}, "
+                    f"whose first run of valid states ends at pole stretch {top:.6g} "
+                    f"({curve.stopped_because or 'its range'}): the jump cannot be followed on it"
+                )
+                continue
             v_scale = max(float(np.max(np.abs(curve.v(u)))), 1e-9)
             du = _bounded_push(curve, u, sign * 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12))
             counts_end, u_end, status, snaps = gradient_flow(
