@@ -490,6 +490,8 @@ class Tracer:
         self._end_points: list = []
         # the settings' own step budget, where this tracer's was raised (with_budget, _budget_end)
         self.base_steps: int = system.settings.max_steps
+        # the status code of the invalid probe just past a wrinkled band's onset (_past_band_onset, _onset_end)
+        self._onset_code: int | None = None
 
     # points -------------------------------------------------------------------------------------------
     def _point(self, corr: Corrected, i: int, orient, index) -> Point:
@@ -885,7 +887,7 @@ class Tracer:
         Returns
         -------
         float or None
-            The offset of the first invalid probe (``self._last_failure`` holds its failure), or None.
+            The offset of the first invalid probe (``self._onset_code`` holds its failure's status code), or None.
         """
         from .wrinkling import band_pull_in_onset, softened_at
 
@@ -928,7 +930,9 @@ class Tracer:
         pts = self._points_at(a, b, sig_b, np.asarray(sigmas)[order], loose=True)
         failed = self._last_failure.failed_states  # per probe of the batch: its invalid state, if it had one
         for i, (k, p) in enumerate(zip(order, pts)):
-            if p is None and failed.get(i, (None, None, None))[2] is not None:
+            code = failed.get(i, (None, None, None))[2]
+            if p is None and code is not None:
+                self._onset_code = code
                 return float(sigmas[k])
         return None
 
@@ -936,13 +940,13 @@ class Tracer:
         """The range end between ``cur`` and the invalid state at offset ``bad`` found by :meth:`_past_band_onset`:
         bisection on validity (the stiffness that vanishes is inside a band, not at its outer end, so the
         extrapolation of :meth:`pull_in_end` does not apply), or None when it finds no end there."""
-        code = next(c[2] for c in self._last_failure.failed_states.values() if c[2] is not None)
+        code = self._onset_code  # the invalid probe's own failure (review, helper-80: the first in the batch's dict)
         found = self.validity_bisection(cur, bad, 0.0, float(bad), _validity_tol(code))
         if found is None:
             return None
         best, lo, hi, new_code = found
         code = new_code if new_code is not None else code
-        if best is cur or code == STEP_LIMIT:
+        if best is cur or code is None or code == STEP_LIMIT:
             return None
         return self._end_at(best, lo, hi, *failure_reason(code))
 

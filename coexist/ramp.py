@@ -511,15 +511,17 @@ class Ramp:
                 continue
             beyond = (u < curve.grid[0]) | (u > curve.grid[-1])
             if np.any(beyond):
-                # a zone of the lost state lies past the curve's first run of valid states (a wrinkled band's unstable
-                # stretches cut the run short below it: Gent 200 on a 1e6 ml chamber, the bulged zone at pole stretch
-                # 9.33 beyond invalid states from 8.78; review, helper-79): the flow, on the curve, cannot follow it
-                # (it had run off the curve and reported "stalled")
+                # a zone of the lost state lies past the end of the zone curve (which stops at a failed state or a
+                # jump of its states: Gent 200 on a 1e6 ml chamber, the bulged zone at pole stretch 9.33 beyond
+                # states that pull in from 8.78; review, helper-79): the flow, on the curve, cannot follow it. It had
+                # run on the spline extrapolated past the end, and reported "stalled", or a volume fold that was never
+                # computed (review, helper-80: Jlim 200/300 on 1e6 ml at 19-20 mbar ended with "no axisymmetric state
+                # is stable" from a spline extrapolated from 5.5 to 9.5)
                 lam = self.emap.model.prestretch + float(u[np.flatnonzero(beyond)[0]]) ** 2
                 top = self.emap.model.prestretch + float(curve.grid[-1]) ** 2
                 last_err = (
                     f"a zone of {seg.label} (pole stretch {lam:.6g}) lies past the zone curve at Φ̂ = {phi_f:.8g}, "
-                    f"whose first run of valid states ends at pole stretch {top:.6g} "
+                    f"whose states end at pole stretch {top:.6g} "
                     f"({curve.stopped_because or 'its range'}): the jump cannot be followed on it"
                 )
                 continue

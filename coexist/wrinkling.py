@@ -512,9 +512,9 @@ class _Equations:
                 T1, T2, T11, T12, margin, E, T22 = aux(l1, w, phi)
                 # K relative to |T̂11|: near K = 0 the meridian's slope λ1' = −T̂1/(R̂K) diverges like an inverse
                 # square root and an integrator creeps towards it; below PULL_IN_TOLERANCE it is pull-in. The sign is
-                # K's: at high voltage T̂11 < 0 (Gent 200 at Φ̂ 0.3 for λ1 3.6-6.5), where K ≤ T̂11 < 0 too, and K/T̂11
-                # would read that unstable strip as stiff (no state with such a band was found: the pole pulls in
-                # first at those voltages; a safeguard, review helper-79)
+                # K's (K ≤ T̂11): a safeguard only, for with the ideal dielectric T̂11 < 0 forces T̂1 < 0, a slack node,
+                # and K/T̂11 falls to −∞ before T̂11 changes sign (review, helper-80); K/|T̂11| = K/T̂11 wherever a
+                # node is valid
                 out = [
                     w - l2,
                     fw - f1,
