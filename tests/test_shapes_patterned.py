@@ -218,14 +218,16 @@ def test_a_step_past_the_snap_through_ends_the_states_at_the_fold(voltages):
         assert bool(e["groups"]) == (e["voltage_kV"] <= lo), e
 
 
-def _inner_circle_with_volume(tmp_path, volume_ml):
+def _inner_circle_with(tmp_path, **lines):
     import re
 
     from coexist.scene import builtin_scene_text
 
-    text, n = re.subn(r"^volume_ml = .*$", f"volume_ml = {volume_ml}", builtin_scene_text("inner-circle"), flags=re.M)
-    assert n == 1
-    path = tmp_path / f"v{volume_ml}.toml"
+    text = builtin_scene_text("inner-circle")
+    for key, value in lines.items():
+        text, n = re.subn(rf"^{key} = .*$", f"{key} = {value}", text, flags=re.M)
+        assert n == 1, key
+    path = tmp_path / "variant.toml"
     path.write_text(text)
     return str(path)
 
@@ -248,7 +250,7 @@ def test_the_fold_of_a_zone_on_a_small_chamber_ends_the_states_whatever_the_list
     the far branch (λ0 3.2456 -> 5.7443 on a step, the balance's maximum just behind the last state) and ended
     "wrinkled" at 4.3612 kV (review, helper-75). A root far from the prediction is not taken on a long step: the step
     is halved, and at the smallest one the balance decides."""
-    data = _shape_json(_inner_circle_with_volume(tmp_path, 50), voltages)
+    data = _shape_json(_inner_circle_with(tmp_path, volume_ml=50), voltages)
     assert data["end"]["kind"] == "snap-through"
     lo, hi = data["end"]["voltage_kV"]
     assert 4.22320 <= lo <= hi <= 4.22323
@@ -258,7 +260,7 @@ def test_a_root_that_moves_fast_past_a_wiggle_of_the_balance_is_the_branch(tmp_p
     """On a 3000 ml chamber the zone's root runs from λ0 3.48 at 3.80 kV to 4.73 at 3.85 kV, while the balance at 3.85
     kV has a maximum below 0 behind it (a wiggle, no fold). ``0,3.8,3.85`` took that maximum for a fold and ended the
     states, where ``0,3.83,3.85`` gave λ0 4.7286 (review, helper-75): both give the state now."""
-    scene = _inner_circle_with_volume(tmp_path, 3000)
+    scene = _inner_circle_with(tmp_path, volume_ml=3000)
     for voltages in ("0,3.8,3.85", "0,3.83,3.85"):
         (state,) = [e for e in _shape_json(scene, voltages)["voltages"] if e["voltage_kV"] == 3.85]
         assert state["groups"] and state["groups"][0]["pole_stretch"] == pytest.approx(4.728646, abs=1e-5), voltages
@@ -270,26 +272,12 @@ def test_a_voltage_that_failed_from_far_below_is_tried_again_from_the_state_next
     maximum below 0 (λ0 3.905, a dip: its root lies at 4.978); that "fold" was seen twice from far below and then
     taken as the end once halved steps had crept up to within 1e-6 of it, without trying it from there. Now the
     states pass it: at 4.0 kV the ramp's pole stretch 5.406707 (``ramp --json``), and they end at the wrinkling."""
-    data = _shape_json(_inner_circle_with_volume(tmp_path, 3000), "0:5:0.5")
+    data = _shape_json(_inner_circle_with(tmp_path, volume_ml=3000), "0:5:0.5")
     (state,) = [e for e in data["voltages"] if e["voltage_kV"] == 4.0]
     assert state["groups"][0]["pole_stretch"] == pytest.approx(5.406707, abs=1e-5)
     assert data["end"]["kind"] == "wrinkled"
     lo, hi = data["end"]["voltage_kV"]
     assert lo - 1e-8 <= 4.338944742 <= hi + 1e-8 and hi - lo < 1e-4
-
-
-def _inner_circle_with(tmp_path, **lines):
-    import re
-
-    from coexist.scene import builtin_scene_text
-
-    text = builtin_scene_text("inner-circle")
-    for key, value in lines.items():
-        text, n = re.subn(rf"^{key} = .*$", f"{key} = {value}", text, flags=re.M)
-        assert n == 1, key
-    path = tmp_path / "variant.toml"
-    path.write_text(text)
-    return str(path)
 
 
 def test_a_closing_pressure_above_the_snap_through_is_refused_as_by_the_ramp(tmp_path):
