@@ -719,6 +719,21 @@ class Tracer:
                     break
                 h *= 0.5
                 continue
+            edge = self._window_edge(cur, new)
+            if edge is not None:
+                # the step leaves the voltage window: it ends on the window's edge instead (a step past Φ̂ = 0 had
+                # landed on another branch of the mirrored states at Φ̂ < 0, and a 'split' located on that jump
+                # ended a stable segment at 0.06 kV ± 0.05 where none is: two bulged zones on a 1e6 ml chamber)
+                new = self._at_edge(prev, cur, h, edge)
+                if new is cur:  # already on the edge
+                    end = self._window_end(edge, cur, cur.stable)
+                    break
+                if new is None:
+                    if h <= cfg.min_step:
+                        notes.append(f"continuation stopped at Φ̂ = {cur.phi:.8g}: no state at the window's edge")
+                        break
+                    h *= 0.5
+                    continue
             turn = float(np.arccos(np.clip(new.tangent @ cur.tangent, -1, 1)))
             if turn > cfg.max_turn and h > cfg.min_step:
                 h *= 0.5
@@ -778,17 +793,10 @@ class Tracer:
                     events.extend(e for e in found if e.s < end.s and not any(e is x for x in same))
                     break
             events.extend(found)
-            if not (self.phi_lo <= new.phi <= self.phi_hi):
-                end = Event(
-                    kind="window",
-                    phi_hat=self.phi_hi if new.phi > self.phi_hi else self.phi_lo,
-                    eq=new.eq,
-                    z=new.z,
-                    s=new.s,
-                    stable_before=cur.stable,
-                    stable_after=cur.stable,
-                    note="the voltage leaves the window asked for",
-                )
+            if edge is not None or not (self.phi_lo <= new.phi <= self.phi_hi):
+                if edge is None:
+                    edge = self.phi_hi if new.phi > self.phi_hi else self.phi_lo
+                end = self._window_end(edge, new, cur.stable)
                 pts.append(new)
                 break
             pts.append(new)
@@ -1108,6 +1116,46 @@ class Tracer:
         b.index = tuple(max(x, 0) for x in new_index)
         b.stable = _is_stable(b.eq, b.index)
         b.eq.zone_index = tuple(b.index[k] for k in np.argsort(b.z[:M], kind="stable"))
+
+    @staticmethod
+    def _window_end(edge: float, pt: Point, stable: bool) -> Event:
+        """The event that ends a branch at the window's ``edge``, with the state ``pt`` there."""
+        return Event(
+            kind="window",
+            phi_hat=edge,
+            eq=pt.eq,
+            z=pt.z,
+            s=pt.s,
+            stable_before=stable,
+            stable_after=stable,
+            note="the voltage leaves the window asked for",
+        )
+
+    def _window_edge(self, cur: Point, new: Point) -> float | None:
+        """The edge of the voltage window that the step ``cur -> new`` crosses (``cur`` inside it or on it, ``new``
+        beyond it), or None."""
+        if new.phi < self.phi_lo <= cur.phi:
+            return self.phi_lo
+        if new.phi > self.phi_hi >= cur.phi:
+            return self.phi_hi
+        return None
+
+    def _at_edge(self, prev, cur: Point, h: float, edge: float) -> Point | None:
+        """The branch's state at the window's ``edge`` (a loose solve at that voltage from the predictor that
+        reaches it; ``cur`` itself when it lies on the edge already), or None where it fails or the predictor
+        does not reach the edge (a fold there)."""
+        if cur.phi == edge:
+            return cur
+        rate = float(cur.tangent[self.M])
+        if rate == 0.0:
+            return None
+        reach = (edge * self.w - float(cur.z[self.M])) / rate
+        if not 0.0 < reach <= h:
+            return None
+        guess = self._predict(prev, cur, reach)
+        normal = np.zeros(self.M + 1)
+        normal[self.M] = 1.0
+        return self._solve(guess, normal, edge * self.w, cur.tangent, cur.index, loose=True)
 
     def _predict(self, prev, cur, h):
         """The predictor at arclength ``h`` beyond ``cur``: cubic Hermite extrapolation through the last two
