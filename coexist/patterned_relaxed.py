@@ -279,8 +279,15 @@ def _blank_start(m: int, rows: int, atol) -> dict:
     return {**blank, "y": np.full((rows, m), np.nan), "atol": atol, "mode": np.full(m, TAUT)}
 
 
-def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
+def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole, stops=None):
     """One relaxed shooting of every state with the interfaces at ``s fk`` (``s = e^σ``).
+
+    With ``stops`` (increasing reference fractions in ``[0, 1]``, the interface fractions among them) the
+    meridian is also recorded there (:func:`_record_stops`, for a profile): ``rows`` ``(stops, 7, m)`` holds the
+    state rows (trial scaling; row 1 the geometric hoop stretch ``ρ``) at the radii ``radii`` ``(stops, m)``:
+    ``stop · s`` inside a region (a stop of the shooting, which restarts there: the trajectory differs from the
+    one without stops by the integration's tolerance), the interface's inner side at an interface fraction, the
+    pole's series below the series radius, and the clamp (``ρ = λpre``, ``z`` the state's) at 1.
 
     Returns a dict: ``status`` (0 where the clamp was reached in the last region, :data:`_EARLY_CLAMP` where
     before it, :data:`_FAR_CLAMP` where not within ``LAST_REGION_REACH·s``, else a failure code), ``R`` (the
@@ -322,12 +329,16 @@ def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
     }
     live = np.arange(m)
     fV, fQ, fPsi, _ = QUADRATURE_FACTORS
+    if stops is not None:
+        res["rows"], res["radii"] = _series_stops(model, lay, l0, p_t, s, stops, R0)
     for k in range(K):
         if live.size == 0:
             break
         last = k == K - 1
         stop = s[live] * (min(LAST_REGION_REACH, settings.max_radius_factor) if last else lay.f[k])
         sub = {key: (v[..., live] if isinstance(v, np.ndarray) else v) for key, v in start.items()}
+        if stops is not None:
+            sub = _record_stops(model, settings, l0[live], lay, k, s[live], sub, stops, res, live)
         shots = shoot_relaxed(model, settings, l0[live], lay.phi[k, live], start=sub, stop_radius=stop)
         res["steps"][live] += shots.steps
         end = shots.end
@@ -358,6 +369,9 @@ def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
             res["Q"][i] = shots.out["Q"][landed]
             res["Psi"][i] = shots.out["Psi"][landed] * n_k[landed]
             res["z"][i] = shots.out["z"][landed]
+            if stops is not None:  # the clamp: ρ = λpre, the height's origin
+                res["rows"][-1, 1, i], res["rows"][-1, 6, i] = model.prestretch, res["z"][i]
+                res["radii"][-1, i] = res["R"][i]
             break
         early = st == OK
         res["status"][live[early]] = _EARLY_CLAMP
@@ -368,6 +382,11 @@ def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
             live = cols
             break
         ye = end["y"][:, go]  # rows: state (7), width, p̂t/nk, φk
+        if stops is not None:  # the interface's inner side
+            at = np.flatnonzero(stops == lay.f[k])
+            if at.size:
+                res["rows"][at[0]][:, cols] = ye[:7]
+                res["radii"][at[0], cols] = end["R"][go]
         wr_in = end["mode"][go] == WRINKLED_MODE
         n_in, n_out = lay.n[k, cols], lay.n[k + 1, cols]
         phi_in, phi_out = lay.phi[k, cols], lay.phi[k + 1, cols]
@@ -406,6 +425,99 @@ def _relaxed_pass(model, settings, lay, l0, p_t, sigma, pole):
         start["mode"][cols] = np.where(wr_out[keep], WRINKLED_MODE, TAUT)
         live = cols
     res["intervals"] = intervals
+    return res
+
+
+#: the first step after a stop of :func:`_record_stops`, as a fraction of the interface scale (the step control
+#: takes it from there)
+RESTART_STEP = 0.01
+
+
+def _series_stops(model, lay, l0, p_t, s, stops, R0):
+    """The recorded rows of :func:`_relaxed_pass` with ``stops``, NaN but below the pole's series radius ``R0``
+    (there the series itself, as the taut profile has it): ``(rows, radii)``."""
+    m = l0.size
+    rows = np.full((stops.size, 7, m), np.nan)
+    radii = np.outer(stops, s)
+    for i in range(stops.size - 1):
+        cols = np.flatnonzero(radii[i] < R0)
+        if cols.size:
+            vals = model.series_start(l0[cols], p_t[cols] / lay.n[0, cols], lay.phi[0, cols], radii[i, cols])[:7]
+            rows[i][:, cols] = np.vstack([np.broadcast_to(np.asarray(v, dtype=float), (cols.size,)) for v in vals])
+    return rows, radii
+
+
+def _record_stops(model, settings, l0, lay, k, s, sub, stops, res, live) -> dict:
+    """Shoot region ``k`` of the states ``live`` (from their start ``sub``) through the ``stops`` strictly inside it,
+    recording the rows there (``res["rows"]``, ``res["radii"]``), and return the start at the last one (``sub``
+    itself without any). A stop the shooting does not reach (a failure, or the clamp met early) raises
+    :class:`~coexist.errors.SolverError` naming the state: the state without stops reached the region's end."""
+    from .errors import SolverError
+
+    inner = lay.f[k - 1] if k else 0.0
+    for i in np.flatnonzero((stops > inner) & (stops < lay.f[k])):
+        target = stops[i] * s
+        go = np.flatnonzero(target > sub["R"])  # not inside the pole's series radius
+        if go.size == 0:
+            continue
+        part = {key: (v[..., go] if isinstance(v, np.ndarray) else v) for key, v in sub.items()}
+        shots = shoot_relaxed(model, settings, l0[go], lay.phi[k, live[go]], start=part, stop_radius=target[go])
+        missed = np.flatnonzero(shots.status != STOPPED)
+        if missed.size:
+            j = int(go[missed[0]])
+            raise SolverError(
+                f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {lay.phi[k, live[j]] * lay.n[k, live[j]]:.6g}: the "
+                f"re-integration of the wrinkled patterned state stopped before R̂ = {stops[i]:.6g} "
+                f"({reason_text(int(shots.status[missed[0]])) if shots.status[missed[0]] != OK else 'at the clamp'})"
+            )
+        end = shots.end
+        assert end is not None
+        res["rows"][i][:, live[go]] = end["y"][:7]
+        res["radii"][i, live[go]] = end["R"]
+        sub = {key: (v.copy() if isinstance(v, np.ndarray) else v) for key, v in sub.items()}
+        sub["R"][go] = end["R"]
+        sub["y"][:, go] = np.vstack([end["y"][:7], end["y"][8:10]])  # without the width (a wrinkled start's own)
+        sub["h"][go] = RESTART_STEP * s[go]
+        sub["min_T"][go] = np.minimum(sub["min_T"][go], shots.min_tension)
+        sub["max_E"][go] = np.maximum(sub["max_E"][go], shots.max_field)
+        sub["mode"] = np.asarray(sub["mode"], dtype=int).copy()
+        sub["mode"][go] = end["mode"]
+    return sub
+
+
+def relaxed_profile_rows(model: MembraneModel, pattern: ZonePattern, states: PatternedStates, stops, settings):
+    """The meridian of relaxed patterned states (:func:`solve_patterned_relaxed`) at the reference fractions
+    ``stops``, shot again at their converged interface scale with stops there (:func:`_relaxed_pass`).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        One layer of the membrane (tension-field).
+    pattern : ZonePattern
+        The regions (more than one).
+    states : PatternedStates
+        Converged states of :func:`solve_patterned_relaxed` (all valid).
+    stops : ndarray
+        Increasing fractions of the clamp radius, 0 and 1 and every interface fraction among them.
+    settings : SolverSettings
+        The tolerances the states were solved with.
+
+    Returns
+    -------
+    dict
+        :func:`_relaxed_pass`'s result with ``rows`` and ``radii`` (trial scaling), and ``rtol`` per state.
+    """
+    model = _tension_field(model)
+    l0 = np.asarray(states.pole_stretch, dtype=float)
+    phi = np.asarray(states.phi_hat, dtype=float)
+    lay = _layout(pattern, phi)
+    p_t, rtol = _trial(model, settings, lay, l0)
+    pole = _pole_start(model, settings, lay, l0, p_t)
+    # the interface scale: the first interface's R̂ (the solver's s f0 / R*) times R*, over f0
+    s = states.interfaces[:, 0, 0, 0] * states.clamp_radius / lay.f[0]
+    with np.errstate(all="ignore"):
+        res = _relaxed_pass(model, settings, lay, l0, p_t, np.log(s), pole, stops=np.asarray(stops, dtype=float))
+    res["rtol"] = rtol
     return res
 
 

@@ -740,12 +740,15 @@ def patterned_profiles(
 ) -> list[Profile]:
     """The profiles of states of a patterned zone (:class:`Profile`), integrated together region by region.
 
-    Each state is first solved by :func:`coexist.patterned.solve_patterned_states` (which checks it: a wrinkled
-    or unreachable state raises). Its meridian is then integrated again in the shooting's trial units (pressure
-    ``p̂t = p̂/R*``, clamp at ``R*``, the state's ``clamp_radius``), from the series start of the pole region at
-    ``p̂t/n0`` and ``Φ̂/n0``, stopping at the reference radii ``R̂ = k/(points − 1)`` and at every interface
-    ``fi`` (added to the points, so that the profile has its kinks where they are); at an interface the
-    meridional stretch jumps so that the stack's meridional force is continuous,
+    Each state is first solved by :func:`coexist.patterned.solve_patterned_states` (which checks it: an unreachable
+    state raises; a hoop-wrinkled one raises unless the membrane is a tension-field one, whose wrinkled states are
+    solved by :func:`coexist.patterned_relaxed.solve_patterned_relaxed` and integrated again by
+    :func:`_patterned_relaxed_points`, the same stops on the relaxed equations, ``r`` in a wrinkled band the
+    geometric radius, ``wrinkled_radii`` the bands). A taut state's meridian is then integrated again in the
+    shooting's trial units (pressure ``p̂t = p̂/R*``, clamp at ``R*``, the state's ``clamp_radius``), from the
+    series start of the pole region at ``p̂t/n0`` and ``Φ̂/n0``, stopping at the reference radii
+    ``R̂ = k/(points − 1)`` and at every interface ``fi`` (added to the points, so that the profile has its kinks
+    where they are); at an interface the meridional stretch jumps so that the stack's meridional force is continuous,
     ``n⁺ T̂1(λ1⁺, λ2; Φ̂⁺) = n⁻ T̂1(λ1⁻, λ2; Φ̂⁻)`` (:func:`coexist.patterned.interface_stretch`), and the region's
     ``p̂t/n``, ``Φ̂/n`` take over. The last point is the clamp ``R = R*``: there ``λ2`` must equal ``λpre`` and
     the height and volume the solver's, to ``10⁴ rtol`` (else :class:`SolverError`). Then ``R̂ = R/R*``,
@@ -786,8 +789,7 @@ def patterned_profiles(
     SceneError
         If an input is out of range (names it).
     ModelRangeError
-        If a state does not exist (:meth:`coexist.patterned.PatternedStates.require_ok`, with its reason), or is
-        hoop-wrinkled in a tension-field model (a state, whose profile is not computed for patterned zones yet).
+        If a state does not exist (:meth:`coexist.patterned.PatternedStates.require_ok`, with its reason).
     SolverError
         If the re-integration does not land on the clamp or disagrees with the solver.
     """
@@ -798,22 +800,26 @@ def patterned_profiles(
     st = solve_patterned_states(model, pattern, pole_stretch, phi_hat, settings)
     from .shooting import WRINKLED
 
-    wrinkled = np.flatnonzero(st.status == WRINKLED)
-    if model.tension_field and wrinkled.size:
-        i = int(wrinkled[0])
-        raise ModelRangeError(
-            f"the patterned zone at pole stretch {st.pole_stretch[i]:.6g}, Φ̂ = {st.phi_hat[i]:.6g} is hoop-wrinkled: a "
-            "state of this tension-field scene (`coexist ramp` gives it), whose profile is not computed yet for "
-            "patterned zones (only for uniform ones)",
-            "wrinkled",
-        )
+    wrinkled = np.flatnonzero(st.status == WRINKLED) if model.tension_field else np.empty(0, dtype=int)
+    if wrinkled.size:  # hoop-wrinkled states of a tension-field membrane: the relaxed states
+        from .patterned_relaxed import solve_patterned_relaxed
+
+        relaxed = solve_patterned_relaxed(model, pattern, st.pole_stretch[wrinkled], st.phi_hat[wrinkled], settings)
+        relaxed.require_ok()
+        _replace_rows(st, wrinkled, relaxed)
     st.require_ok()
     l0 = np.asarray(st.pole_stretch, dtype=float)
     phi = np.asarray(st.phi_hat, dtype=float)
     kappa = np.atleast_1d(patterned_apex_curvature_hat(model, pattern, l0, phi, st.p_hat))
     f = np.array(pattern.interfaces, dtype=float)
     S = unique_sorted(np.concatenate([np.linspace(0.0, 1.0, int(points)), f]))
-    pts = _patterned_points(model, pattern, st, S, settings)
+    pts: list = [None] * l0.size
+    taut = np.setdiff1d(np.arange(l0.size), wrinkled)
+    for group, points_of in ((taut, _patterned_points), (wrinkled, _patterned_relaxed_points)):
+        if group.size:
+            for j, pt in zip(group, points_of(model, pattern, _patterned_rows(st, group), S, settings)):
+                pts[j] = pt
+    rings = st.wrinkled_radii or [[] for _ in range(l0.size)]
     lam = model.prestretch
     out = []
     for j in range(l0.size):
@@ -842,9 +848,60 @@ def patterned_profiles(
                 electrode_edge_R_hat=first[0],
                 electrode_edge_hat=(first[1], first[2]),
                 electrode_edges_hat=tuple(edges) or (first,),
+                wrinkled_radii=tuple((float(a), float(b)) for a, b in rings[j]),
             )
         )
     return out
+
+
+_PATTERNED_FIELDS = ("pole_stretch", "phi_hat", "p_hat", "v_hat", "apex_height", "clamp_radius", "status", "interfaces")
+
+
+def _replace_rows(st, rows, other) -> None:
+    """Put the states ``other`` (one per entry of ``rows``) into the patterned states ``st``, in place: the fields the
+    profiles read, and the wrinkled intervals."""
+    for name in _PATTERNED_FIELDS + ("q_hat", "psi_hat", "max_field", "min_tension"):
+        getattr(st, name)[rows] = getattr(other, name)
+    radii = list(st.wrinkled_radii) if st.wrinkled_radii is not None else [[] for _ in range(st.pole_stretch.size)]
+    for i, r in zip(rows, other.wrinkled_radii):
+        radii[i] = r
+    st.wrinkled_radii = radii
+    for i, d in zip(rows, other.failure_detail):
+        st.failure_detail[i] = d
+
+
+def _patterned_rows(st, rows):
+    """The fields of the patterned states ``st`` the profiles read, at ``rows``."""
+    from types import SimpleNamespace
+
+    return SimpleNamespace(**{k: np.asarray(getattr(st, k))[rows] for k in _PATTERNED_FIELDS})
+
+
+def _patterned_relaxed_points(model, pattern, st, S, settings) -> list:
+    """``(R̂, r̂, ẑ)`` at the reference radii ``S`` (interfaces among them) of the hoop-wrinkled patterned states
+    ``st`` of a tension-field membrane: their relaxed shooting
+    (:func:`coexist.patterned_relaxed.solve_patterned_relaxed`) once more at their interface scale, stopping at
+    every ``R̂`` (:func:`coexist.patterned_relaxed.relaxed_profile_rows`; in a wrinkled band ``r`` is the geometric
+    radius of the wrinkled surface, as for a uniform zone). The clamp radius, apex height and volume of that pass
+    must be the solver's to ``AGREEMENT_FACTOR rtol``."""
+    from .patterned_relaxed import relaxed_profile_rows
+
+    l0 = np.asarray(st.pole_stretch, dtype=float)
+    phi = np.asarray(st.phi_hat, dtype=float)
+    res = relaxed_profile_rows(model, pattern, st, S, settings)
+    bad = np.flatnonzero(res["status"] != 0)
+    if bad.size:
+        j = int(bad[0])
+        raise SolverError(
+            f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: the relaxed re-integration with stops does not "
+            "land on the clamp"
+        )
+    Rs, ztot = res["R"], res["z"]
+    _agree(l0, phi, res["rtol"], st, Rs, ztot / Rs, res["V"] / Rs**3)
+    # the points' R̂ are the stops themselves (the interfaces at s fk, the clamp at R* = s to the tolerance)
+    return [
+        (S.copy(), r_hat, z_hat) for _, r_hat, z_hat in _scaled_points(l0, phi, res["radii"], res["rows"], Rs, ztot)
+    ]
 
 
 def _patterned_points(model, pattern, st, S, settings) -> list:
@@ -986,21 +1043,13 @@ class _NoState(Exception):
 
 
 def _kind_of(status: int) -> str:
-    from .shooting import LOST_ELLIPTICITY, WRINKLED, WRINKLED_AT_POLE, reason_tag
+    from .shooting import LOST_ELLIPTICITY, PULL_IN, WRINKLED, WRINKLED_AT_POLE, reason_tag
 
     if status == WRINKLED:
         return "wrinkled"
-    if status in (WRINKLED_AT_POLE, LOST_ELLIPTICITY):
+    if status in (WRINKLED_AT_POLE, LOST_ELLIPTICITY, PULL_IN):
         return "pull-in"
     return reason_tag(status)
-
-
-#: what the end of a patterned zone's states at the onset of wrinkling means in a tension-field scene: the zone goes
-#: on, hoop-wrinkled (its states are relaxed on the ramp), but the states here are the taut ones
-TENSION_FIELD_END = (
-    "; in this tension-field scene the zone goes on hoop-wrinkled, which `coexist ramp` follows: the states here, "
-    "and their profiles, are the taut ones (the wrinkled profiles of a patterned zone are not computed yet)"
-)
 
 
 class _Balance:
@@ -1022,22 +1071,29 @@ class _Balance:
 
     def __call__(self, lam):
         from .patterned import solve_patterned_states
-        from .shooting import reason_text
+        from .shooting import WRINKLED, reason_text
 
         lam = np.atleast_1d(np.asarray(lam, dtype=float))
         guess = None if self.sigma is None else np.full(lam.size, self.sigma)
         st = solve_patterned_states(self.model, self.pattern, lam, self.phi, self.settings, scale_guess=guess)
+        wrinkled = np.flatnonzero(st.status == WRINKLED) if self.model.tension_field else ()
+        if len(wrinkled):  # a tension-field membrane goes on hoop-wrinkled: its relaxed states (as the ramp's)
+            from .patterned_relaxed import solve_patterned_relaxed
+
+            _replace_rows(
+                st, wrinkled, solve_patterned_relaxed(self.model, self.pattern, lam[wrinkled], self.phi, self.settings)
+            )
         ok = np.asarray(st.ok, dtype=bool)
         for i in np.flatnonzero(~ok):
             detail = st.failure_detail[i]
             self.failed_x.append(float(lam[i]))
-            kind = _kind_of(int(st.status[i]))
+            reason = reason_text(st.status[i])
+            if detail and detail.startswith(reason):  # the relaxed solver's detail repeats the reason
+                detail = detail[len(reason) :].strip(" ()")
             self.failures.append(
                 _NoState(
-                    kind,
-                    f"at Φ̂ = {self.phi:.6g}, pole stretch {lam[i]:.6g}: {reason_text(st.status[i])}"
-                    + (f" ({detail})" if detail else "")
-                    + (TENSION_FIELD_END if kind == "wrinkled" and self.model.tension_field else ""),
+                    _kind_of(int(st.status[i])),
+                    f"at Φ̂ = {self.phi:.6g}, pole stretch {lam[i]:.6g}: {reason}" + (f" ({detail})" if detail else ""),
                 )
             )
         F = np.full(lam.size, np.nan)

@@ -66,17 +66,16 @@ def shape(scene, voltages, plot, as_json, points, overwrite, accuracy, rtol):
     figure of merit, exact from the Laplace law p = 2 t κ0 of the equibiaxial pole) with its radius
     of curvature (mm), and the electrode edges (mm, from the pole out: the clamp for a uniform electrode,
     both edges of a ring). -o draws the zones side by side at each voltage, to scale, every edge marked.
-    A hoop-wrinkled uniform zone (a tension-field scene) has its profile too, integrated through the wrinkled
-    band on the relaxed equations; there r is the geometric radius of the wrinkled surface (docs/physics.md
-    section 11), and -o marks the band.
+    A hoop-wrinkled zone (a tension-field scene; uniform or patterned) has its profile too, integrated through
+    the wrinkled band on the relaxed equations; there r is the geometric radius of the wrinkled surface
+    (docs/physics.md section 11), and -o marks the band.
 
     One patterned zone (e.g. the inner-circle scene): the states on its gas (or at its controlled pressure)
-    continued from the closing state, each a converged patterned state; the states stop where the branch ends
-    (a snap-through, past which `coexist ramp` follows the zone on another branch if a stable one exists;
-    wrinkling, past which a tension-field zone goes on hoop-wrinkled, not computed here; pull-in: named, the
-    voltage bisected); -o draws the lens figure. Several patterned zones on one gas: the ramp's states, as for
-    uniform zones, each zone's profile region by region (a hoop-wrinkled patterned zone is refused, naming it:
-    its profile is not computed yet).
+    continued from the closing state, each a converged patterned state (hoop-wrinkled ones relaxed in a
+    tension-field scene); the states stop where the branch ends (a snap-through, past which `coexist ramp`
+    follows the zone on another branch if a stable one exists; wrinkling, in a scene that refuses it; pull-in:
+    named, the voltage bisected); -o draws the lens figure. Several patterned zones on one gas: the ramp's
+    states, as for uniform zones, each zone's profile region by region.
     """
     from coexist.ramp import Ramp
     from coexist.shapes import equilibrium_profiles
@@ -206,8 +205,6 @@ def _patterned(sc, settings, kv, plot, as_json, points, overwrite):
             prof = by_kv.get(v)
             if prof is None:
                 note = f"{path.end_kind}: no state above {end_kv[0]:.6f} kV" if end_kv else path.end_reason
-                if end_kv and path.end_kind == "wrinkled" and sc.model().tension_field:
-                    note = f"wrinkled above {end_kv[0]:.6f} kV: the zone's hoop-wrinkled states are not computed here"
                 entries.append({"voltage_kV": v, "configuration": "none", "groups": [], "note": note})
                 continue
             entry = {
