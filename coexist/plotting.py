@@ -430,6 +430,7 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
     n = len(profiles)
     picks = sorted(set(np.round(np.linspace(0, n - 1, min(side_views, n))).astype(int))) if n else []
     cmap = plt.get_cmap("viridis")
+    wrinkle_label = "hoop-wrinkled band (r: geometric)"  # one legend entry
     for j, i in enumerate(picks):
         p = profiles[i]
         color = cmap(0.85 * j / max(1, len(picks) - 1))
@@ -439,6 +440,8 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
         except SceneError:
             label = f"{v[i]:g} kV"
         ax.plot(np.concatenate([-r[::-1], r]), np.concatenate([z[::-1], z]), color=color, lw=1.6, label=label)
+        if mark_wrinkled_bands(ax, p, color=color, label=wrinkle_label):
+            wrinkle_label = None
         for er, ez in ((r_e * 1e3, z_e * 1e3) for r_e, z_e in p.electrode_edges):  # a ring: inner and outer
             ax.plot([-er, er], [ez, ez], "o", color=color, ms=4.5, mec="k", mew=0.5)
     if picks:
