@@ -1080,9 +1080,15 @@ class _Balance:
         if len(wrinkled):  # a tension-field membrane goes on hoop-wrinkled: its relaxed states (as the ramp's)
             from .patterned_relaxed import solve_patterned_relaxed
 
-            _replace_rows(
-                st, wrinkled, solve_patterned_relaxed(self.model, self.pattern, lam[wrinkled], self.phi, self.settings)
+            relaxed = solve_patterned_relaxed(
+                self.model,
+                self.pattern,
+                lam[wrinkled],
+                self.phi,
+                self.settings,
+                scale_guess=None if guess is None else guess[wrinkled],
             )
+            _replace_rows(st, wrinkled, relaxed)
         ok = np.asarray(st.ok, dtype=bool)
         for i in np.flatnonzero(~ok):
             detail = st.failure_detail[i]
