@@ -46,7 +46,7 @@ import hashlib
 import itertools
 import json
 import math
-import shutil
+import re
 import time
 from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
@@ -1226,8 +1226,67 @@ class Parts:
             return None
 
     def remove(self) -> None:
-        """Delete the folder (after the merged result is written)."""
-        shutil.rmtree(self.folder, ignore_errors=True)
+        """Delete the parts and then the folder, if it is empty (after the merged result is written): only files
+        a sweep writes there are removed (:func:`check_parts_folder` refuses a folder holding others)."""
+        remove_parts(self.folder)
+
+
+#: the files a sweep writes into its parts folder: the manifest, the chunks, and their temporary files (a run
+#: killed while writing one leaves it: :func:`coexist.files.temp_file` names them ``.{stem}-{random}{suffix}``)
+_PART_FILE = re.compile(r"^(manifest|chunk-\d{6})\.json$|^\.(manifest|chunk-\d{6})-[^/]+\.json$")
+
+
+def check_parts_folder(folder) -> None:
+    """Refuse a parts folder that is not one: a path that is not a folder, or a folder that holds anything a sweep
+    does not write (a sweep reads, overwrites and removes what is in it).
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        ``FILE.parts`` (:func:`parts_folder`); nothing to check where it does not exist.
+
+    Raises
+    ------
+    SceneError
+        Naming the folder and what is in the way (field ``-o``).
+    """
+    folder = Path(folder)
+    if not (folder.exists() or folder.is_symlink()):
+        return
+    if folder.is_symlink() or not folder.is_dir():
+        raise SceneError(
+            f"{folder} exists and is not a folder: a sweep to this file keeps its parts there; move it or write to "
+            "another file",
+            "-o",
+        )
+    foreign = sorted(p.name for p in folder.iterdir() if not (p.is_file() and _PART_FILE.match(p.name)))
+    if foreign:
+        shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
+        raise SceneError(
+            f"{folder} holds files a sweep does not write ({shown}): a sweep to this file keeps its parts there and "
+            "removes them; move them or write to another file",
+            "-o",
+        )
+
+
+def remove_parts(folder) -> None:
+    """Remove the files a sweep wrote into ``folder`` (its manifest, chunks and their temporary files) and the
+    folder itself once it is empty; anything else stays.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+    """
+    folder = Path(folder)
+    if folder.is_symlink() or not folder.is_dir():
+        return
+    for p in folder.iterdir():
+        if p.is_file() and _PART_FILE.match(p.name):
+            p.unlink(missing_ok=True)
+    try:
+        folder.rmdir()
+    except OSError:
+        pass  # something else is in it (or appeared meanwhile): it is not ours to remove
 
 
 def _atomic_write(path: Path, text: str) -> None:
@@ -1318,6 +1377,8 @@ def run_sweep(
     if client is None:
         n_workers = max(1, int(workers))
     folder = Path(parts_dir) if parts_dir is not None else None
+    if folder is not None:
+        check_parts_folder(folder)
     manifest = Parts.read_manifest(folder) if folder is not None and folder.exists() else None
     if folder is not None and folder.exists() and any(folder.iterdir()) and not resume:
         raise SceneError(
@@ -1521,8 +1582,9 @@ def sweep(
     if out.exists() and not overwrite:
         raise SceneError(f"{out} exists; pass overwrite=True (--overwrite) to replace it", "-o")
     folder = parts_folder(out)
-    if overwrite and not resume and folder.exists():
-        shutil.rmtree(folder)
+    check_parts_folder(folder)
+    if overwrite and not resume:
+        remove_parts(folder)
     result = run_sweep(
         spec,
         workers=workers,
@@ -1534,7 +1596,7 @@ def sweep(
         progress=progress,
     )
     result.to_netcdf(out)
-    shutil.rmtree(folder, ignore_errors=True)
+    remove_parts(folder)
     return result
 
 

@@ -147,6 +147,46 @@ def test_interrupted_sweep_resumes_with_only_the_missing_points(serial, tmp_path
     assert open_dataset(out).identical(serial.to_xarray())
 
 
+def _no_evaluation(spec, index):
+    raise AssertionError("a refused sweep evaluated a point")
+
+
+@pytest.mark.parametrize("flags", [{}, {"resume": True}, {"overwrite": True}])
+def test_a_parts_folder_with_files_a_sweep_does_not_write_is_refused_and_left_alone(tmp_path, flags):
+    """A folder ``OUT.nc.parts`` that holds a file of the user's was taken for an interrupted sweep; with --resume the
+    sweep computed everything and then removed the folder with the user's file, and --overwrite removed it at once
+    (review, helper-82). Refused now, before any point, the file untouched; a plain file there too."""
+    out = tmp_path / "keep.nc"
+    folder = tmp_path / "keep.nc.parts"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("precious")
+    (folder / "chunk-000000.json").write_text("{}")
+    with pytest.raises(Exception, match=r"holds files a sweep does not write \(notes.txt\)"):
+        sweep("tricircle", VARY, output=out, evaluate=_no_evaluation, **flags)
+    assert (folder / "notes.txt").read_text() == "precious" and (folder / "chunk-000000.json").exists()
+    assert not out.exists()
+    (folder / "notes.txt").unlink()
+    (folder / "chunk-000000.json").unlink()
+    folder.rmdir()
+    folder.write_text("a file")
+    with pytest.raises(Exception, match="exists and is not a folder"):
+        sweep("tricircle", VARY, output=out, evaluate=_no_evaluation, **flags)
+    assert folder.read_text() == "a file"
+
+
+def test_the_cli_refuses_a_parts_folder_that_is_not_one_with_exit_2(tmp_path):
+    folder = tmp_path / "keep.nc.parts"
+    folder.mkdir()
+    (folder / "notes.txt").write_text("precious")
+    for extra in ([], ["--resume"], ["--overwrite"]):
+        r = CliRunner().invoke(
+            cli, ["sweep", "--vary", "chamber.closing_pressure_mbar=19.9,20", "-o", str(tmp_path / "keep.nc"), *extra]
+        )
+        assert r.exit_code == 2 and "Traceback" not in r.output, r.output
+        assert "holds files a sweep does not write (notes.txt)" in r.output
+    assert (folder / "notes.txt").read_text() == "precious"
+
+
 def test_sweep_netcdf_round_trip_keeps_units_and_coordinates(serial, tmp_path):
     ds = serial.to_xarray()
     back = open_dataset(write_netcdf(ds, tmp_path / "s.nc"))

@@ -73,7 +73,9 @@ def sweep(scene, vary, output, plot, variable, workers, scheduler, resume, overw
         if plot_path is not None and sum(n > 1 for n in spec.shape) < 2:
             raise InputError("--plot: a design map needs two --vary keys with more than one value each")
         folder = sw.parts_folder(out_path) if out_path is not None else None
-        if folder is not None and folder.exists() and not resume and not overwrite:
+        if folder is not None:
+            sw.check_parts_folder(folder)
+        if folder is not None and folder.exists() and any(folder.iterdir()) and not resume and not overwrite:
             raise InputError(
                 f"-o: {folder} holds an interrupted sweep: --resume continues it (--overwrite discards it)"
             )
