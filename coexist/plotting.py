@@ -430,7 +430,7 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
     n = len(profiles)
     picks = sorted(set(np.round(np.linspace(0, n - 1, min(side_views, n))).astype(int))) if n else []
     cmap = plt.get_cmap("viridis")
-    wrinkle_label = "hoop-wrinkled band (r: geometric)"  # one legend entry
+    wrinkle_label: str | None = "hoop-wrinkled band (r: geometric)"  # one legend entry
     for j, i in enumerate(picks):
         p = profiles[i]
         color = cmap(0.85 * j / max(1, len(picks) - 1))
