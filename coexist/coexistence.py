@@ -540,11 +540,22 @@ class PhaseDiagram:
 
 
 def _loop(curve: ZoneCurve):
-    """The pressure maximum and the next minimum (u values) of a curve, or None."""
+    """The pressure maximum and the next minimum (u values) of a curve whose states rise in volume and are stable at
+    their volume there (:func:`~coexist.equilibria.zone_index_on_curve` 0), or None: the two limits of stability
+    under pressure control, between the stable branch below the maximum and the one beyond the minimum.
+
+    A minimum of ``p̂(λ0)`` past a volume fold is no such limit (an inward spiral of the ``p̂–V̂`` curve: Gent 97 from
+    ``Φ̂ = 0.26``, where the states beyond it have two unstable modes under pressure control; it was reported as a
+    spinodal, and a binodal with a bulged phase that does not exist; review, helper-82)."""
+    from .equilibria import zone_index_on_curve
+
     ext = curve.pressure_extrema()
     for i in range(ext.size - 1):
-        if curve.dp(ext[i] - 1e-9) > 0 and curve.dp(ext[i + 1] + 1e-9) > 0:
-            return ext[i], ext[i + 1]
+        a, b = float(ext[i]), float(ext[i + 1])
+        if not (curve.dp(a - 1e-9) > 0 and curve.dp(b + 1e-9) > 0):
+            continue
+        if curve.dv(a) > 0 and curve.dv(b) > 0 and zone_index_on_curve(curve, a) == zone_index_on_curve(curve, b) == 0:
+            return a, b
     return None
 
 

@@ -1152,7 +1152,10 @@ class Tracer:
         reach = (edge * self.w - float(cur.z[self.M])) / rate
         if not 0.0 < reach <= h:
             return None
-        guess = self._predict(prev, cur, reach)
+        guess = np.array(self._predict(prev, cur, reach), dtype=float)
+        # on the edge from the start: the corrector takes a guess whose first step is below its tolerance as it is
+        # (review, helper-81: a point 8e-9 in Φ̂ short of the edge, outside the window)
+        guess[self.M] = edge * self.w
         normal = np.zeros(self.M + 1)
         normal[self.M] = 1.0
         return self._solve(guess, normal, edge * self.w, cur.tangent, cur.index, loose=True)

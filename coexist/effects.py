@@ -635,7 +635,13 @@ class GasChamber:
         return self.gas_amount / (self.chamber_volume + total_volume) ** 2
 
     def free_energy(self, total_volume):
-        """``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂``.
+        """``−n̂ ln(1 + ΣV̂/V̂c) + p̂atm ΣV̂``: ``−n̂ ln(V̂c + ΣV̂) + p̂atm ΣV̂`` up to the constant ``n̂ ln V̂c``, which
+        no difference of ``G`` sees.
+
+        Without that constant the two terms nearly cancel (``n̂ ln(1 + x) ≈ (p̂atm + p̂) ΣV̂``) and ``G`` is of the
+        size of ``p̂ ΣV̂``: the ``−n̂ ln(V̂c + ΣV̂)`` of a 1e7 ml chamber is about 1e9, and its rounding, ~1e-7,
+        had put a noise of 4e-8 in ``Φ̂`` into the equal free energy of its zones, which then did not converge to
+        its step tolerance (review, helper-81).
 
         Parameters
         ----------
@@ -647,7 +653,9 @@ class GasChamber:
         float or ndarray
             The gas's part of ``G``, shaped like ``total_volume``.
         """
-        return -self.gas_amount * np.log(self.chamber_volume + total_volume) + self.atmospheric_pressure * total_volume
+        return (
+            -self.gas_amount * np.log1p(total_volume / self.chamber_volume) + self.atmospheric_pressure * total_volume
+        )
 
 
 @dataclass(frozen=True)

@@ -83,15 +83,16 @@ class Transition:
         return (self.phi_hat - self.phi_hat_error, self.phi_hat + self.phi_hat_error)
 
 
-#: a transition is a jump when some zone's volume changes by more than this fraction between the lost and the landing
-#: state (a heuristic: a continuous split lands 1e-5 Φ̂ past its pitchfork, a change of ~0.3 %; the jumps of the
-#: default membrane change a volume by 27-110 %)
+#: a transition is a jump when some zone's volume or pole stretch changes by more than this fraction between the lost
+#: and the landing state (a heuristic: a continuous split lands 1e-5 Φ̂ past its pitchfork, a change of ~0.3 %; the
+#: jumps of the default membrane change a volume by 27-110 %; a patterned zone on a 300 ml chamber snaps from pole
+#: stretch 3.415 to 5.574 while its volume changes by 1.2 %, the stiff gas holding it)
 JUMP_VOLUME = 0.02
 
 
 def is_jump(t: Transition) -> bool:
     """Whether transition ``t`` (a spinodal, fold, split or merge) moves the zones' state discontinuously: some zone's
-    volume, zones sorted by volume on either side, changes by more than :data:`JUMP_VOLUME` of it.
+    volume or pole stretch, zones sorted by it on either side, changes by more than :data:`JUMP_VOLUME` of it.
 
     Parameters
     ----------
@@ -105,9 +106,12 @@ def is_jump(t: Transition) -> bool:
     """
     if t.kind not in ("spinodal", "merge") or t.state_before is None or t.state_after is None:
         return False
-    before = np.sort(np.asarray(t.state_before.zone_volumes, dtype=float))
-    after = np.sort(np.asarray(t.state_after.zone_volumes, dtype=float))
-    return before.size == after.size and bool(np.max(np.abs(after - before) / np.abs(before)) > JUMP_VOLUME)
+    for name in ("zone_volumes", "zone_pole_stretches"):
+        before = np.sort(np.asarray(getattr(t.state_before, name), dtype=float))
+        after = np.sort(np.asarray(getattr(t.state_after, name), dtype=float))
+        if before.size == after.size and bool(np.max(np.abs(after - before) / np.abs(before)) > JUMP_VOLUME):
+            return True
+    return False
 
 
 @dataclass
@@ -1086,8 +1090,9 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
 
     Its error is the last Newton step plus the rounding floor of the difference of two free energies,
     ``δΦ̂ = 4 ε max(|Ĝa|, |Ĝb|) / |Q̂a − Q̂b|`` (``ε`` the machine epsilon): ``ΔĜ`` is a difference of two
-    nearly equal numbers, scattered by about ``ε |Ĝ|`` (measured), which a chamber of 10⁹ ml
-    (``|Ĝ| ≈ 2·10¹¹``) makes ``≈ 10⁻⁶`` in ``Φ̂``, far above the Newton step.
+    nearly equal numbers, scattered by about ``ε |Ĝ|`` (measured). The gas's part of ``Ĝ`` leaves out the constant
+    ``n̂ ln V̂c`` (:meth:`~coexist.effects.GasChamber.free_energy`), which had made ``|Ĝ| ≈ 2·10¹¹`` for a chamber
+    of 10⁹ ml and this floor ``≈ 10⁻⁶`` in ``Φ̂``.
 
     None where both segments hold one state at the root (or, when the iteration fails, at the secant
     estimate; :func:`_same_state`): ``ΔĜ ≡ 0`` there and its sign change is rounding, no coexistence."""

@@ -905,23 +905,35 @@ class Simulation:
             return t
         if kind == "equal_free_energy":
             N = self.scene.zone_count
-            one = (N - 1, 1)
+            # one zone: its bulged state is the homogeneous one on another branch of the zone curve (the state the
+            # jump lands on); several: one bulged zone beside N − 1 unbulged ones
+            one = (N - 1, 1) if N > 1 else (1,)
             # the segment the ramp's first jump lands on is usually the one-bulged one; if not, search
             if isinstance(end, Event) and end.kind in ("split", "fold"):
                 try:
                     Ramp(self.emap, self.lam_max).jump(start, end, +1)
                 except SolverError:
                     pass
-            label = Configuration(one).label
+            label = Configuration(one).label if N > 1 else "the bulged state"
 
             def crossings():
-                segs = [s for s in self.emap.segments if s.configuration.counts == one]
+                segs = [s for s in self.emap.segments if s.configuration.counts == one and s is not start]
+                if N == 1:
+                    labels = {s.label for s in segs} - {start.label}
+                    return [
+                        c
+                        for c in equal_free_energy([start] + segs)
+                        if c.from_label == start.label
+                        and c.to_label in labels
+                        or c.to_label == start.label
+                        and c.from_label in labels
+                    ]
                 return [
                     c for c in equal_free_energy([start] + segs) if {c.from_label, c.to_label} == {"homogeneous", label}
                 ]
 
             found = crossings()
-            if not found:
+            if not found and N > 1:
                 self.discover([1])
                 found = crossings()
             if not found:

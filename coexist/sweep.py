@@ -13,9 +13,10 @@ needs (:data:`FLOAT_FIELDS`):
 * ``spinodal_down_kV`` — where the bulged state is lost on the way down and the zones return to equal;
 * ``hysteresis_kV = spinodal_up_kV − spinodal_down_kV``;
 * ``jump_up_kV`` / ``jump_down_kV`` — the first transition up / down where the zones' state jumps (some zone's
-  volume changes by more than :data:`JUMP_VOLUME`): the spinodal where the split is a jump (the default scene),
-  the fold inside the bulged configuration where the split is continuous (two zones: a pitchfork whose bulged
-  branch starts at the homogeneous state), and ``jump_hysteresis_kV`` between them;
+  volume or pole stretch changes by more than :data:`JUMP_VOLUME`): the spinodal where the split is a jump (the
+  default scene), the fold inside the bulged configuration where the split is continuous (two zones: a pitchfork
+  whose bulged branch starts at the homogeneous state), and ``jump_hysteresis_kV`` between them (only where the
+  jump down returns from the jump up's landing to its start);
 * ``equal_free_energy_kV`` — where a bulged configuration has the free energy of the homogeneous one;
 * ``breakdown_kV``, ``range_end_kV`` — where the field reaches the breakdown field, where the ramp leaves
   the model's range (wrinkling);
@@ -117,10 +118,12 @@ DESCRIPTIONS = {
     "spinodal_up_kV": "voltage at which the homogeneous zones lose stability on the way up and zones bulge",
     "spinodal_down_kV": "voltage at which the bulged state is lost on the way down and the zones return to equal",
     "hysteresis_kV": "spinodal_up_kV - spinodal_down_kV",
-    "jump_up_kV": "voltage of the first jump of the zones' state on the way up (a zone's volume changes by more "
-    "than 2 %): the spinodal, or where the split is continuous the fold inside the bulged configuration",
+    "jump_up_kV": "voltage of the first jump of the zones' state on the way up (a zone's volume or pole stretch "
+    "changes by more than 2 %): the spinodal, or where the split is continuous the fold inside the bulged "
+    "configuration",
     "jump_down_kV": "voltage of the first jump of the zones' state on the way down",
-    "jump_hysteresis_kV": "jump_up_kV - jump_down_kV",
+    "jump_hysteresis_kV": "jump_up_kV - jump_down_kV, where the jump down returns from the jump up's landing to its "
+    "start",
     "equal_free_energy_kV": "voltage of equal free energy of the homogeneous and the first bulged configuration",
     "breakdown_kV": "voltage at which the largest field reaches the breakdown field",
     "range_end_kV": "voltage at which the ramp first leaves the model's range (e.g. wrinkling)",
@@ -838,7 +841,7 @@ def summarise(index: int, sim, report) -> dict:
     put("spinodal_down", down)
     jump_up = put("jump_up", next((t for t in trans if t.direction == "up" and is_jump(t)), None))
     jump_down = put("jump_down", next((t for t in trans if t.direction == "down" and is_jump(t)), None))
-    if jump_up is not None and jump_down is not None:
+    if jump_up is not None and jump_down is not None and _reverses(jump_down, jump_up):
         rec["jump_hysteresis_kV"] = rec["jump_up_kV"] - rec["jump_down_kV"]
     broke = put("breakdown", first(lambda t: t.kind == "breakdown"))
     left = put("range_end", first(lambda t: t.kind == "no_stable_state"))
@@ -944,10 +947,26 @@ def _missing_reasons(rec: dict, sim, report) -> list:
             why = (
                 f"the path does not go {way}"
                 if not moves
-                else f"on the way {way} no transition moves a zone's volume by more than {JUMP_VOLUME:.0%}"
+                else f"on the way {way} no transition moves a zone's volume or pole stretch by more than "
+                f"{JUMP_VOLUME:.0%}"
             )
             out.append(f"no jump_{way}_kV (nor jump_hysteresis_kV): {why}")
+    if rec["jump_up_kV"] is not None and rec["jump_down_kV"] is not None and rec["jump_hysteresis_kV"] is None:
+        trans = result.transitions
+        up = next(t for t in trans if t.direction == "up" and is_jump(t))
+        down = next(t for t in trans if t.direction == "down" and is_jump(t))
+        out.append(
+            f"no jump_hysteresis_kV: the first jump down ({down.from_label} -> {down.to_label}) does not return "
+            f"from the first jump up ({up.from_label} -> {up.to_label})"
+        )
     return out
+
+
+def _reverses(down, up) -> bool:
+    """Whether the jump ``down`` goes back from the state the jump ``up`` landed in to the one it left (by their
+    configurations' labels, branches included): only then is ``jump_up − jump_down`` a hysteresis (Gent 300: the first
+    jump down is a fold from the large bulged branch to the small one, 0.66 kV above the jump up; review, helper-82)."""
+    return down.from_label == up.to_label and down.to_label == up.from_label
 
 
 def _run_chunk(spec: SweepSpec, indices: list, evaluate: Callable | None = None) -> list:

@@ -148,3 +148,26 @@ def test_cli_prints_the_digits_its_measured_error_supports():
         if ref is not None:
             assert abs(float(text) - ref) <= err + 0.5 * 10.0**-decimals
     assert re.search(r"errors measured at rtol/100", r.stdout)
+
+
+def test_a_pressure_minimum_past_a_volume_fold_is_no_spinodal():
+    """Gent 97 from Φ̂ = 0.26: the only pressure minimum of ``p̂(λ0)`` within the model's range lies on an inward
+    spiral of the ``p̂–V̂`` curve, past a volume fold; the states beyond it are unstable under pressure control, and
+    a pressure-controlled zone past the snap-through has no stable state (the ramp: ``no_stable_state``). The diagram
+    listed that minimum as the lower spinodal (1.354 at Φ̂ = 0.26) with a binodal note implying a bulged phase
+    (review, helper-82). At Φ̂ = 0.2 and 0.24 the minimum it keeps is one of ``p̂(V̂)``: ``∂V̂/∂λ0 > 0`` at the last
+    sign change of ``∂p̂/∂λ0`` from − to +, on exact states; at 0.26 and 0.3 ``∂V̂/∂λ0 < 0`` there."""
+    from coexist.shooting import StateDerivatives
+
+    model = build_model("gent", 97.0)
+    phis = [0.2, 0.24, 0.26, 0.3]
+    pd = phase_diagram(model, phis, 6.0)
+    assert np.all(np.isfinite(pd.spinodal_min[:2])) and np.all(np.isnan(pd.spinodal_min[2:]))
+    assert np.all(np.isnan(pd.binodal[2:]))
+    grid = np.linspace(2.5, 5.9, 400)
+    for phi, genuine in zip(phis, [True, True, False, False]):
+        st = solve_states(model, grid, phi, SolverSettings(), derivatives=True)
+        d = StateDerivatives.of(st)
+        ok = st.ok[:-1] & st.ok[1:]
+        k = int(np.flatnonzero(ok & (d.dp_dl0[:-1] < 0) & (d.dp_dl0[1:] >= 0))[-1])
+        assert (d.dv_dl0[k] > 0) == genuine

@@ -76,3 +76,18 @@ def test_a_fold_within_a_configuration_does_not_leave_it():
     up, down = dict(rec["loss_up"]), dict(rec["loss_down"])
     assert up[0] == pytest.approx(3.852155214, abs=2e-8) and up[1] == pytest.approx(4.352468013, abs=2e-8)
     assert down[1] == pytest.approx(3.852155214, abs=2e-8)
+
+
+def test_no_hysteresis_between_jumps_that_do_not_return():
+    """Gent 300: the first jump up leaves the homogeneous state at 1.489 kV, the first jump down is a fold from the
+    large bulged branch to the small one at 2.157 kV. Their difference, −0.668 kV, was the sweep's
+    ``jump_hysteresis_kV`` (review, helper-82). It is NaN now, the reason names both jumps; the default scene, whose
+    jump down returns from the jump up, keeps its hysteresis."""
+    spec = make_spec(load_scene("tricircle"), ["membrane.jlim=300,97"], SolverSettings())
+    j300, j97 = (evaluate_point(spec, i) for i in range(2))
+    assert j300["jump_up_kV"] == pytest.approx(1.489198, abs=1e-5)
+    assert j300["jump_down_kV"] == pytest.approx(2.156831, abs=1e-5)
+    assert j300["jump_hysteresis_kV"] is None
+    assert "no jump_hysteresis_kV: the first jump down" in j300["reason"] and "does not return" in j300["reason"]
+    assert j97["jump_hysteresis_kV"] == pytest.approx(j97["jump_up_kV"] - j97["jump_down_kV"], abs=1e-12)
+    assert j97["jump_hysteresis_kV"] > 0

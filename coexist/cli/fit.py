@@ -130,7 +130,8 @@ def _what_follows(fitted, settings) -> str | None:
         )
         return (
             f"at the fitted radius the homogeneous state is lost continuously at {report.voltage_kV(first.phi_hat):.6g}"
-            f" kV (the zones drift apart: no zone's volume changes by more than {JUMP_VOLUME:.0%} there){then}"
+            f" kV (the zones drift apart: no zone's volume or pole stretch changes by more than {JUMP_VOLUME:.0%} "
+            f"there){then}"
         )
     if first is None or first.kind != "no_stable_state":
         return None
