@@ -36,6 +36,7 @@ index is carried along the branch and updated at every ``volume_fold`` by Maddoc
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -2176,6 +2177,8 @@ class StableSegment:
             if eq is None:
                 eq = self._pitchfork_state(float(phis[i]), index)
             if eq is None:
+                eq = self._fold_state(float(phis[i]))
+            if eq is None:
                 raise SolverError(
                     f"{self.label}: no converged state at Φ̂ = {phis[i]:.10g} on its stable segment ({corr.reason[i]})"
                 )
@@ -2239,6 +2242,26 @@ class StableSegment:
             eq.notes.append(
                 f"within {abs(phi - e.phi_hat):.1e} of the symmetric branch point at Φ̂ = {e.phi_hat:.10g} "
                 "(inside its uncertainty): the coincident state"
+            )
+            return eq
+        return None
+
+    def _fold_state(self, phi: float) -> Equilibrium | None:
+        """The state of a fold end of the segment where ``Φ̂`` lies within that fold's uncertainty (its error, at
+        least :func:`error_floor`), or None elsewhere: at a fold the Jacobian at fixed voltage is singular and Newton's
+        method there cannot converge, and within the uncertainty it is not known on which side of the fold ``Φ̂``
+        lies (a path voltage 4e-11 kV below the fold of two bulged zones on a 1000 l chamber exited 1; review,
+        helper-81). The fold's own state, at its voltage, with a note."""
+        rtol = self.tracer.system.settings.rtol
+        for e in (self.low, self.high):
+            if not (isinstance(e, Event) and e.kind == "fold" and e.eq is not None):
+                continue
+            if abs(phi - e.phi_hat) > max(float(e.error), error_floor(e.phi_hat, rtol)):
+                continue
+            eq = copy.deepcopy(e.eq)
+            eq.notes.append(
+                f"within {abs(phi - e.phi_hat):.1e} of the fold at Φ̂ = {e.phi_hat:.10g} (inside its uncertainty, where "
+                "Newton's method at fixed voltage cannot converge): the fold's own state"
             )
             return eq
         return None

@@ -53,3 +53,25 @@ def test_each_configuration_is_listed_with_one_range_from_zero_volts(sim):
         assert lo == 0.0 and hi > 0.05
         # every traced state of the segment lies in the window
         assert min(p.phi for p in seg.points) >= 0.0
+
+
+@pytest.mark.parametrize("stop", ["2.13071", "2.1307062847"])
+def test_a_path_that_stops_next_to_a_fold(stop):
+    """The two bulged zones fold at 2.1307062847 kV (± 2e-9). A top 3.7e-6 kV above it: the jump's landing was sought
+    past the top, where the landing's segment is cut off, and the ramp exited 1 ("outside the stable segment through
+    it"); it lands halfway to the top now, on the all-bulged state as with a top of 5 kV. A top 5.8e-11 kV below it
+    (inside its uncertainty, where Newton's method at fixed voltage cannot converge) exited 1 ("no converged
+    state"); the fold's own state is given there, with a note (review, helper-81)."""
+    sim = Simulation.from_scene(variant(volume_ml="1e6", closing_pressure_mbar="20.1", stop_kV=stop))
+    rep = sim.ramp()
+    ups = [t for t in rep.result.transitions if t.direction == "up"]
+    kv = [rep.voltage_kV(t.phi_hat) for t in ups]
+    assert kv[:2] == pytest.approx([1.488421154, 1.801153170], abs=1e-8)
+    top = max(rep.result.steps, key=lambda s: s.phi_hat)
+    if stop == "2.13071":
+        assert kv[2] == pytest.approx(2.130706285, abs=1e-8) and ups[2].to_label == "homogeneous, all bulged"
+        assert top.state.configuration.counts == (3,)
+    else:
+        assert len(ups) == 2 and top.state.configuration.counts == (1, 2)
+        assert any("of the fold at" in n for n in top.state.notes)
+        assert rep.voltage_kV(top.state.phi_hat) == pytest.approx(2.130706285, abs=1e-8)
