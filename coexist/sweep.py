@@ -858,8 +858,8 @@ def summarise(index: int, sim, report) -> dict:
             # the configuration left is the one the ramp is in (a merge's own state is the symmetric one, k = 0); a
             # jump to another state of it (two zones: the 1-of-2 branch's folds at 4.106 and 3.949 kV) does not leave
             # it: the ramp leaves it at 4.352 (range end) and 3.852 kV (merge) (review, helper-74)
-            before = current if current is not None else (None if t.state_before is None else int(t.state_before.k))
-            after = None if t.state_after is None else int(t.state_after.k)
+            before = current if current is not None else _bulged(t.state_before, t.from_label)
+            after = _bulged(t.state_after, t.to_label)
             if (
                 t.kind in ("spinodal", "merge", "no_stable_state", "breakdown")
                 and before is not None
@@ -873,13 +873,13 @@ def summarise(index: int, sim, report) -> dict:
         s = result.steps[top]
         rec["top_voltage_kV"] = float(report.voltage_kV(s.phi_hat))
         rec["top_configuration"] = s.segment.label if s.segment is not None and s.state is not None else "none"
-        rec["top_bulged"] = int(s.state.k) if s.state is not None else -1
+        rec["top_bulged"] = -1 if s.state is None else _bulged(s.state, rec["top_configuration"])
     scene = sim.scene
     p_close = scene.chamber.closing_pressure if scene.chamber is not None else scene.controlled_pressure
     rec["closing_pressure_ratio"] = float(scene.p_hat(p_close)) / float(sim.p_hat_max)
     if up is not None:
         rec["status"] = "bulges"
-        rec["bulged_after_jump"] = int(up.state_after.k) if up.state_after is not None else -1
+        rec["bulged_after_jump"] = -1 if up.state_after is None else _bulged(up.state_after, up.to_label)
         rec["reason"] = ""
     elif broke is not None:
         rec["status"] = "breakdown_first"
@@ -960,6 +960,15 @@ def _missing_reasons(rec: dict, sim, report) -> list:
             f"from the first jump up ({up.from_label} -> {up.to_label})"
         )
     return out
+
+
+def _bulged(state, label: str):
+    """The number of bulged zones of ``state`` (None without one): all of them in a homogeneous state past the zones'
+    pressure maximum (its label ends in "all bulged"; a homogeneous configuration counts 0 bulged zones: under
+    pressure control the top of the ramp read "homogeneous, all bulged" beside ``top_bulged`` 0; review, helper-82)."""
+    if state is None:
+        return None
+    return int(state.zones) if label.endswith("all bulged") else int(state.k)
 
 
 def _reverses(down, up) -> bool:
@@ -1663,12 +1672,26 @@ def plot_design_map(
     rest = {d: 0 for d in da.dims if d not in (x, y)}
     if rest:
         da, st = da.isel(rest), st.isel(rest)
+    # the other swept keys: the map is the slice at their first value, and says so (review, helper-82)
+    sliced = [f"{_axis_label(dataset[d], d)} = {dataset[d].values[0]}" for d in rest if dataset.sizes[d] > 1]
     da = da.transpose(y, x)
     st = st.transpose(y, x)
     (xs, x_names), (ys, y_names) = _map_positions(dataset[x].values), _map_positions(dataset[y].values)
     fig, ax = plt.subplots(figsize=(7.2, 5.8), layout="constrained")
     mesh = ax.pcolormesh(xs, ys, da.values, shading="nearest", cmap="viridis")
-    fig.colorbar(mesh, ax=ax, label=f"{variable.removesuffix('_kV').replace('_', ' ')} (kV)")
+    unit = " (kV)" if variable.endswith("_kV") else ""  # closing_pressure_ratio is a ratio
+    fig.colorbar(mesh, ax=ax, label=f"{variable.removesuffix('_kV').replace('_', ' ')}{unit}")
+    if not np.isfinite(np.asarray(da.values, dtype=float)).any():
+        ax.text(
+            0.5,
+            0.5,
+            f"no {variable} at any point (the dataset's reason says why)",
+            transform=ax.transAxes,
+            ha="center",
+            va="center",
+            fontsize=9,
+            bbox={"facecolor": "white", "edgecolor": "0.5"},
+        )
     status = st.values.astype(str)
     xe, ye = _cell_edges(xs), _cell_edges(ys)
     handles: list = []
@@ -1708,8 +1731,8 @@ def plot_design_map(
             set_ticks(values, names)
         elif values.size <= MAP_TICKS_MAX:
             set_ticks(values, [f"{v:g}" for v in values])
-    if title:
-        ax.set_title(title, fontsize=9)
+    if title or sliced:
+        ax.set_title("\n".join(filter(None, [title, ("at " + ", ".join(sliced)) if sliced else ""])), fontsize=9)
     fig.savefig(path, dpi=130)
     plt.close(fig)
 

@@ -372,6 +372,48 @@ def test_design_map_cells_sit_at_their_values(tmp_path, monkeypatch):
     assert list(drawn["xs"]) == [0.0, 1.0, 2.0] and (tmp_path / "material.png").stat().st_size > 10_000
 
 
+def test_design_map_says_which_slice_and_which_unit(tmp_path, monkeypatch):
+    """Three swept keys: the map is the slice at the first value of the third, and its title says so; a ratio's colour
+    bar has no "(kV)"; a quantity missing everywhere is said on the map, not drawn as an empty colour bar from -0.1
+    to 0.1 kV (review, helper-82)."""
+    import matplotlib.axes
+    import matplotlib.colorbar
+    import xarray as xr
+
+    from coexist.sweep import plot_design_map
+
+    seen: dict = {"titles": [], "labels": [], "texts": []}
+    for cls, name, key, pick in (
+        (matplotlib.axes.Axes, "set_title", "titles", lambda a, k: a[0]),
+        (matplotlib.axes.Axes, "text", "texts", lambda a, k: a[2]),
+        (matplotlib.colorbar.Colorbar, "set_label", "labels", lambda a, k: a[0]),
+    ):
+        real = getattr(cls, name)
+
+        def spy(self, *args, _real=real, _key=key, _pick=pick, **kwargs):
+            seen[_key].append(_pick(args, kwargs))
+            return _real(self, *args, **kwargs)
+
+        monkeypatch.setattr(cls, name, spy)
+    shape = (2, 2, 2)
+    dims = ("zones.count", "p", "r")
+    ds = xr.Dataset(
+        {
+            "closing_pressure_ratio": (dims, np.full(shape, 0.9)),
+            "breakdown_kV": (dims, np.full(shape, np.nan)),
+            "status": (dims, np.full(shape, "bulges")),
+        },
+        coords={"zones.count": [2, 3], "p": [19.9, 20.0], "r": [21.3, 21.4]},
+        attrs={"swept_dims": "zones.count,p,r"},
+    )
+    plot_design_map(ds, tmp_path / "ratio.png", "closing_pressure_ratio", title="8 points")
+    assert seen["titles"][-1] == "8 points\nat [zones].count = 2"
+    assert seen["labels"][-1] == "closing pressure ratio"
+    plot_design_map(ds, tmp_path / "breakdown.png", "breakdown_kV")
+    assert seen["labels"][-1] == "breakdown (kV)"
+    assert seen["texts"] and "no breakdown_kV at any point" in seen["texts"][-1]
+
+
 def test_a_hysteresis_within_rounding_of_zero_is_not_printed_negative(capsys):
     """``coexist sweep tricircle --vary zones.count=1,2,3`` printed ``hyst_kV -0.000000`` for 2 zones (−6.9e-10 kV,
     inside its ±4e-9; review, helper-71): the table rounds to its six decimals first."""

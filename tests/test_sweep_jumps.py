@@ -91,3 +91,21 @@ def test_no_hysteresis_between_jumps_that_do_not_return():
     assert "no jump_hysteresis_kV: the first jump down" in j300["reason"] and "does not return" in j300["reason"]
     assert j97["jump_hysteresis_kV"] == pytest.approx(j97["jump_up_kV"] - j97["jump_down_kV"], abs=1e-12)
     assert j97["jump_hysteresis_kV"] > 0
+
+
+def test_a_pressure_controlled_point_counts_its_all_bulged_zones():
+    """Three zones at a controlled 20.1 mbar: at 1.458281425 kV all three jump to their bulged branch together (a
+    homogeneous state past the pressure maximum, "homogeneous, all bulged"). The sweep said ``top_bulged`` 0 and
+    ``bulged_after_jump`` 0 beside that label, and had no ``loss_up`` for the unbulged state (review, helper-82)."""
+    from coexist.scene import builtin_scene_text, parse_scene
+    from coexist.sweep import summarise
+
+    text = builtin_scene_text("tricircle")
+    text = text[: text.index("[chamber]")] + text[text.index("[voltage]") :]
+    text = text.replace("count = 3", "count = 3\npressure_mbar = 20.1")
+    sim = Simulation.from_scene(parse_scene(text))
+    rec = summarise(0, sim, sim.ramp())
+    assert rec["top_configuration"] == "homogeneous, all bulged"
+    assert rec["top_bulged"] == 3 and rec["bulged_after_jump"] == 3
+    assert rec["jump_up_kV"] == pytest.approx(1.458281425, abs=1e-8)
+    assert dict(rec["loss_up"])[0] == pytest.approx(1.458281425, abs=1e-8)
