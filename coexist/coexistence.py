@@ -477,7 +477,9 @@ class PhaseDiagram:
     """The ``(Φ̂, p̂)`` plane of one zone: spinodals, binodal and the critical point.
 
     ``spinodal_max``/``spinodal_min`` hold ``(Φ̂, p̂)`` of the pressure maximum and the following
-    minimum of the curve (the limits of stability under pressure control); ``binodal`` the
+    minimum of the curve (the limits of stability under pressure control): the maximum wherever the unbulged branch
+    has one (its snap-through), the minimum only where a stable branch rises beyond it (a minimum past a volume
+    fold, on the inward spiral of the ``p̂–V̂`` curve, is none); ``binodal`` the
     Maxwell coexistence pressure; ``critical_point`` the ``(Φ̂, p̂, λ0)`` where the maximum and
     minimum truly merge (None if they merge nowhere in the range, e.g. where the minimum only crosses
     the end of the pole-stretch range searched); ``notes`` where and why lines end.
@@ -559,12 +561,14 @@ def _loop(curve: ZoneCurve):
     return None
 
 
-def _limit_pressures(model, phi_hat: float, lo, hi, settings: SolverSettings) -> tuple[np.ndarray, np.ndarray]:
-    """The pressure maximum in ``[lo[0], hi[0]]`` and minimum in ``[lo[1], hi[1]]`` (pole stretches) at
-    ``phi_hat``, located on exact states as :func:`~coexist.curves.pressure_volume_curve` locates limit points
-    (:func:`chebyshev_extremum` of ``p̂(λ0)``, value settled to ``rtol/2``, location to ``limit_point_xtol``)
-    and shot there: ``(λ0, p̂)``. NaN where the extremum lies at an end of its bracket (none inside) or no state
-    is valid there."""
+def _limit_pressures(
+    model, phi_hat: float, lo, hi, settings: SolverSettings, maxima=(True, False)
+) -> tuple[np.ndarray, np.ndarray]:
+    """The pressure maximum in ``[lo[0], hi[0]]`` and minimum in ``[lo[1], hi[1]]`` (pole stretches; ``maxima`` says
+    which bracket holds which kind, by default these two) at ``phi_hat``, located on exact states as
+    :func:`~coexist.curves.pressure_volume_curve` locates limit points (:func:`chebyshev_extremum` of ``p̂(λ0)``,
+    value settled to ``rtol/2``, location to ``limit_point_xtol``) and shot there: ``(λ0, p̂)``. NaN where the
+    extremum lies at an end of its bracket (none inside) or no state is valid there."""
     lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
 
     def p_of(x):
@@ -575,7 +579,7 @@ def _limit_pressures(model, phi_hat: float, lo, hi, settings: SolverSettings) ->
         p_of,
         lo,
         hi,
-        [True, False],
+        list(maxima),
         ftol=0.5 * settings.rtol,
         xtol=settings.limit_point_xtol,
         nodes=settings.limit_point_nodes,
@@ -585,10 +589,43 @@ def _limit_pressures(model, phi_hat: float, lo, hi, settings: SolverSettings) ->
     # interpolant of a monotone stretch has its extremum just inside an end: review, helper-62)
     ends = solve_states(model, np.r_[lo, hi], phi_hat, settings, derivatives=True)
     slope = np.where(ends.ok, StateDerivatives.of(ends).dp_dl0, np.nan)
-    sign = np.array([1.0, -1.0])  # the maximum, then the minimum
-    turns = (sign * slope[:2] > 0) & (sign * slope[2:] < 0)
+    k = lo.size
+    sign = np.where(np.asarray(maxima, dtype=bool), 1.0, -1.0)
+    turns = (sign * slope[:k] > 0) & (sign * slope[k:] < 0)
     inside = s.ok & (x > lo) & (x < hi) & turns
     return x, np.where(inside, s.p_hat, np.nan)
+
+
+def _snap_maximum(curve: ZoneCurve):
+    """The first pressure maximum (``u``) of a curve whose states rise in volume and are stable at their volume there,
+    or None: the snap-through of the unbulged branch under pressure control, a limit of stability whether a stable
+    branch follows it or not (neo-Hookean zones: none follows; review, helper-82)."""
+    from .equilibria import zone_index_on_curve
+
+    for a in curve.pressure_extrema():
+        a = float(a)
+        if curve.dp(a - 1e-9) > 0 and curve.dp(a + 1e-9) < 0:
+            if curve.dv(a) > 0 and zone_index_on_curve(curve, a) == 0:
+                return a
+            return None  # the first maximum is not such a limit: nothing later is
+    return None
+
+
+def _exact_snap(model, curve: ZoneCurve, ua: float, settings: SolverSettings):
+    """:func:`_exact_spinodals` for a maximum alone (no minimum follows): ``(p̂, error, note)``."""
+    h = float(np.max(np.diff(curve.grid)))
+    span_lo, span_hi = curve.span
+    lo = curve.to_stretch(np.array([max(ua - h, span_lo)]))
+    hi = curve.to_stretch(np.array([min(ua + h, span_hi)]))
+    try:
+        _, p = _limit_pressures(model, curve.phi_hat, lo, hi, settings, maxima=(True,))
+        _, pt = _limit_pressures(model, curve.phi_hat, lo, hi, tight_settings(settings), maxima=(True,))
+    except ValueError as exc:
+        return np.nan, np.nan, f"the snap-through was not located on the exact states: {exc}"
+    err = measured_error(p[0], pt[0], settings.rtol)
+    if not np.isfinite(err):
+        return np.nan, np.nan, "the snap-through is not an interior limit point of the exact states: left out"
+    return float(p[0]), float(err), None
 
 
 def _exact_spinodals(model, curve: ZoneCurve, loop, settings: SolverSettings):
@@ -794,6 +831,11 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
             continue
         loop = _loop(c)
         if loop is None:
+            snap = _snap_maximum(c)
+            if snap is not None:  # the unbulged branch's limit all the same, with no stable branch beyond it
+                smax[i], emax[i], why = _exact_snap(model, c, snap, settings)
+                if why is not None:
+                    notes.append(f"Φ̂ = {phi:.6g}: {why}")
             continue
         loops[i] = tuple(float(c.to_stretch(x)) for x in loop)
         (smax[i], smin[i]), (emax[i], emin[i]), why = _exact_spinodals(model, c, loop, settings)
@@ -817,8 +859,14 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
     if not has_loop.any():
         notes.append(
             f"no voltage in Φ̂ = {phi_values.min():.4g}..{phi_values.max():.4g} has a pressure maximum followed by a "
-            "minimum: no spinodals, no coexistence (the curve rises monotonically up to the end of the model's "
-            f"range, λ0 = {pole_stretch_max:.4g}, or has no second stable branch)"
+            + (
+                "minimum with a stable branch beyond it: no lower spinodal, no coexistence (no second stable "
+                "branch up to the end of the model's range, "
+                f"λ0 = {pole_stretch_max:.4g}; the snap-through, where there is one, is the upper spinodal)"
+                if np.isfinite(smax).any()
+                else "minimum: no spinodals, no coexistence (the curve rises monotonically up to the end of the "
+                f"model's range, λ0 = {pole_stretch_max:.4g}, or has no second stable branch)"
+            )
         )
     critical = None
     change = np.flatnonzero(has_loop[:-1] != has_loop[1:])

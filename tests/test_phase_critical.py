@@ -47,7 +47,7 @@ def gent40():
     return build_model("gent", 40.0)
 
 
-NO_LOOP = "has a pressure maximum followed by a minimum: no spinodals, no coexistence"
+NO_LOOP = "has a pressure maximum followed by a minimum with a stable branch beyond it: no lower spinodal"
 
 
 @pytest.mark.parametrize("lmax", [6.0, 12.0])
@@ -63,6 +63,16 @@ def test_neo_hookean_reports_no_false_critical_point(neo, lmax):
     assert not any(n.startswith("critical point") for n in d.notes)
     assert any(NO_LOOP in n for n in d.notes), d.notes
     assert np.all(np.isnan(d.spinodal_min)) and np.all(np.isnan(d.binodal))
+    # the snap-through is the upper spinodal all the same: the pressure maximum of the p̂–V̂ curve, within both errors
+    from coexist.curves import pressure_volume_curve
+
+    for phi, p_max, err in zip(d.phi_hat[::5], d.spinodal_max[::5], d.spinodal_max_error[::5]):
+        (lp,) = [
+            x
+            for x in pressure_volume_curve(neo, phi, np.linspace(1.05, 3.5, 120)).limit_points
+            if x.kind == "pressure_max"
+        ]
+        assert abs(p_max - lp.p_hat) <= err + lp.errors["p_hat"], (phi, p_max, lp.p_hat)
     for phi in (0.11, 0.2):
         l0 = np.linspace(1.5, lmax, 800)
         slope, s = exact_slope(neo, l0[l0 < {0.11: 7.5, 0.2: 4.99}[phi]], phi)
