@@ -64,6 +64,8 @@ CASES = {
     "Gent 300 at 5e-7": ({"jlim": 300.0}, "5e-7"),
     "two zones at draft": ({"count": 2}, "1e-6"),
     "two zones at 5e-7": ({"count": 2}, "5e-7"),
+    # a landing of 1 + 1 + 1 zones, converged, did not converge again as a seed: exit 1 (review, helper-81)
+    "1e6 ml chamber at draft": ({"volume_ml": "1e6"}, "1e-6"),
 }
 
 
