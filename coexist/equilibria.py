@@ -5,8 +5,9 @@ Potential of the whole system at fixed voltage (docs/physics.md, normalised by `
     G(V̂1..V̂N) = Σ Ψ̂(V̂i) + G_gas(Σ V̂i)
 
 with ``G_gas = −n̂ ln(V̂c + ΣV̂i) + p̂atm ΣV̂i`` for an isothermal ideal gas of amount ``n̂`` in a rigid
-chamber ``V̂c`` (seed eq. 1), or ``G_gas = −p̂ ΣV̂i`` for a pressure reservoir. Its stationary points are
-the equilibria: every zone at the gauge pressure of the gas.
+chamber ``V̂c`` (seed eq. 1; evaluated without the constant ``n̂ ln V̂c``,
+:meth:`~coexist.effects.GasChamber.free_energy`), or ``G_gas = −p̂ ΣV̂i`` for a pressure reservoir. Its
+stationary points are the equilibria: every zone at the gauge pressure of the gas.
 
 **Configurations.** Identical zones in equilibrium sit in a few distinct states. A configuration
 puts ``n1`` zones at pole stretch ``λ1``, ``n2`` at ``λ2`` and so on (groups ordered by pole stretch,

@@ -973,8 +973,9 @@ def _bulged(state, label: str):
 
 def _reverses(down, up) -> bool:
     """Whether the jump ``down`` goes back from the state the jump ``up`` landed in to the one it left (by their
-    configurations' labels, branches included): only then is ``jump_up − jump_down`` a hysteresis (Gent 300: the first
-    jump down is a fold from the large bulged branch to the small one, 0.66 kV above the jump up; review, helper-82)."""
+    configurations' labels; "all bulged" marks the one branch a label tells apart): only then is
+    ``jump_up − jump_down`` a hysteresis (Gent 300: the first jump down is a fold from the large bulged branch to
+    the small one, 0.66 kV above the jump up; review, helper-82)."""
     return down.from_label == up.to_label and down.to_label == up.from_label
 
 
@@ -1287,7 +1288,12 @@ def check_parts_folder(folder) -> None:
             "another file",
             "-o",
         )
-    foreign = sorted(p.name for p in folder.iterdir() if not (p.is_file() and _PART_FILE.match(p.name)))
+    try:
+        foreign = sorted(p.name for p in folder.iterdir() if not (p.is_file() and _PART_FILE.match(p.name)))
+    except OSError as exc:  # unreadable (permissions): nothing can be resumed or removed there
+        raise SceneError(
+            f"{folder} cannot be read ({exc.strerror or exc}): move it or write to another file", "-o"
+        ) from None
     if foreign:
         shown = ", ".join(foreign[:3]) + (f" and {len(foreign) - 3} more" if len(foreign) > 3 else "")
         raise SceneError(
@@ -1680,12 +1686,16 @@ def plot_design_map(
     fig, ax = plt.subplots(figsize=(7.2, 5.8), layout="constrained")
     mesh = ax.pcolormesh(xs, ys, da.values, shading="nearest", cmap="viridis")
     unit = " (kV)" if variable.endswith("_kV") else ""  # closing_pressure_ratio is a ratio
-    fig.colorbar(mesh, ax=ax, label=f"{variable.removesuffix('_kV').replace('_', ' ')}{unit}")
-    if not np.isfinite(np.asarray(da.values, dtype=float)).any():
+    if np.isfinite(np.asarray(da.values, dtype=float)).any():
+        fig.colorbar(mesh, ax=ax, label=f"{variable.removesuffix('_kV').replace('_', ' ')}{unit}")
+    else:  # nothing to colour: no colour bar of an empty range, and the map says so (review, helper-83)
+        where = (
+            "in this slice" if np.isfinite(np.asarray(dataset[variable].values, dtype=float)).any() else "at any point"
+        )
         ax.text(
             0.5,
             0.5,
-            f"no {variable} at any point (the dataset's reason says why)",
+            f"no {variable} {where} (the dataset's reason says why)",
             transform=ax.transAxes,
             ha="center",
             va="center",

@@ -409,9 +409,14 @@ def test_design_map_says_which_slice_and_which_unit(tmp_path, monkeypatch):
     plot_design_map(ds, tmp_path / "ratio.png", "closing_pressure_ratio", title="8 points")
     assert seen["titles"][-1] == "8 points\nat [zones].count = 2"
     assert seen["labels"][-1] == "closing pressure ratio"
+    labels = len(seen["labels"])
     plot_design_map(ds, tmp_path / "breakdown.png", "breakdown_kV")
-    assert seen["labels"][-1] == "breakdown (kV)"
+    assert len(seen["labels"]) == labels  # no colour bar of an empty range
     assert seen["texts"] and "no breakdown_kV at any point" in seen["texts"][-1]
+    # missing only in the slice shown (review, helper-83)
+    ds["breakdown_kV"][1] = 4.0
+    plot_design_map(ds, tmp_path / "breakdown2.png", "breakdown_kV")
+    assert "no breakdown_kV in this slice" in seen["texts"][-1]
 
 
 def test_a_hysteresis_within_rounding_of_zero_is_not_printed_negative(capsys):
@@ -429,3 +434,22 @@ def test_a_hysteresis_within_rounding_of_zero_is_not_printed_negative(capsys):
     _report(result)
     out = capsys.readouterr().out
     assert " 0.000000 " in out and "-0.000000" not in out
+
+
+def test_an_unreadable_parts_folder_is_bad_input(tmp_path, monkeypatch):
+    """A parts folder the sweep cannot list (permissions) ended in "internal error: PermissionError" (review,
+    helper-83; simulated: the tests run as root)."""
+    from pathlib import Path as P
+
+    from coexist.errors import SceneError
+    from coexist.sweep import check_parts_folder
+
+    folder = tmp_path / "s.nc.parts"
+    folder.mkdir()
+
+    def denied(self):
+        raise PermissionError(13, "Permission denied", str(self))
+
+    monkeypatch.setattr(P, "iterdir", denied)
+    with pytest.raises(SceneError, match="cannot be read \\(Permission denied\\)"):
+        check_parts_folder(folder)
