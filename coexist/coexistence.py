@@ -542,21 +542,26 @@ class PhaseDiagram:
 
 
 def _loop(curve: ZoneCurve):
-    """The pressure maximum and the next minimum (u values) of a curve whose states rise in volume and are stable at
-    their volume there (:func:`~coexist.equilibria.zone_index_on_curve` 0), or None: the two limits of stability
-    under pressure control, between the stable branch below the maximum and the one beyond the minimum.
+    """The pressure maximum of the unbulged branch (:func:`_snap_maximum`) and the first minimum beyond it whose states
+    rise in volume and are stable at their volume (:func:`~coexist.equilibria.zone_index_on_curve` 0), as ``u``
+    values, or None: the two limits of stability under pressure control, between the stable branch below the
+    maximum and the one beyond the minimum.
 
     A minimum of ``p̂(λ0)`` past a volume fold is no such limit (an inward spiral of the ``p̂–V̂`` curve: Gent 97 from
     ``Φ̂ = 0.26``, where the states beyond it have two unstable modes under pressure control; it was reported as a
-    spinodal, and a binodal with a bulged phase that does not exist; review, helper-82)."""
+    spinodal; review, helper-82), and the extrema of such a spiral between the maximum and a stable minimum beyond
+    it are passed over (Gent 97 at ``Φ̂ = 0.25051``: a wiggle at λ0 4.50–4.53 before the stable minimum at 5.84;
+    review, helper-83)."""
     from .equilibria import zone_index_on_curve
 
-    ext = curve.pressure_extrema()
-    for i in range(ext.size - 1):
-        a, b = float(ext[i]), float(ext[i + 1])
-        if not (curve.dp(a - 1e-9) > 0 and curve.dp(b + 1e-9) > 0):
+    a = _snap_maximum(curve)
+    if a is None:
+        return None
+    for b in curve.pressure_extrema():
+        b = float(b)
+        if b <= a or not (curve.dp(b - 1e-9) < 0 < curve.dp(b + 1e-9)):
             continue
-        if curve.dv(a) > 0 and curve.dv(b) > 0 and zone_index_on_curve(curve, a) == zone_index_on_curve(curve, b) == 0:
+        if curve.dv(b) > 0 and zone_index_on_curve(curve, b) == 0:
             return a, b
     return None
 

@@ -171,3 +171,30 @@ def test_a_pressure_minimum_past_a_volume_fold_is_no_spinodal():
         ok = st.ok[:-1] & st.ok[1:]
         k = int(np.flatnonzero(ok & (d.dp_dl0[:-1] < 0) & (d.dp_dl0[1:] >= 0))[-1])
         assert (d.dv_dl0[k] > 0) == genuine
+
+
+def test_a_spiral_wiggle_before_the_stable_minimum_is_passed_over():
+    """Gent 97 at Φ̂ = 0.251 and 0.255: past the snap-through the curve has an unstable wiggle (a pressure minimum and
+    maximum near λ0 4.5, past a volume fold) before its stable minimum near λ0 5.84. The diagram took the wiggle's
+    minimum (consecutive extrema only), or, refusing it, no loop at all (review, helper-83). The lower spinodal is
+    the stable minimum: the root of the exact ``∂p̂/∂λ0`` in [5.5, 5.95] (brentq), within the stated error."""
+    from coexist.shooting import StateDerivatives
+
+    model = build_model("gent", 97.0)
+    phis = [0.251, 0.255]
+    pd = phase_diagram(model, phis, 6.0)
+    for phi, p_min, err in zip(phis, pd.spinodal_min, pd.spinodal_min_error):
+
+        def slope(x, phi=phi):
+            s = solve_states(model, [x], phi, SolverSettings(rtol=1e-12), derivatives=True)
+            return float(StateDerivatives.of(s).dp_dl0[0])
+
+        lam = brentq(slope, 5.5, 5.95, xtol=1e-13)
+        exact = float(solve_states(model, [lam], phi, SolverSettings(rtol=1e-12)).p_hat[0])
+        assert np.isfinite(p_min) and abs(p_min - exact) <= err + 1e-11, (phi, p_min, exact, err)
+        # the wiggle is there: a minimum of p̂(λ0) between 4 and 5 with the volume falling
+        grid = np.linspace(4.0, 5.0, 400)
+        st = solve_states(model, grid, phi, SolverSettings(), derivatives=True)
+        d = StateDerivatives.of(st)
+        k = np.flatnonzero((d.dp_dl0[:-1] < 0) & (d.dp_dl0[1:] >= 0))
+        assert k.size and np.all(d.dv_dl0[k] < 0)
