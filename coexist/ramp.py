@@ -153,7 +153,10 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     a slope that dips and rises again without reaching zero is a near-fold, and the flow goes on through it.
 
     Each group moves on ``curve`` (a :class:`~coexist.zone_curves.ZoneCurve` at the jump's voltage, used
-    only to decide *which* state the flow reaches; that state is then solved exactly). Returns
+    only to decide *which* state the flow reaches; that state is then solved exactly), or on its own curve where
+    the groups lie on different runs of valid states of the zone (a zone bulged past a gap of failed states or a
+    jump of the wrinkled fraction: :meth:`Ramp._curves_of`); a group reaching the end of its curve's run ends the
+    flow (``"range_end"``): it cannot pass continuously to states beyond. Returns
     ``(counts, u, status, snaps)``; status ``"converged"``, ``"volume_fold"`` (a zone reaches its
     largest volume and no other stable shape holds it), ``"range_end"`` (a zone leaves the curve's
     valid range) or ``"stalled"``.
@@ -168,8 +171,9 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
 
     Parameters
     ----------
-    curve : ZoneCurve
-        One zone's curve at the jump's voltage (splines ``p``, ``v``, ``dv`` in ``u`` on ``grid``).
+    curve : ZoneCurve or sequence of ZoneCurve
+        One zone's curve at the jump's voltage (splines ``p``, ``v``, ``dv`` in ``u`` on ``grid``), or one per
+        group (the run of valid states each group lies on; a group split off by a snap keeps its group's).
     gas : GasChamber or PressureReservoir
         What holds the pressure.
     counts : sequence of int
@@ -196,27 +200,33 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     """
     counts = [int(c) for c in counts]
     u = np.asarray(u0, dtype=float).copy()
-    lo, hi = float(curve.grid[0]), float(curve.grid[-1])
-    p_scale = max(abs(float(np.max(curve.p(u)))), 1e-3)
-    dv_floor = 1e-6 * max(float(np.max(np.abs(curve.dv(curve.grid)))), 1e-12)
+    curves = list(curve) if isinstance(curve, (list, tuple)) else [curve] * len(counts)
+    if len(curves) != len(counts):
+        raise ValueError(f"one curve per group: {len(curves)} curves for {len(counts)} groups")
+    p_scale = max(abs(max(float(c.p(x)) for c, x in zip(curves, u))), 1e-3)
+    floors = {id(c): 1e-6 * max(float(np.max(np.abs(c.dv(c.grid)))), 1e-12) for c in curves}
     # the flow only decides the basin (its end is then solved exactly): a few digits settle it
     tol = 1e-8 * p_scale
     snaps: list[tuple[float, float]] = []
-    pv = CubicBundle((curve.p, curve.v))
-
-    def out_of_range(t, x):
-        return float(min(np.min(x) - lo, hi - np.max(x)))
+    bundles = {id(c): CubicBundle((c.p, c.v)) for c in curves}
 
     passes = 0  # slope dips passed without a volume fold (a restart each)
     while True:
-        eqs = _FlowEquations(pv, gas, counts, lo, hi, dv_floor, tol)
+        lo = np.array([float(c.grid[0]) for c in curves])
+        hi = np.array([float(c.grid[-1]) for c in curves])
+        eqs = _FlowEquations(
+            [bundles[id(c)] for c in curves], gas, counts, lo, hi, [floors[id(c)] for c in curves], tol
+        )
         rhs, jac, settled = eqs.rhs, eqs.jacobian, eqs.settled
         m = len(counts)
+
+        def out_of_range(t, x, lo=lo, hi=hi):
+            return float(min(np.min(x - lo), np.min(hi - x)))
 
         def vfold(j, eqs=eqs):
             # heuristic trigger: stop where group j's slope dV̂/du falls to 10 floors (before the floor acts);
             # whether a volume fold really lies ahead is then decided on the spline (_volume_fold_ahead)
-            return lambda t, x: float(eqs.terms(x)[2][j]) - 10 * dv_floor
+            return lambda t, x: float(eqs.terms(x)[2][j]) - 10 * eqs.dv_floor[j]
 
         events = (settled, *(vfold(j) for j in range(m)), out_of_range)
         flow = rosenbrock2(rhs, u, t_max, events=events, rtol=1e-4, atol=1e-7, jac=jac)
@@ -225,7 +235,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
             return counts, u, "range_end", snaps
         if flow.event is not None and 1 <= flow.event <= m:
             j = flow.event - 1
-            if not _volume_fold_ahead(curve, float(u[j]), float(np.sign(rhs(0.0, u)[j]))):
+            if not _volume_fold_ahead(curves[j], float(u[j]), float(np.sign(rhs(0.0, u)[j]))):
                 # the slope dips but stays positive (a near-fold, e.g. the Gent stiffening's inflection):
                 # the zone's shape stays stable at its volume and the flow goes on through the dip (its
                 # event is armed again only once the slope has risen above the trigger)
@@ -233,7 +243,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
                 if passes > 4 * (max_snaps + 1):
                     return counts, u, "stalled", snaps
                 continue
-            target = _equal_volume_shape(curve, u[j], settings)
+            target = _equal_volume_shape(curves[j], u[j], settings)
             if target is None:
                 return counts, u, "volume_fold", snaps
             snaps.append((float(u[j]), float(target)))
@@ -241,6 +251,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
             if counts[j] > 1:
                 counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1 :]
                 u = np.concatenate([u[: j + 1], [target], u[j + 1 :]])
+                curves = curves[: j + 1] + [curves[j]] + curves[j + 1 :]
             else:
                 u[j] = target
             if len(snaps) > max_snaps:
@@ -255,11 +266,21 @@ class _FlowEquations:
     """The gradient flow ``duj/dt = −(p̂(uj) − p̂_gas)/Dj`` of :func:`gradient_flow` on a zone curve, with its exact
     Jacobian ``∂fj/∂uk = −(p̂j' δjk + c nk V̂k')/Dj + (p̂j − p̂_gas) V̂j'' δjk/Dj²`` (``Dj = max(V̂j', floor)``,
     ``c = −dp̂_gas/dΣV̂``; the second term only where the floor is not active) and the settling function
-    ``max |p̂j − p̂_gas| − tol``; ``p̂, V̂`` and their slopes in ``u`` from one evaluation of ``bundle``."""
+    ``max |p̂j − p̂_gas| − tol``; ``p̂, V̂`` and their slopes in ``u`` from one evaluation of ``bundle``.
 
-    def __init__(self, bundle, gas, counts, lo: float, hi: float, dv_floor: float, tol: float):
-        self.bundle, self.gas, self.lo, self.hi, self.dv_floor, self.tol = bundle, gas, lo, hi, dv_floor, tol
+    ``bundle`` is one :class:`~coexist.numerics.splines.CubicBundle` for all groups, or one per group (groups on
+    different runs of the zone's states; those sharing a bundle are evaluated together); ``lo``, ``hi`` (where each
+    group's curve ends) and ``dv_floor`` are one number or one per group."""
+
+    def __init__(self, bundle, gas, counts, lo, hi, dv_floor, tol: float):
+        self.gas, self.tol = gas, tol
         self.n = np.asarray(counts, dtype=float)
+        m = self.n.size
+        per_group = list(bundle) if isinstance(bundle, (list, tuple)) else [bundle] * m
+        self.pieces = [(b, np.array([j for j in range(m) if per_group[j] is b])) for b in _distinct(per_group)]
+        self.lo, self.hi, self.dv_floor = (
+            np.broadcast_to(np.asarray(a, dtype=float), (m,)) for a in (lo, hi, dv_floor)
+        )
         self._at: tuple = (None, None)  # the last point evaluated and its terms
 
     def terms(self, x):
@@ -270,7 +291,13 @@ class _FlowEquations:
         key = tuple(np.asarray(x, dtype=float).tolist())
         if key == self._at[0]:
             return self._at[1]
-        (p, v), (dp, dv), (_, ddv) = self.bundle(np.clip(x, self.lo, self.hi))
+        xc = np.clip(x, self.lo, self.hi)
+        if len(self.pieces) == 1:
+            (p, v), (dp, dv), (_, ddv) = self.pieces[0][0](xc)
+        else:
+            p, v, dp, dv, ddv = (np.empty(self.n.size) for _ in range(5))
+            for b, rows in self.pieces:
+                (p[rows], v[rows]), (dp[rows], dv[rows]), (_, ddv[rows]) = b(xc[rows])
         total = float(self.n @ v)
         out = p, dp, dv, ddv, self.gas.pressure(total), float(self.gas.stiffness(total))
         self._at = (key, out)
@@ -292,6 +319,31 @@ class _FlowEquations:
         """``max |p̂j − p̂_gas| − tol``: falls through zero where the flow has settled."""
         p, _, _, _, pg, _ = self.terms(x)
         return float(np.max(np.abs(p - pg))) - self.tol
+
+
+def _end_reached(curves, u) -> str:
+    """Why the flow ended at the end of a zone curve: the reason its states end (:attr:`ZoneCurve.stopped_because`) for
+    the curve end nearest to a group of ``u``; at the start of a run beyond the first curve, the gap below it."""
+    first = curves[0] if len(_distinct(curves)) == 1 else min(curves, key=lambda c: float(c.grid[0]))
+    best = (np.inf, "end of the computed curve")
+    for c in _distinct(curves):
+        for x in np.asarray(u, dtype=float):
+            top, bottom = abs(x - float(c.grid[-1])), abs(x - float(c.grid[0]))
+            if top < best[0]:
+                best = (top, c.stopped_because or "end of the computed curve")
+            if c is not first and bottom < best[0]:
+                lam = c.to_stretch(float(c.grid[0]))
+                best = (bottom, f"the states below pole stretch {lam:.6g} fail or jump: the start of the run it was on")
+    return best[1]
+
+
+def _distinct(items) -> list:
+    """``items`` without repeats (by identity), in the order first met."""
+    out: list = []
+    for x in items:
+        if not any(x is y for y in out):
+            out.append(x)
+    return out
 
 
 def _equal_volume_shape(curve, u_fold, settings=None):
@@ -349,6 +401,11 @@ def _volume_fold_ahead(curve, u, direction) -> bool:
     return bool(float(dv(stop)) <= 0.0)
 
 
+def _slope_of(curve):
+    """``dV̂/du`` of ``curve`` as a function for :func:`~coexist.numerics.roots.bracketed_root`."""
+    return lambda x, _: curve.dv(x)
+
+
 def _bounded_push(curve, u, du):
     """The push ``du`` of a lost state, shortened (all groups by one factor: the mode's direction is kept) so
     that every group's start ``uj + duj`` stays on the curve's grid and on the piece of the curve where ``V̂(u)``
@@ -363,8 +420,8 @@ def _bounded_push(curve, u, du):
 
     Parameters
     ----------
-    curve : ZoneCurve
-        The zone curve the flow runs on (``grid``, ``dv``).
+    curve : ZoneCurve or sequence of ZoneCurve
+        The zone curve the flow runs on (``grid``, ``dv``), or each group's (see :func:`gradient_flow`).
     u, du : ndarray, shape (M,)
         Each group's ``u`` and its push.
 
@@ -375,25 +432,26 @@ def _bounded_push(curve, u, du):
     """
     u = np.asarray(u, dtype=float)
     du = np.asarray(du, dtype=float)
-    g = np.asarray(curve.grid, dtype=float)
-    lo, hi = float(g[0]), float(g[-1])
+    curves = list(curve) if isinstance(curve, (list, tuple)) else [curve] * u.size
     factor = 1.0
-    for uj, dj in zip(u, du):
+    for uj, dj, c in zip(u, du, curves):
+        g = np.asarray(c.grid, dtype=float)
+        lo, hi = float(g[0]), float(g[-1])
         if not (dj != 0.0 and np.isfinite(dj) and lo <= uj <= hi):
             continue
         end = uj + dj
         room = (hi - uj) if dj > 0 else (uj - lo)
         reach = min(abs(dj), 0.5 * room)
-        s0 = np.sign(float(curve.dv(uj)))
+        s0 = np.sign(float(c.dv(uj)))
         if s0 != 0.0:
             inner = g[(g > min(uj, end)) & (g < max(uj, end))]
             pts = np.concatenate([np.sort(inner)[:: 1 if dj > 0 else -1], [min(max(end, lo), hi)]])
-            flips = np.flatnonzero(np.sign(curve.dv(pts)) != s0)
+            flips = np.flatnonzero(np.sign(c.dv(pts)) != s0)
             if flips.size:
                 k = int(flips[0])
                 a = uj if k == 0 else float(pts[k - 1])
                 b = float(pts[k])
-                fold = float(bracketed_root(lambda s, _: curve.dv(s), min(a, b), max(a, b), xtol=1e-14).x[0])
+                fold = float(bracketed_root(_slope_of(c), min(a, b), max(a, b), xtol=1e-14).x[0])
                 reach = min(reach, 0.5 * abs(fold - uj))
         factor = min(factor, reach / abs(dj))
     return du * factor
@@ -413,6 +471,7 @@ class Ramp:
         self.emap = emap
         self.lam_max = float(pole_stretch_max)
         self._curves: dict = {}
+        self._runs: dict = {}  # runs of valid states beyond each curve's end (:meth:`_run_through`)
 
     # ---------------------------------------------------------------------------------------------
     def _curve(self, phi):
@@ -421,12 +480,92 @@ class Ramp:
         key = round(phi, 15)
         if key not in self._curves:
             pre = self.emap.model.prestretch
-            u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), self.emap.settings.jump_curve_points)
+            u = self._jump_grid()
             # the flow moves zones continuously: a curve whose states jump (wrinkling) ends at the jump
             self._curves[key] = ZoneCurve.compute(
                 self.emap.model, abs(phi), pre + u**2, self.emap.settings, stop_at_jumps=True
             )
         return self._curves[key]
+
+    def _curves_of(self, phi, u) -> tuple[list | None, str]:
+        """The zone curve at ``phi`` each group ``u`` lies on: the curve from the flat state (:meth:`_curve`), or,
+        for a group past its end, the run of valid states beyond that holds it (:meth:`_run_through`).
+
+        Returns
+        -------
+        curves : list of ZoneCurve or None
+            One per group; None where a group lies on no run of valid states of a usable curve.
+        why : str
+            What is missing, when ``curves`` is None.
+        """
+        first = self._curve(phi)
+        lo, hi = float(first.grid[0]), float(first.grid[-1])
+        curves = []
+        for x in np.asarray(u, dtype=float):
+            if lo <= x <= hi:
+                curves.append(first)
+                continue
+            run = self._run_through(phi, float(x)) if x > hi else None
+            if run is None:
+                lam = self.emap.model.prestretch + float(x) ** 2
+                top = self.emap.model.prestretch + hi**2
+                return None, (
+                    f"a zone (pole stretch {lam:.6g}) lies past the zone curve at Φ̂ = {phi:.8g}, whose states end at "
+                    f"pole stretch {top:.6g} ({first.stopped_because or 'its range'}), and on no run of valid states "
+                    "beyond it"
+                )
+            curves.append(run)
+        return curves, ""
+
+    def _run_through(self, phi, x: float):
+        """The zone curve at ``phi`` through the run of valid states (beyond the end of :meth:`_curve`'s) that holds
+        ``u = x``, or None (``x`` on a failed state, or on a run too short for a curve).
+
+        The jump's grid beyond the first curve's end is shot; the run's curve is computed on
+        :attr:`~coexist.settings.SolverSettings.jump_curve_points` points between the failed grid points (or the
+        first curve's end, where a jump of the wrinkled fraction ends it) on either side of ``x``, and ends where
+        its states fail or jump (``stop_at_jumps``) as the first curve does; its start lies within one of its grid
+        spacings above the gap (the flow, which only picks the basin, ends there as at a failure). Gent
+        ``Jlim = 200`` on a 1e6 ml chamber at 0.169: the bulged zone at pole stretch 9.33 lies past states that pull
+        in from 8.78 to 9.02 (tension-field wrinkling)."""
+        from .shooting import solve_states
+        from .zone_curves import ZoneCurve
+
+        key = round(phi, 15)
+        for run in self._runs.get(key, []):
+            if run.grid[0] <= x <= run.grid[-1]:
+                return run
+        first = self._curve(phi)
+        pre = self.emap.model.prestretch
+        top = float(first.grid[-1])
+        grid = self._jump_grid()
+        beyond = grid[grid > top]
+        if beyond.size == 0 or x >= beyond[-1]:
+            # a zone past the grid's end (a bulged Gent zone above `locking_margin` of its locking stretch, which the
+            # lost state reached by continuation: Jlim 300, 11.84 against 11.69): the grid goes on, with its spacing,
+            # to two points past it (states past the locking fail, and end the run there)
+            step = float(grid[1] - grid[0])
+            extra = float(grid[-1]) + step * np.arange(1, int(np.ceil((x - float(grid[-1])) / step)) + 3)
+            beyond = np.r_[beyond, extra]
+        st = solve_states(self.emap.model, pre + beyond**2, abs(phi), self.emap.settings)
+        failed = beyond[~st.ok]
+        below, above = failed[failed < x], failed[failed > x]
+        a = float(below[-1]) if below.size else top
+        b = float(above[0]) if above.size else float(beyond[-1])
+        fine = np.linspace(a, b, self.emap.settings.jump_curve_points)[1:]
+        try:
+            run = ZoneCurve.compute(self.emap.model, abs(phi), pre + fine**2, self.emap.settings, stop_at_jumps=True)
+        except ModelRangeError:
+            return None
+        if not run.grid[0] <= x <= run.grid[-1]:
+            return None
+        self._runs.setdefault(key, []).append(run)
+        return run
+
+    def _jump_grid(self) -> np.ndarray:
+        """The grid in ``u`` of the jumps' zone curves: up to :attr:`lam_max`."""
+        pre = self.emap.model.prestretch
+        return np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), self.emap.settings.jump_curve_points)
 
     def _push(self, end: Event, seg: StableSegment):
         """The lost state split into groups, and the push along its unstable mode (in volume), with the
@@ -514,30 +653,24 @@ class Ramp:
                 # landing exists (past the edge it is cut off; review, helper-81: a top 3.7e-6 kV above a fold)
                 phi_f = 0.5 * (phi_e + (hi_w if direction > 0 else lo_w))
             try:
-                curve = self._curve(phi_f)
+                self._curve(phi_f)  # the curve from the flat state must exist
             except ModelRangeError as exc:
                 last_err = str(exc)
                 continue
-            beyond = (u < curve.grid[0]) | (u > curve.grid[-1])
-            if np.any(beyond):
+            curves, why = self._curves_of(phi_f, u)
+            if curves is None:
                 # a zone of the lost state lies past the end of the zone curve (which stops at a failed state or a
-                # jump of its states: Gent 200 on a 1e6 ml chamber, the bulged zone at pole stretch 9.33 beyond
-                # states that pull in from 8.78; review, helper-79): the flow, on the curve, cannot follow it. It had
+                # jump of its states) and on no run of valid states beyond it: the flow cannot follow it. (It had
                 # run on the spline extrapolated past the end, and reported "stalled", or a volume fold that was never
-                # computed (review, helper-80: Jlim 200/300 on 1e6 ml at 19-20 mbar ended with "no axisymmetric state
-                # is stable" from a spline extrapolated from 5.5 to 9.5)
-                lam = self.emap.model.prestretch + float(u[np.flatnonzero(beyond)[0]]) ** 2
-                top = self.emap.model.prestretch + float(curve.grid[-1]) ** 2
-                last_err = (
-                    f"a zone of {seg.label} (pole stretch {lam:.6g}) lies past the zone curve at Φ̂ = {phi_f:.8g}, "
-                    f"whose states end at pole stretch {top:.6g} "
-                    f"({curve.stopped_because or 'its range'}): the jump cannot be followed on it"
-                )
+                # computed; review, helper-80.) A zone on a later run moves on that run's curve: Gent 200 on a 1e6 ml
+                # chamber, the bulged zone at pole stretch 9.33 beyond states that pull in from 8.78 to 9.02
+                last_err = f"{seg.label}: {why}: the jump cannot be followed on it"
                 continue
-            v_scale = max(float(np.max(np.abs(curve.v(u)))), 1e-9)
-            du = _bounded_push(curve, u, sign * 1e-3 * v_scale * dv / np.maximum(curve.dv(u), 1e-12))
+            v_scale = max(max(abs(float(c.v(x))) for c, x in zip(curves, u)), 1e-9)
+            slope = np.array([float(c.dv(x)) for c, x in zip(curves, u)])
+            du = _bounded_push(curves, u, sign * 1e-3 * v_scale * dv / np.maximum(slope, 1e-12))
             counts_end, u_end, status, snaps = gradient_flow(
-                curve, self.emap.gas, counts, u + du, settings=self.emap.settings
+                curves, self.emap.gas, counts, u + du, settings=self.emap.settings
             )
             if snaps:
                 where = ", ".join(f"{1 + a * a:.4g} -> {1 + b * b:.4g}" for a, b in snaps)
@@ -557,8 +690,7 @@ class Ramp:
                 return Landing(
                     None,
                     None,
-                    f"a zone leaves the model's range on the way from {seg.label} "
-                    f"({curve.stopped_because or 'end of the computed curve'})",
+                    f"a zone leaves the model's range on the way from {seg.label} ({_end_reached(curves, u_end)})",
                     mode,
                 )
             if status != "converged":
@@ -602,7 +734,10 @@ class Ramp:
         if not corr.ok[0]:
             return None
         eq = make_equilibrium(tr.system, corr.res, corr.rows[0])
-        idx = tuple(zone_index_on_curve(self._curve(phi), x, self.emap.settings) for x in np.sort(corr.z[0, :M]))
+        zs = np.sort(corr.z[0, :M])
+        curves, _ = self._curves_of(phi, zs)  # a zone on a run beyond the first curve: its index on that run
+        curves = curves or [self._curve(phi)] * M
+        idx = tuple(zone_index_on_curve(c, x, self.emap.settings) for c, x in zip(curves, zs))
         eq.zone_index = idx
         return eq
 
