@@ -110,8 +110,9 @@ def test_a_zone_past_the_jump_grid_gets_its_run(tmp_path):
 
 
 def test_gent_150_follows_the_second_zone_then_ends():
-    """Gent 150, 1e6 ml: the second zone bulges at 2.154 kV (it had exited 1 there: its bulged partner lay past the
-    first curve), and 2 of 3 bulged ends at its fold at 3.219 kV, a zone leaving the model's range on the way. The
+    """Gent 150, 1e6 ml: the second zone bulges at 2.154 kV, and 2 of 3 bulged ends at its fold at 3.219 kV, a zone
+    leaving the model's range on the way (the ramp had exited 1 at that fold: a bulged zone lay past the first
+    curve). The
     second bulging comes later the smaller the chamber is, as the gas's stiffness holds the pair back: 3e6 ml ~1.57 kV
     at Gent 200 against 1.06 kV at 1e7 ml (pressure control: all three at once)."""
     report = Simulation.from_scene(parse_scene(_text(150))).ramp()
@@ -156,3 +157,49 @@ def test_the_flow_jacobian_on_two_runs(gent200):
         p, *_ = eqs.terms(x)
         assert p[0] == pytest.approx(float(curves[0].p(x[0])), rel=1e-14)
         assert p[1] == pytest.approx(float(curves[1].p(x[1])), rel=1e-14)
+
+
+def test_a_zone_in_a_gap_or_at_a_run_start_is_named(gent200):
+    """The messages of the two ends of what the flow can follow: a zone on a failed state (Gent 200 at the jump's
+    voltage, pole stretch 8.9, inside the states that pull in from 8.78 to 9.02) lies on no run, and a group at the
+    start of a later run ends the jump naming the gap below it."""
+    from coexist.ramp import _end_reached
+
+    sim, report = gent200
+    end = report.result.transitions[1]
+    ramp = Ramp(sim.emap, sim.lam_max)
+    phi = end.phi_hat * (1 + 1e-5)
+    pre = sim.model.prestretch
+    curves, why = ramp._curves_of(phi, np.sqrt(np.array([2.0, 8.9]) - pre))
+    assert curves is None
+    assert "a zone (pole stretch 8.9) lies past the zone curve" in why and "on no run of valid states beyond it" in why
+    first = ramp._curve(phi)
+    run = ramp._run_through(phi, float(np.sqrt(9.33 - pre)))
+    text = _end_reached([run], [float(run.grid[0])], first)
+    assert text.startswith("the states below pole stretch 9.0") and "the start of the run it was on" in text
+    assert _end_reached([first, run], [float(first.grid[-1]), 3.0], first).startswith("electromechanical_instability")
+
+
+def test_a_narrow_gap_the_coarse_grid_missed(tmp_path):
+    """Three inner-circle zones (electrode 0.3 of the radius) of Gent 300 on a 1e6 ml chamber: at 4.262 kV the bulged
+    zone sits at pole stretch 11.876, and the states between the coarse grid's points fail only from 11.765 to 11.770
+    (checked on exact shots): the fine run through the zone starts again past that gap (review, helper-86: the ramp had
+    exited 1, "on no run of valid states"). It ends as its neighbours with 0.5 and 0.7 do, the inflating zone at a
+    volume fold."""
+    text = re.sub(r"^volume_ml = .*$", "volume_ml = 1000000", builtin_scene_text("tricircle"), flags=re.M)
+    text = re.sub(r"^jlim = .*$", "jlim = 300", text, flags=re.M)
+    text = text.replace("[zones]", '[electrodes]\npattern = "inner-circle"\ninner_fraction = 0.3\n\n[zones]')
+    sim = Simulation.from_scene(parse_scene(text))
+    report = sim.ramp()
+    assert _transitions(report)[:2] == [
+        ("spinodal", "up", "homogeneous", "1 of 3 bulged"),
+        ("no_stable_state", "up", "1 of 3 bulged", "none"),
+    ]
+    end = report.result.transitions[1]
+    assert report.voltage_kV(end.phi_hat) == pytest.approx(4.261968666, abs=1e-6)
+    assert "volume fold" in end.reason
+    phi = end.phi_hat * (1 + 1e-5)
+    gap = solve_states(sim.model, np.array([11.7655, 11.7675, 11.7695]), phi, sim.settings)
+    assert not gap.ok.any()
+    sides = solve_states(sim.model, np.array([11.70, 11.876, 12.0]), phi, sim.settings)
+    assert sides.ok.all()
