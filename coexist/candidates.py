@@ -55,12 +55,17 @@ def _near_misses(y):
     return rows, i + 1
 
 
+#: golden-section rounds at most for the extremum of a near miss (:func:`_roots`): 1e-12 of the bracket takes 58
+GOLDEN_ROUNDS = 100
+
+
 def _roots(f, x, y):
     """Roots of the rows of ``f`` sampled as ``y`` (shape ``(R, n)``) on the grid ``x``: first guesses only.
 
     ``f(xv, rows)`` evaluates the rows ``rows`` at the points ``xv``. Every sign change is refined
     (:func:`_refine`). At every near miss (:func:`_near_misses`) the extremum of ``f`` (towards zero) between the
-    neighbouring samples is located by golden-section search (to ``1e-12`` of the bracket); if ``f``
+    neighbouring samples is located by golden-section search (to ``1e-12`` of the bracket, or the floats' spacing there,
+    in at most :data:`GOLDEN_ROUNDS` rounds); if ``f``
     changes sign there, both roots are refined, otherwise the extremum itself is returned: the exact
     equations may still have a pair of equilibria there (the curve's interpolation error is larger
     than the dip), which :func:`coexist.simulation.equilibria_on_gas` looks for around it.
@@ -77,9 +82,14 @@ def _roots(f, x, y):
     if nr.size:
         lo, hi = x[ni - 1].astype(float), x[ni + 1].astype(float)
         g = (np.sqrt(5.0) - 1.0) / 2.0
-        width0 = hi - lo
+        # 1e-12 of the bracket, but not below the spacing of the floats there: a bracket of 3e-6 around P = 1.9
+        # cannot shrink to 3e-18, and the search went on for ever (fit --kind equal_free_energy, two Gent 60 zones on
+        # a 1e6 ml chamber, radius 22.0687 mm, hung); GOLDEN_ROUNDS bounds it in any case
+        tol = np.maximum(1e-12 * (hi - lo), 4 * np.finfo(float).eps * np.maximum(np.abs(lo), np.abs(hi)))
         sign = np.sign(y[nr, ni])  # the dip goes towards zero: minimise sign · f
-        while np.any(hi - lo > 1e-12 * width0):
+        for _ in range(GOLDEN_ROUNDS):
+            if not np.any(hi - lo > tol):
+                break
             x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
             left = sign * f(x1, nr) < sign * f(x2, nr)
             hi = np.where(left, x2, hi)
