@@ -410,7 +410,8 @@ class Simulation:
         model : MembraneModel, optional
             Default: ``scene.model()``.
         phi_window : tuple of float, optional
-            ``(Φ̂lo, Φ̂hi)``; default ``(0, Φ̂ of the path's peak)``, ``(0, 0)`` without a voltage path.
+            ``(0, Φ̂hi)``, ``Φ̂hi ≥ 0`` (the map is traced from the closing state at 0 V); default ``(0, Φ̂ of the
+            path's peak)``, ``(0, 0)`` without a voltage path.
         snap : tuple of float, optional
             ``(p̂max, λ0)`` of the zero-voltage pressure maximum; default: :func:`snap_through`.
 
@@ -423,9 +424,9 @@ class Simulation:
         ------
         SceneError
             If the zones cannot hold the closing (or controlled) pressure, or the scene has neither a
-            chamber nor a controlled pressure (names the field), or its zones are patterned and ``model`` is
-            given without their pattern (a patterned scene's own model is a
-            :class:`~coexist.patterned.PatternedModel`). Also if that pressure is below the smallest computed
+            chamber nor a controlled pressure (names the field), or ``phi_window`` is not ``(0, Φ̂hi ≥ 0)``, or
+            its zones are patterned and ``model`` is given without their pattern (a patterned scene's own model is
+            a :class:`~coexist.patterned.PatternedModel`). Also if that pressure is below the smallest computed
             state's.
         SolverError
             If the state at the closing pressure does not converge.
@@ -444,8 +445,14 @@ class Simulation:
         snap = None if snap is None else _numbers(snap, "snap", (2, 3), "(p̂max, λ0 at it)")
         if phi_window is not None:  # a reversed window silently found nothing (review, helper-62)
             lo, hi = _numbers(phi_window, "phi_window", (2,), "(Φ̂lo, Φ̂hi)")
-            if not 0 <= lo <= hi:
-                raise SceneError(f"phi_window must satisfy 0 <= low <= high, got {phi_window!r}", "phi_window")
+            if not (lo == 0 and hi >= 0):
+                # a low end above 0 left the closing state (at 0 V) outside the window: its segment ended at once, and
+                # the ramp over (0.1, 0.3) of the tricircle found no transition at all, silently
+                raise SceneError(
+                    f"phi_window must be (0, high) with high >= 0: the map is traced from the closing state at 0 V; "
+                    f"got {phi_window!r}",
+                    "phi_window",
+                )
             phi_window = (lo, hi)
         if model is None:
             model = zone_model(scene)

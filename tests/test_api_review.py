@@ -100,6 +100,7 @@ def tricircle():
     "kwargs, field",
     [
         ({"phi_window": (0.3, 0)}, "phi_window"),  # silently found nothing
+        ({"phi_window": (0.1, 0.3)}, "phi_window"),  # the closing state outside: no transition found, silently
         ({"phi_window": (0, float("nan"))}, "phi_window"),
         ({"phi_window": (-1, 0.3)}, "phi_window"),  # named phi_hat
         ({"phi_window": (0,)}, "phi_window"),  # IndexError
