@@ -14,7 +14,7 @@ a CasADi expression so that the Newton solve has exact derivatives of exactly th
 rest of the project uses; its own error against shooting is measured by the curve
 (``interpolation_error``). A solution with the two states merged (the trivial one) is never
 returned: near the critical point where the two stable branches merge, :class:`ModelRangeError`
-says that coexistence ends there.
+says that coexistence ends there (:func:`phase_diagram` says on which side of the critical point the loop is).
 
 The spline solution is only a first guess for a reported number (the splines are accurate to about
 1e-6): :func:`exact_coexistence` solves the same two equations again by Newton on exactly shot states
@@ -912,7 +912,12 @@ def phase_diagram(model, phi_values, pole_stretch_max: float, settings: SolverSe
         notes.append(
             f"critical point at Φ̂ = {phic:.8f} (± {error:.1e}), λ0 = {lc:.6f}: the pressure maximum and minimum merge "
             "(solved on the "
-            f"exact equations: dp̂/dλ0 = {slope:.1e} there, its minimum over λ0); coexistence ends there"
+            f"exact equations: dp̂/dλ0 = {slope:.1e} there, its minimum over λ0); "
+            + (
+                "bulged and unbulged states coexist above this voltage, not below (the loop opens there)"
+                if with_loop_hi
+                else "bulged and unbulged states coexist below this voltage, not above (the loop closes there)"
+            )
         )
         break
     return PhaseDiagram(phi_values, smax, smin, bino, states, critical, notes, emax, emin, ebino)

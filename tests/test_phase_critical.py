@@ -116,7 +116,9 @@ def test_gent40_critical_point_merges_on_the_exact_equations(gent40, gent40_crit
     assert abs(second) < 1e-6
     assert third == pytest.approx(0.675, rel=0.01)
     assert s.p_hat[1] == pytest.approx(pc, abs=1e-12)
-    assert any(n.startswith("critical point at Φ̂ = 0.23207409") for n in gent40_critical.notes)
+    (note,) = [n for n in gent40_critical.notes if n.startswith("critical point at Φ̂ = 0.23207409")]
+    # the loop opens there as the voltage rises: the note said "coexistence ends there"
+    assert note.endswith("coexist above this voltage, not below (the loop opens there)")
 
 
 def test_gent40_loop_opens_at_the_critical_point(gent40, gent40_critical):
