@@ -203,3 +203,27 @@ def test_a_narrow_gap_the_coarse_grid_missed(tmp_path):
     assert not gap.ok.any()
     sides = solve_states(sim.model, np.array([11.70, 11.876, 12.0]), phi, sim.settings)
     assert sides.ok.all()
+
+
+def test_a_landing_on_a_later_run_gets_its_zone_index_there(gent200):
+    """:meth:`Ramp._polish` on the lost state of the Gent 200 case, just before its split (still stable): the bulged
+    zone lies on the later run, and its zone index is read on that run's curve. The indices agree with the ones the
+    continuation gave the exact state (its folds counted on exact slopes), and the state is the same one. (The first
+    curve, clipped at its end, would give the bulged zone index 0 here too: what fails without the runs is the
+    dispatch, asserted first.)"""
+    from coexist.equilibria import Configuration
+
+    sim, report = gent200
+    end = report.result.transitions[1]
+    lost = end.state_before
+    ramp = Ramp(sim.emap, sim.lam_max)
+    phi = end.phi_hat * (1 - 1e-6)
+    lam = np.sort(np.asarray(lost.pole_stretch))
+    groups = [lam[0], lam[-1]]  # the unbulged pair, the bulged zone
+    u = np.sqrt(np.array(groups) - sim.model.prestretch)
+    curves, _ = ramp._curves_of(phi, u)
+    assert curves[1] is not ramp._curve(phi)  # the bulged zone is on the later run
+    eq = ramp._polish(Configuration((2, 1)), u, phi)
+    assert eq is not None and eq.stable
+    assert tuple(eq.zone_index) == tuple(lost.zone_index)
+    assert np.sort(eq.pole_stretch) == pytest.approx(np.sort(lost.pole_stretch), rel=1e-4)
