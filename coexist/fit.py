@@ -177,7 +177,12 @@ def fitted_radius_error(
 
 
 def fit_zone_radius(
-    scene: Scene, target_voltage: float, kind: str = "spinodal", shared: Shared | None = None, bracket_mm=None
+    scene: Scene,
+    target_voltage: float,
+    kind: str = "spinodal",
+    shared: Shared | None = None,
+    bracket_mm=None,
+    progress=None,
 ) -> float:
     """The zone radius ``A`` (m) that puts the first transition of the ramp at ``target_voltage`` (V).
 
@@ -213,6 +218,9 @@ def fit_zone_radius(
         Model and snap-through shared between trials (default: built from ``scene``).
     bracket_mm : (float, float), optional
         Smallest and largest trial radius in mm (default ``(min(0.5 A_max, A0)/8, (1 − 1e-6) A_max)``).
+    progress : callable, optional
+        Called after each radius is solved with ``(radius_mm, transition_V)`` (``None`` where the radius has no
+        transition): a fit solves tens of them, a few seconds each on a slow scene.
 
     Returns
     -------
@@ -262,9 +270,20 @@ def fit_zone_radius(
             "bracket_mm",
         )
 
+    if progress is not None and not callable(progress):
+        raise SceneError(f"progress must be a callable (or None), got {type(progress).__name__}", "progress")
+
     def f(a_mm):
         trial = replace(scene, zone_radius=a_mm / 1e3)
-        return transition_voltage(trial, kind, shared)[0] - target_voltage
+        try:
+            volts = transition_voltage(trial, kind, shared)[0]
+        except CoexistError:
+            if progress is not None:
+                progress(a_mm, None)
+            raise
+        if progress is not None:
+            progress(a_mm, volts)
+        return volts - target_voltage
 
     top = a_max * 1e3
     budget = 6 * shared.settings.fit_samples

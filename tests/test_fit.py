@@ -75,3 +75,20 @@ def test_the_printed_radius_puts_the_transition_within_its_error():
     voltage, _ = transition_voltage(replace(scene, zone_radius=printed / 1e3))
     slack = 2 * data["transition_error_kV"] + abs(data["transition_kV_at_fit"] - 3.9)
     assert abs(voltage / 1e3 - 3.9) <= slack, (voltage, slack)
+
+
+def test_the_fit_reports_each_radius_it_solves(scene_and_shared):
+    """``progress`` hears every radius the fit solves, with its transition voltage: the widening from the scene's own
+    radius, then the root between two; the last one heard is the fitted radius, its transition the target to the fit's
+    tolerance (rtol · target). A value that is not callable is refused."""
+    scene, shared = scene_and_shared
+    heard = []
+    radius = fit_zone_radius(scene, 3.8e3, "spinodal", shared, progress=lambda a_mm, volts: heard.append((a_mm, volts)))
+    assert len(heard) >= 3 and heard[0][0] == pytest.approx(scene.zone_radius * 1e3, rel=1e-12)
+    assert all(v is None or 3e3 < v < 5e3 for _, v in heard)
+    assert heard[-1][0] == pytest.approx(radius * 1e3, rel=1e-12)
+    assert heard[-1][1] == pytest.approx(3.8e3, abs=shared.settings.rtol * 3.8e3)
+    from coexist.errors import SceneError
+
+    with pytest.raises(SceneError, match="progress must be a callable"):
+        fit_zone_radius(scene, 3.8e3, "spinodal", shared, progress=5)

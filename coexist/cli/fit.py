@@ -7,7 +7,16 @@ from dataclasses import replace
 
 import click
 
-from .common import InputError, accuracy_option, info, library_errors, load_scene_arg, settings_from, write_json
+from .common import (
+    InputError,
+    accuracy_option,
+    info,
+    library_errors,
+    load_scene_arg,
+    settings_from,
+    stderr_progress,
+    write_json,
+)
 from .ramp import format_voltage
 
 
@@ -63,7 +72,9 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
         )
     info("fitting the zone radius on the exact equilibria ...")
     shared = Shared.of(sc, settings)
-    radius = fit_zone_radius(sc, target_kv * 1e3, kind, shared)
+    budget = 6 * settings.fit_samples
+    with stderr_progress(budget, f"trial radii (at most {budget}, then the root between two)") as bar:
+        radius = fit_zone_radius(sc, target_kv * 1e3, kind, shared, progress=lambda a_mm, volts: bar.update(1))
     fitted = replace(sc, zone_radius=radius)
     check, err = transition_voltage(fitted, kind, shared, measure=settings.error_estimates)
     radius_err = fitted_radius_error(fitted, kind, shared, check, err, target_kv * 1e3)
