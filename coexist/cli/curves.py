@@ -238,7 +238,9 @@ def _no_curve(exc, option: str, value: str) -> Exception:
     if isinstance(exc, NoStateInRange):
         where = text.removeprefix("no valid state anywhere").lstrip()
         return InputError(
-            f"{option}: the zone has no state at {value} {where}; take another value or --pole-stretch range"
+            f"{option}: the zone has no state at {value} {where}; take another value or --pole-stretch range, or "
+            "another membrane (--jlim, --prestretch, the pattern: a state missing at every voltage, Φ̂ = 0 too, is "
+            "theirs)"
         )
     return ModelRangeError(f"{value} ({option}): {text}", exc.reason)
 
