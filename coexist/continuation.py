@@ -2251,17 +2251,20 @@ class StableSegment:
         least :func:`error_floor`), or None elsewhere: at a fold the Jacobian at fixed voltage is singular and Newton's
         method there cannot converge, and within the uncertainty it is not known on which side of the fold ``Φ̂``
         lies (a path voltage 4e-11 kV below the fold of two bulged zones on a 1000 l chamber exited 1; review,
-        helper-81). The fold's own state, at its voltage, with a note."""
+        helper-81). The fold's own state, at its voltage, with a note. A split end counts too (called only where
+        Newton's method failed): under near pressure control the split of identical zones and the fold of their
+        branch are one event, named the split (three Gent 30 zones on a 1e6 ml chamber, the path voltage 6.38 kV
+        6.5e-12 in Φ̂ below it, exited 1; a robustness sweep, helper-87)."""
         rtol = self.tracer.system.settings.rtol
         for e in (self.low, self.high):
-            if not (isinstance(e, Event) and e.kind == "fold" and e.eq is not None):
+            if not (isinstance(e, Event) and e.kind in ("fold", "split") and e.eq is not None):
                 continue
             if abs(phi - e.phi_hat) > max(float(e.error), error_floor(e.phi_hat, rtol)):
                 continue
             eq = copy.deepcopy(e.eq)
             eq.notes.append(
-                f"within {abs(phi - e.phi_hat):.1e} of the fold at Φ̂ = {e.phi_hat:.10g} (inside its uncertainty, where "
-                "Newton's method at fixed voltage cannot converge): the fold's own state"
+                f"within {abs(phi - e.phi_hat):.1e} of the {e.kind} at Φ̂ = {e.phi_hat:.10g} (inside its uncertainty, "
+                f"where Newton's method at fixed voltage cannot converge): the {e.kind}'s own state"
             )
             return eq
         return None

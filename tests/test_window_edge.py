@@ -75,3 +75,32 @@ def test_a_path_that_stops_next_to_a_fold(stop):
         assert len(ups) == 2 and top.state.configuration.counts == (1, 2)
         assert any("of the fold at" in n for n in top.state.notes)
         assert rep.voltage_kV(top.state.phi_hat) == pytest.approx(2.130706285, abs=1e-8)
+
+
+def test_a_path_voltage_inside_a_split_that_is_also_a_fold():
+    """Three Gent 30 zones of 9.835060062 mm on a 1e6 ml chamber at 27.75 mbar (a radius `coexist fit` put the
+    split at 6.38 kV, a path voltage): the homogeneous segment ends at a split 6.5e-12 in Φ̂ above the path voltage,
+    which under near pressure control is also the fold of the homogeneous branch, so Newton's method there did not
+    converge and the ramp exited 1 ("no converged state ... on its stable segment"; a robustness sweep, helper-87).
+    The split's own state is given there, with a note, and the ramp goes on (the transitions as measured, their
+    errors ~7e-9 kV)."""
+    scene = variant(
+        jlim="30",
+        zone_radius_mm="9.835060062",
+        volume_ml="1e6",
+        closing_pressure_mbar="27.75",
+        start_kV="2",
+        stop_kV="8",
+        step_kV="0.02",
+    )
+    rep = Simulation.from_scene(scene).ramp()
+    kinds = [(t.kind, t.from_label, t.to_label) for t in rep.result.transitions[:3]]
+    assert kinds == [
+        ("spinodal", "homogeneous", "1 of 3 bulged"),
+        ("spinodal", "1 of 3 bulged", "2 of 3 bulged"),
+        ("spinodal", "2 of 3 bulged", "homogeneous, all bulged"),
+    ]
+    assert rep.voltage_kV(rep.result.transitions[0].phi_hat) == pytest.approx(6.38, abs=1e-8)
+    (at,) = [s for s in rep.result.steps if s.direction == "up" and abs(rep.voltage_kV(s.phi_hat) - 6.38) < 1e-9]
+    assert any("of the split at" in n for n in at.state.notes)
+    assert at.state.configuration.counts == (3,)
