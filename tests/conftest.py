@@ -148,6 +148,17 @@ def variant_text(**changes):
     return text
 
 
+def central_difference_jacobian(rhs, x, h=1e-6):
+    """``∂rhs/∂x`` at ``x`` by central differences of step ``h`` (a check of an exact Jacobian; error ~h²)."""
+    x = np.asarray(x, dtype=float)
+    out = np.empty((x.size, x.size))
+    for k in range(x.size):
+        e = np.zeros(x.size)
+        e[k] = h
+        out[:, k] = (rhs(x + e) - rhs(x - e)) / (2 * h)
+    return out
+
+
 def variant(**changes):
     """The tricircle scene with some of its keys changed (``values_kV`` replaces the ramp)."""
     return parse_scene(variant_text(**changes))

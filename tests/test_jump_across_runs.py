@@ -13,6 +13,7 @@ import re
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import central_difference_jacobian
 
 from coexist.cli.main import cli
 from coexist.ramp import Ramp, gradient_flow
@@ -147,11 +148,7 @@ def test_the_flow_jacobian_on_two_runs(gent200):
     eqs = _FlowEquations(bundles, sim.emap.gas, (2, 1), lo, hi, [1e-12, 1e-12], 1e-8)
     for x in (u, u + np.array([0.05, -0.01])):
         J = eqs.jacobian(0.0, x)
-        fd = np.empty((2, 2))
-        for k in range(2):
-            e = np.zeros(2)
-            e[k] = 1e-6
-            fd[:, k] = (eqs.rhs(0.0, x + e) - eqs.rhs(0.0, x - e)) / 2e-6
+        fd = central_difference_jacobian(lambda y: eqs.rhs(0.0, y), x)
         assert np.max(np.abs(J - fd)) <= 1e-6 * np.max(np.abs(J)), (x, J, fd)
         # each group evaluated on its own curve
         p, *_ = eqs.terms(x)

@@ -7,7 +7,7 @@ Scenes are variations of the built-in ``tricircle`` (its fitted zone radius, Gen
 
 import numpy as np
 import pytest
-from conftest import variant
+from conftest import central_difference_jacobian, variant
 from scipy.optimize import brentq, root
 
 from coexist.scene import load_scene
@@ -311,11 +311,7 @@ def test_gradient_flow_jacobian_is_exact(tricircle):
         for floor in (1e-12, float(np.sqrt(dv[0] * dv[1]))):
             eqs = _FlowEquations(bundle, sim.gas, (2, 1), lo, hi, floor, 1e-8)
             J = eqs.jacobian(0.0, x)
-            fd = np.empty((2, 2))
-            for k in range(2):
-                e = np.zeros(2)
-                e[k] = 1e-6
-                fd[:, k] = (eqs.rhs(0.0, x + e) - eqs.rhs(0.0, x - e)) / 2e-6
+            fd = central_difference_jacobian(lambda y, eqs=eqs: eqs.rhs(0.0, y), x)
             assert np.max(np.abs(J - fd)) <= 1e-7 * np.max(np.abs(J)), (frac, floor, J, fd)
 
 
