@@ -56,9 +56,10 @@ from pathlib import Path
 import numpy as np
 
 from .errors import CoexistError, ModelRangeError, SceneError, SolverError
+from .model import WRINKLING_MODES
 from .ramp import JUMP_VOLUME, is_jump
 from .scene import Chamber, Scene, VoltagePath, load_scene
-from .scene_format import SCHEMA, UNITS, _resolve, _value, did_you_mean, read_document
+from .scene_format import PATTERNS, SCHEMA, UNITS, _resolve, _value, did_you_mean, read_document
 from .settings import SolverSettings
 
 #: a sweep with more points than this is refused before it starts
@@ -212,6 +213,11 @@ def parse_key(key: str) -> tuple[str, str, str]:
     return section, name, unit
 
 
+#: the values a swept string key may take (besides ``membrane.material``, which has aliases): checked before the
+#: first point, as the scene format checks them in a file
+_CHOICES = {("membrane", "wrinkling"): WRINKLING_MODES, ("electrodes", "pattern"): PATTERNS}
+
+
 def parse_values(text: str, section: str, name: str, unit: str, key: str = "") -> tuple:
     """The values of one swept key: ``START:STOP:N`` (``N`` evenly spaced values, both ends included) or
     ``v1,v2,...``, each checked as the scene format checks that key (type, sign, range).
@@ -234,7 +240,8 @@ def parse_values(text: str, section: str, name: str, unit: str, key: str = "") -
     ------
     SceneError
         If the text is neither form, ``N`` is not a whole number from 1 to :data:`MAX_AXIS_POINTS`, a value
-        breaks the key's rule, a whole-number key gets a fraction, or a value repeats (field ``--vary``).
+        breaks the key's rule (a material, wrinkling mode or electrode pattern the scene format does not know),
+        a whole-number key gets a fraction, or a value repeats (field ``--vary``).
     """
     from .effects import MATERIALS, canonical_material
 
@@ -276,6 +283,12 @@ def parse_values(text: str, section: str, name: str, unit: str, key: str = "") -
                     raise SceneError(
                         f"{where}: unknown material {s!r}{did_you_mean(s.lower(), MATERIALS)}; use one of "
                         f"{', '.join(MATERIALS)}",
+                        "--vary",
+                    )
+                choices = _CHOICES.get((section, name))
+                if choices is not None and s not in choices:
+                    raise SceneError(
+                        f"{where}: unknown {name} {s!r}{did_you_mean(s, choices)}; use one of {', '.join(choices)}",
                         "--vary",
                     )
                 raw.append(material)

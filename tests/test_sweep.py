@@ -258,6 +258,8 @@ def test_a_point_without_an_answer_has_a_status_and_reason():
         ("chamber.closing_pressure_mbar=-1,2", "positive"),
         ("zones.count=2.5", "whole"),
         ("membrane.material=rubber", "unknown material"),
+        ("membrane.wrinkling=refuse,foo", "unknown wrinkling 'foo'"),
+        ("electrodes.pattern=ring,circle", "did you mean 'inner-circle'"),
         ("chamber.closing_pressure_mbar", "KEY="),
         ("voltage.values_kV=1,2", "cannot be swept"),
     ],
