@@ -585,6 +585,8 @@ def interface_stretch(model: MembraneModel, l1_in, l2, phi_in, n_in, phi_out, n_
     x = l1_in.copy()
     g, d = t1(x)
     lo, hi, ok = _stable_bracket(model, x, g, l2, phi_out, target)
+    if not ok.any():  # no root on any stable branch: NaN, without bisecting every column to roundoff first
+        return np.full(x.shape, np.nan), ok
     exact = g == 0
     x = np.where(exact, x, np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi)))
     for _ in range(JUMP_ITERATIONS):

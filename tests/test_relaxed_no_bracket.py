@@ -38,3 +38,20 @@ def test_a_bracketed_root_is_still_found():
     x, ok = _increasing_root(fun, 8.0, np.array([1.5, 2.5]))
     assert ok.all()
     np.testing.assert_allclose(x, 2.0, rtol=1e-14)
+
+
+def test_taut_interface_without_a_stable_root_gives_up_at_once(monkeypatch):
+    """The taut interface jump (``coexist.patterned.interface_stretch``) likewise: an outer side past its
+    electromechanical instability has no root on its stable branch, known from the bracket."""
+    from coexist import patterned
+    from coexist.model import MembraneModel
+
+    model = MembraneModel()
+    calls = []
+    real = patterned._meridional_tension
+    monkeypatch.setattr(patterned, "_meridional_tension", lambda *a: calls.append(1) or real(*a))
+    # an inner passive side at a large stretch against an outer side at a voltage past its instability: the outer
+    # tension (λ1 − λ1⁻³λ2⁻² − φ²λ1λ2², with φλ2 = 1.2 > 1) is negative at every λ1, the inner one 2.98
+    l1, ok = patterned.interface_stretch(model, np.array([3.0]), np.array([1.5]), 0.0, 1.0, 0.8, 1.0)
+    assert np.isnan(l1).all() and not ok.any()
+    assert len(calls) <= 6, len(calls)
