@@ -950,7 +950,7 @@ def _attempt_run(fns, kind, X, last: bool, steps_before=None) -> _AttemptResult:
     R = (X.shape[0] - len(_HEAD)) // 4
     o = len(_HEAD)
     H = _H
-    run_attempts(_attempts(fns, kind), X, H["status"])
+    run_attempts(_attempts(fns, kind), X, H["status"], H["steps"], H["max_steps"])
     st = X[H["status"]].astype(int)
     failed = st >= _int.FAILED
     status = np.where(failed, _int.FAILED + st, st)

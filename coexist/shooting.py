@@ -1566,10 +1566,17 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
             restart["min_T"][i], restart["max_E"][i] = Tn[j], En[j]
 
 
-def run_attempts(entry: dict, X: np.ndarray, status_row: int) -> None:
+def run_attempts(
+    entry: dict, X: np.ndarray, status_row: int, steps_row: int | None = None, limit_row: int | None = None
+) -> None:
     """Call the attempt function of ``entry`` (:meth:`_Integrators.attempts_of`) on the packed states ``X`` (one
     column per trajectory), mapped over the columns still running (``X[status_row] == 0``, at most
     :data:`COMPILED_BATCH_LIMIT` per call), until none is; ``X`` is updated in place.
+
+    Given the rows of the attempt count and its limit (``steps_row``, ``limit_row``: the ``steps`` and
+    ``max_steps`` of the packed state), a column that a call leaves exactly as it found it but for its count
+    (:func:`_stalled`: a trajectory that can no longer change, e.g. one whose every attempt is the same rejected
+    step) is not run on to its limit call by call: it ends as it would, with ``STEP_LIMIT`` at the limit.
 
     Parameters
     ----------
@@ -1579,9 +1586,12 @@ def run_attempts(entry: dict, X: np.ndarray, status_row: int) -> None:
         Packed states.
     status_row : int
         Row of the status in ``X``.
+    steps_row, limit_row : int, optional
+        Rows of the attempt count and of its limit in ``X`` (both, or no stalled column is ended early).
     """
     active = np.arange(X.shape[1])
     rows = X.shape[0]
+    watch = (steps_row, limit_row) if steps_row is not None and limit_row is not None else None
     while active.size:
         for first in range(0, active.size, COMPILED_BATCH_LIMIT):
             cols = active[first : first + COMPILED_BATCH_LIMIT]
@@ -1590,8 +1600,39 @@ def run_attempts(entry: dict, X: np.ndarray, status_row: int) -> None:
             if call is None:
                 fun = entry["fun"].map(n, "serial") if n > 1 else entry["fun"]
                 call = entry["maps"][n] = BufferedFunction(fun, [rows], rows, n)
-            X[:, cols] = call(X[:, cols])
+            before = X[:, cols]
+            after = X[:, cols] = call(before)
+            if watch is not None:
+                _stalled(X, cols, before, after, status_row, *watch)
         active = active[X[status_row, active] == 0]
+
+
+def _stalled(X, cols, before, after, status_row: int, steps_row: int, limit_row: int) -> None:
+    """End the columns ``cols`` of :func:`run_attempts` that one call left unchanged but for their attempt count,
+    as running on would end them (``X`` updated in place; ``before``/``after``: their packed states around the call).
+
+    An attempt function is a fixed map of the packed state that reads the attempt count only to know whether an
+    attempt is a trajectory's first and whether the count has reached its limit (where it stops the trajectory with
+    ``STEP_LIMIT``, and leaves a stopped one as it is). A column still running after a call of ``K`` attempts that
+    started past its first attempt and ends bitwise where it began (count aside) repeats those ``K`` attempts
+    exactly, call after call, until the count reaches the limit: its states cycle with a period dividing ``K``, and
+    the attempt that reaches the limit is ``(limit − count) mod K`` attempts into a cycle. So the count is set to
+    that many attempts below the limit (the next call takes them and stops the column with ``STEP_LIMIT``, in the
+    state running on would have reached), or the column is stopped at once where that is none: bitwise the
+    outcome of the calls it is spared (a trajectory whose every attempt is the same rejected step, as a pole region
+    asked to end below its series radius: 4000 attempts, some 500 calls, per trial)."""
+    bits_a, bits_b = after.view(np.int64), before.view(np.int64)
+    same = bits_a == bits_b
+    same[steps_row] = True
+    still = (after[status_row] == 0) & (before[steps_row] >= 1) & np.all(same, axis=0)
+    if not still.any():
+        return
+    c = cols[still]
+    done = after[steps_row, still]
+    per = done - before[steps_row, still]  # attempts per call (the trajectory ran through the whole call)
+    left = np.mod(after[limit_row, still] - done, per)
+    X[steps_row, c] = after[limit_row, still] - left
+    X[status_row, c[left == 0]] = _int.STEP_LIMIT
 
 
 def _integrate_attempts(
@@ -1618,7 +1659,7 @@ def _integrate_attempts(
     X[H["Ra"]], X[H["T1a"]], X[H["T2a"]] = t0, T0, T0
     X[H["minT"]], X[H["maxE"]], X[H["failR"]], X[H["cand_est"]] = min_T, max_E, np.nan, np.inf
     X[o : o + R], X[o + R : o + 2 * R], X[o + 2 * R : o + 3 * R] = y0, f0, np.where(np.isfinite(atol), atol, 1e300)
-    run_attempts(entry, X, H["status"])
+    run_attempts(entry, X, H["status"], H["steps"], H["max_steps"])
     status = X[H["status"]].astype(int)
     if h_out is not None:
         h_out[:] = X[H["h"]]

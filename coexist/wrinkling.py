@@ -916,7 +916,7 @@ def _segment_attempts(entry, eqs, md, cols, R, y, h, f0, g_last, dg_last, status
     X[_H["minT"]], X[_H["maxE"]], X[_H["failR"]], X[_H["h_cross"]] = min_T[cols], max_E[cols], np.nan, np.nan
     X[[_H["g_cross"], _H["dg_cross"], _H["l2_cross"], _H["f1_cross"]]] = np.nan
     X[o : o + rows], X[o + rows : o + 2 * rows], X[o + 2 * rows :] = y[:, cols], f0, eqs.atol[:, cols]
-    sh.run_attempts(entry, X, _H["status"])
+    sh.run_attempts(entry, X, _H["status"], _H["steps"], _H["max_steps"])
     st = X[_H["status"]].astype(int)
     steps[cols] += X[_H["steps"]].astype(int)
     R[cols] = X[_H["t"]]
