@@ -22,16 +22,18 @@ trajectory, which is zero in the pole region, gets ``S⁺ = D(S⁻ + f⁻ fi) �
 Jacobian of the jump, ``f∓`` the right-hand sides on the two sides) and is carried by the variational equations
 ``S' = (∂f/∂y) S`` in between; at the clamp ``dR*/ds = −S_λ2/λ2'``. All states of a call are iterated together
 (vectorised DOP853, :func:`coexist.numerics.dop853.integrate`); a state whose iterate fails (a trajectory that
-turns back, a jump without a stable root, no clamp) backtracks towards its last good iterate. The passes of one
-iteration share what does not depend on ``s`` (:class:`_Warm`): the pole region is integrated once to just below
-its interface and taken up from there by the later passes (a step or two), each jump starts from the last pass's
-``λ1⁺``, and a pass integrates the variational equations (the slope) only where the last residual exceeded
-:data:`SLOPE_AGAIN` (elsewhere the last slope serves: off by ``O(|Δσ|)``, the step's error is ``O(|Δσ| |G|)``).
-A region's first step is given, not estimated (Hairer's estimate costs two numpy evaluations of the right-hand
-side per call): the series radius from the pole (as the uniform shooting), :data:`OUTER_FIRST_STEP` ``R̂i`` after an
-interface; the step control corrects it within an attempt or two. A landing step onto the clamp that is rejected
-is taken in two halves by the compiled step function (:func:`_in_halves`). The stopping rule is unchanged: a
-state is returned from a pass whose own residual is ``|G| ≤ rtol``.
+turns back, a jump without a stable root, no clamp) backtracks towards its last good iterate; no iterate goes below
+the scale at which the zone is flat (:data:`SCALE_FLOOR`: a state still too large there is below the flat zone's pole
+stretch, ``BELOW_FLAT``). The passes of one iteration share what does not depend on ``s`` (:class:`_Warm`): the
+pole region is integrated once to just below its interface and taken up from there by the later passes (a step or
+two), each jump starts from the last pass's ``λ1⁺``, and a pass integrates the variational equations (the slope)
+only where the last residual exceeded :data:`SLOPE_AGAIN` (elsewhere the last slope serves: off by ``O(|Δσ|)``,
+the step's error is ``O(|Δσ| |G|)``). A region's first step is given, not estimated (Hairer's estimate costs two
+numpy evaluations of the right-hand side per call): the series radius from the pole (as the uniform shooting),
+:data:`OUTER_FIRST_STEP` ``R̂i`` after an interface; the step control corrects it within an attempt or two. A
+landing step onto the clamp that is rejected is taken in two halves by the compiled step function
+(:func:`_in_halves`). The stopping rule is unchanged: a state is returned from a pass whose own residual is
+``|G| ≤ rtol``.
 
 A pattern with one region is a uniform zone: it is :func:`coexist.shooting.solve_states` with the scaled
 pressure and voltage (``p̂ = n p̂1``, ``Ψ̂ = n Ψ̂1``).
@@ -65,6 +67,7 @@ from .model import QUADRATURE_FACTORS, MembraneModel
 from .numerics import dop853 as _int
 from .settings import SolverSettings, error_reference
 from .shooting import (
+    BELOW_FLAT,
     BELOW_RESOLUTION,
     BEYOND_RUN,
     FLAT_LIMIT,
@@ -1239,6 +1242,12 @@ _PLAIN_ROWS = np.r_[0:7, 17:19]
 #: a Newton iteration integrates its pole region first to this fraction below the first interface and keeps it
 #: (:class:`_Warm`): a later pass takes it up from there (a few steps instead of the whole region)
 POLE_MARGIN = 0.02
+#: the smallest interface scale ``s`` a Newton iteration tries (:func:`_newton`): its pole region, kept to
+#: ``(1 − POLE_MARGIN) s f1``, ends this many series radii from the pole. Below, it would end inside the series
+#: radius: integrated backwards, towards the singular pole, to a meaningless failure. There the zone is flat: its
+#: stretches differ from the unpressurised zone's by ``O((p̂t s/T̂)²)`` (~1e-6 on a prestretched inner circle), so a
+#: state whose clamp is still reached before the rim has a pole stretch below the flat zone's (``BELOW_FLAT``)
+SCALE_FLOOR = 2.0
 #: the first step of a region after an interface at ``R̂i``, as a fraction of ``R̂i`` (Hairer's estimate there,
 #: measured on the headline curve at rtol 1e-10: 0.065–0.10; the step control corrects it in an attempt or two)
 OUTER_FIRST_STEP = 0.07
@@ -2150,7 +2159,16 @@ def _newton(
     next scales, their exact slopes and jumps (or after :data:`JOIN_AFTER` passes from those that are). One
     Newton iteration for a whole curve: the joining states' passes are the others' last ones. Once a state has
     ended without a valid state beyond a valid one, the states beyond it are no longer solved (the curve, the first
-    run of valid states, ends before them: :func:`_beyond_run_end`)."""
+    run of valid states, ends before them: :func:`_beyond_run_end`).
+
+    No iterate goes below the interface scale :data:`SCALE_FLOOR` (its pole region would end inside the series
+    radius): a state whose iterates meet the clamp too near (``G < 0``, or the clamp stretch before the last
+    region) down to it has a pole stretch below the flat zone's, ``BELOW_FLAT``; a state left open after
+    :data:`MAX_SCALE_ITERATIONS` with ``G < 0`` at every iterate takes one trial there to know (just below the flat
+    pole stretch ``G`` is nearly constant in ``σ``: its steps are small). Measured on a Gent 97 inner circle
+    (``f = 0.3``, three passive layers, prestretch 1.2, flat pole stretch 1.4151 at ``Φ̂ = 0.1``): they had gone
+    on into the series radius, integrating the pole region backwards, to "solver_budget" or "wrinkling" after
+    2700–24000 steps each."""
     m = live.size
     l0 = l0_all[live]
     lay = _sub_layout(lay_all, live)
@@ -2161,6 +2179,11 @@ def _newton(
     tol = np.maximum(rtol, 4e-16)
     pole = _pole_start(model, settings, lay, l0, p_t, tp)  # the pole region's start: the same in every pass
     pole = (*pole[:2], None, *pole[3:])  # (its series' sensitivities serve the derivative pass only)
+    # the smallest scale tried (SCALE_FLOOR): a state whose iterates reach the clamp too near (G < 0, or the clamp
+    # stretch before the last region) at every scale down to it, where the zone is flat, has no equilibrium
+    floor = np.log(SCALE_FLOOR * pole[5] / ((1.0 - POLE_MARGIN) * lay.f[0]))
+    floor_tried = np.zeros(m, dtype=bool)
+    floor_reach = np.full(m, np.nan)  # where the trial at the floor met the clamp stretch, over s (< 1: too near)
     warm = _Warm(m)  # the pole region and the jumps, kept from pass to pass
     last_slope = np.full(m, np.nan)  # the last exact slope dG/dσ of each state
     hinted = np.zeros(m, dtype=bool)  # the slope is the hint's (interpolated), not yet an exact one
@@ -2199,6 +2222,16 @@ def _newton(
                 waiting[:] = False
                 passes = 0  # the joining states have their own iterations
         idx = np.flatnonzero(open_)
+        low = idx[sigma[idx] < floor[idx]]
+        if low.size:
+            for i in low[floor_tried[low]]:  # the trial at the floor asked for a smaller scale: no state
+                final[i] = BELOW_FLAT if np.isfinite(floor_reach[i]) else (last_code[i] or NO_CLAMP)
+                detail[live[i]] = _below_floor_detail(final[i], math.exp(floor[i]), floor_reach[i])
+                open_[i] = False
+            first = low[~floor_tried[low]]
+            sigma[first] = floor[first]
+            floor_tried[first] = True
+            idx = np.flatnonzero(open_)
         if idx.size == 0:
             break
         passes += 1
@@ -2226,6 +2259,10 @@ def _newton(
         s = np.exp(sigma[idx])
         okp = st == 0
         G = np.where(okp, np.log(R_star) - sigma[idx], np.nan)
+        at = np.flatnonzero(sigma[idx] == floor[idx])
+        if at.size:  # the trials at the floor: where the clamp stretch was met, over s
+            near = np.where(okp[at], R_star[at], np.where(st[at] == _EARLY_CLAMP, stop_R[at], np.nan)) / s[at]
+            floor_reach[idx[at]] = np.where(near < 1.0, near, np.nan)
         slope = np.where(okp, s / R_star * dRs - 1.0, np.nan)
         last_slope[idx[need & okp]] = slope[need & okp]
         hinted[idx[need & okp]] = False
@@ -2315,6 +2352,30 @@ def _newton(
                     continue
                 nxt = _after_failed_trial(i, sigma, lo, hi, good_sigma)
             _step_bracketed(np.array([i]), np.array([nxt]), sigma, lo, hi, last_code, final, detail, live, open_)
+    # a state left open whose every iterate met the clamp too near (G < 0, none above 0) and that has not reached
+    # the floor (its residual nearly constant, the steps small: a pole stretch just below the flat zone's): one
+    # trial at the floor says whether it lies below the flat zone
+    last = np.flatnonzero(open_ & np.isinf(lo) & np.isfinite(good_sigma) & ~floor_tried)
+    if last.size:
+        R_star, _, _, st, nsteps, _, _, _ = _pass(
+            model,
+            settings,
+            _sub_layout(lay, last),
+            l0[last],
+            p_t[last],
+            floor[last],
+            rtol[last],
+            False,
+            pole=_take_pole(pole, last),
+            slope=False,
+        )
+        steps[live[last]] += nsteps
+        with np.errstate(all="ignore"):
+            reach = np.where(st == 0, R_star / np.exp(floor[last]), np.nan)
+        for i, r in zip(last[reach < 1.0], reach[reach < 1.0]):
+            final[i] = BELOW_FLAT
+            detail[live[i]] = _below_floor_detail(BELOW_FLAT, math.exp(floor[i]), r)
+            open_[i] = False
     for i in np.flatnonzero(open_):
         final[i] = last_code[i] if last_code[i] else NO_CLAMP
         detail[live[i]] = (
@@ -2386,6 +2447,17 @@ def _step_bracketed(ii, nxt, sigma, lo, hi, last_code, final, detail, live, open
         detail[live[i]] = _closed_bracket_detail(final[i], hi[i])
         open_[i] = False
     sigma[ii] = nxt
+
+
+def _below_floor_detail(code: int, s: float, reach: float) -> str:
+    """Why a state has none: its trial at the smallest interface scale ``s`` (:data:`SCALE_FLOOR`) asked for a
+    smaller one, meeting the clamp stretch at ``reach`` of the rim radius (``BELOW_FLAT``; NaN: it failed with
+    ``code``)."""
+    where = f"at interface scale {s:.6g}, the smallest tried: its first interface {SCALE_FLOOR:g} series radii"
+    where += " from the pole"
+    if code == BELOW_FLAT:
+        return f"{reason_text(code)} ({where}, the clamp stretch reached at {reach:.6g} of the rim radius)"
+    return f"{reason_text(code)} ({where}; no larger scale tried gave a state)"
 
 
 def _closed_bracket_detail(code: int, hi: float, state: str = "state") -> str:

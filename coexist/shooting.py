@@ -59,6 +59,8 @@ TOO_MANY_SWITCHES = 22
 #: a curve's state left unsolved: it lies beyond a state without equilibrium that ends the curve's first run of valid
 #: states (coexist.patterned: never part of a curve, which is that run)
 BEYOND_RUN = 23
+#: a patterned zone's pole stretch below that of its flat (unpressurised) state (coexist.patterned): no equilibrium
+BELOW_FLAT = 24
 
 #: a short tag and a sentence for every way a state can fail
 REASONS = {
@@ -109,6 +111,12 @@ REASONS = {
     BEYOND_RUN: (
         "not_solved",
         "not solved: it lies beyond a pole stretch without a valid state that ends the curve's first run of states",
+    ),
+    BELOW_FLAT: (
+        "no_equilibrium",
+        "no pressure holds a pole stretch this small: unpressurised, the zone's regions already stretch its pole "
+        "region further (e.g. a stiffer passive annulus pulling an electrode disc open), and inflation stretches it "
+        "more (the clamp stretch is reached before the rim even where the zone is flat)",
     ),
 }
 
