@@ -2221,17 +2221,9 @@ def _newton(
                 hinted[waiting] = np.isfinite(last_slope[waiting])
                 waiting[:] = False
                 passes = 0  # the joining states have their own iterations
-        idx = np.flatnonzero(open_)
-        low = idx[sigma[idx] < floor[idx]]
-        if low.size:
-            for i in low[floor_tried[low]]:  # the trial at the floor asked for a smaller scale: no state
-                final[i] = BELOW_FLAT if np.isfinite(floor_reach[i]) else (last_code[i] or NO_CLAMP)
-                detail[live[i]] = _below_floor_detail(final[i], math.exp(floor[i]), floor_reach[i])
-                open_[i] = False
-            first = low[~floor_tried[low]]
-            sigma[first] = floor[first]
-            floor_tried[first] = True
-            idx = np.flatnonzero(open_)
+        idx = _at_floor(
+            np.flatnonzero(open_), sigma, (floor, floor_tried, floor_reach), last_code, final, detail, live, open_
+        )
         if idx.size == 0:
             break
         passes += 1
@@ -2447,6 +2439,27 @@ def _step_bracketed(ii, nxt, sigma, lo, hi, last_code, final, detail, live, open
         detail[live[i]] = _closed_bracket_detail(final[i], hi[i])
         open_[i] = False
     sigma[ii] = nxt
+
+
+def _at_floor(idx, sigma, floor_state, last_code, final, detail, live, open_) -> np.ndarray:
+    """The open iterates ``idx`` of an interface-scale iteration kept at or above the smallest scale tried
+    (:data:`SCALE_FLOOR`; ``floor_state = (floor, floor_tried, floor_reach)``, per state: ``ln`` of that scale,
+    whether a trial there was taken, and where it met the clamp stretch over its scale): an iterate below it is set
+    to it the first time; a second time (the trial there asked for a smaller scale) the state ends, ``BELOW_FLAT``
+    where that trial met the clamp stretch before the rim, else with its last failure (or ``NO_CLAMP``). Updates
+    ``sigma``, ``floor_tried``, ``final``, ``detail`` and ``open_`` in place; returns the iterates still open."""
+    floor, floor_tried, floor_reach = floor_state
+    low = idx[sigma[idx] < floor[idx]]
+    if low.size == 0:
+        return idx
+    for i in low[floor_tried[low]]:  # the trial at the floor asked for a smaller scale: no state
+        final[i] = BELOW_FLAT if np.isfinite(floor_reach[i]) else (last_code[i] or NO_CLAMP)
+        detail[live[i]] = _below_floor_detail(final[i], math.exp(floor[i]), floor_reach[i])
+        open_[i] = False
+    first = low[~floor_tried[low]]
+    sigma[first] = floor[first]
+    floor_tried[first] = True
+    return np.flatnonzero(open_)
 
 
 def _below_floor_detail(code: int, s: float, reach: float) -> str:

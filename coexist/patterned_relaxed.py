@@ -15,7 +15,9 @@ equations of :mod:`coexist.wrinkling` in every region (docs/physics.md section 1
   taut where the formal hoop tension ``T̂2(λ1⁺, ρ; φ⁺)`` at the taut root is not negative, else wrinkled;
 * the interface scale ``s`` (interfaces at ``s fk``) is solved per state by a safeguarded secant iteration on
   ``G(σ) = ln R*(e^σ) − σ`` (:func:`solve_patterned_relaxed`), as :func:`coexist.patterned.solve_patterned_states`
-  does with Newton's method.
+  does with Newton's method; as there, no iterate goes below the scale at which the zone is flat
+  (:data:`coexist.patterned.SCALE_FLOOR`: a state still too large there is below the flat zone's pole stretch,
+  ``BELOW_FLAT``).
 
 Exact derivatives (``derivatives=True``, :func:`_relaxed_derivative_pass`): one more relaxed shooting at the
 converged ``σ`` carries the variational equations to ``(s, λ0, Φ̂)`` through every region's taut and wrinkled
@@ -40,11 +42,14 @@ from .patterned import (
     MAX_FAILED_TRIALS,
     MAX_SCALE_ITERATIONS,
     MAX_SCALE_STEP,
+    SCALE_FLOOR,
     SLOPE_CEILING,
     PatternedModel,
     PatternedStates,
     ZonePattern,
     _after_failed_trial,
+    _at_floor,
+    _below_floor_detail,
     _bracket_closed,
     _closed_bracket_detail,
     _keep_bracketed,
@@ -63,6 +68,7 @@ from .patterned import (
 )
 from .settings import SolverSettings
 from .shooting import (
+    BELOW_FLAT,
     BELOW_RESOLUTION,
     FLAT_LIMIT,
     LOCKED,
@@ -793,7 +799,10 @@ def solve_patterned_relaxed(
     (``σ = ln s``) per state by secant steps (the first with the uniform zone's slope ``−1``), kept inside the
     bracket the iterates build (bisection where a step leaves it; an iterate whose trajectory meets the clamp
     stretch before the last region bounds ``s`` above and proposes that radius, one that does not reach the
-    clamp within ``8s`` bounds it below). It stops at ``|G| ≤ rtol``. The unit membrane has ``p̂ = p̂t R*``,
+    clamp within ``8s`` bounds it below). It stops at ``|G| ≤ rtol``. No iterate goes below the scale whose first
+    interface lies :data:`~coexist.patterned.SCALE_FLOOR` series radii from the pole (where the zone is flat): a
+    state whose iterates meet the clamp stretch too near down to it is ``BELOW_FLAT`` (its pole stretch is below
+    the flat zone's), as in :func:`coexist.patterned.solve_patterned_states`. The unit membrane has ``p̂ = p̂t R*``,
     ``V̂ = V̂t/R*³``, ``Q̂ = Q̂t/R*²`` (the electrode's charge), ``Ψ̂ = Σ nk ∫ W_rel dA``, ``wrinkled_radii`` the
     wrinkled intervals over ``R*`` (a band that crosses an interface is one interval).
 
@@ -928,13 +937,29 @@ def _one_region(model, pattern, l0, phi, settings, derivatives=False) -> Pattern
 
 
 def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out, steps, detail, edges_out, radii):
-    """The safeguarded secant iteration on ``σ = ln s`` for the live states; fills the outputs in place."""
+    """The safeguarded secant iteration on ``σ = ln s`` for the live states; fills the outputs in place.
+
+    No iterate goes below the interface scale whose first interface lies :data:`~coexist.patterned.SCALE_FLOOR`
+    series radii from the pole (its pole region would end inside the series radius, integrated backwards towards the
+    singular pole), as in :func:`coexist.patterned._newton`: a state whose iterates meet the clamp stretch too near
+    (``G < 0``, or before the last region) down to that scale, where the zone is flat, has a pole stretch below the
+    flat zone's, ``BELOW_FLAT``; one left open after :data:`~coexist.patterned.MAX_SCALE_ITERATIONS` with ``G < 0``
+    at every iterate takes one trial there to know. Measured on a Gent 97 inner circle (``f = 0.3``, three passive
+    layers, prestretch 1.2, flat pole stretch 1.4151 at ``Φ̂ = 0.1``): its states below the flat one had gone on to
+    interface scales ~1e-5 (the pole region integrated backwards) and "solver_budget" after ~24000 steps, or crept
+    down for all 30 iterations to "not_finite"."""
     m = live.size
     l0 = l0_all[live]
     lay = _sub_layout(lay_all, live)
     p_t, rtol = _trial(model, settings, lay, l0)
     tol = np.maximum(rtol, 4e-16)
     pole = _pole_start(model, settings, lay, l0, p_t)
+    # the smallest scale tried (SCALE_FLOOR): the pole region, integrated from the series radius pole[5] to s f1, ends
+    # SCALE_FLOOR series radii from the pole; a state whose iterates reach the clamp stretch too near down to it has
+    # no equilibrium
+    floor = np.log(SCALE_FLOOR * pole[5] / lay.f[0])
+    floor_tried = np.zeros(m, dtype=bool)
+    floor_reach = np.full(m, np.nan)  # where the trial at the floor met the clamp stretch, over s (< 1: too near)
     sigma = sigma0[live].copy()
     lo, hi = np.full(m, -np.inf), np.full(m, np.inf)
     prev_sigma, prev_G = np.full(m, np.nan), np.full(m, np.nan)
@@ -944,7 +969,9 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
     open_ = np.ones(m, dtype=bool)
     final = np.zeros(m, dtype=int)
     for _ in range(MAX_SCALE_ITERATIONS):
-        idx = np.flatnonzero(open_)
+        idx = _at_floor(
+            np.flatnonzero(open_), sigma, (floor, floor_tried, floor_reach), last_code, final, detail, live, open_
+        )
         if idx.size == 0:
             break
         sub = _Layout(n=lay.n[:, idx], phi=lay.phi[:, idx], f=lay.f, electrode=lay.electrode)
@@ -952,6 +979,11 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
         steps[live[idx]] += res["steps"]
         okp = res["status"] == 0
         G = np.where(okp, np.log(res["R"]) - sigma[idx], np.nan)
+        at = np.flatnonzero(sigma[idx] == floor[idx])
+        if at.size:  # the trials at the floor: where the clamp stretch was met, over its scale
+            met = (okp[at] | (res["status"][at] == _EARLY_CLAMP)) & np.isfinite(res["R"][at])
+            near = np.where(met, res["R"][at], np.nan) / np.exp(sigma[idx[at]])
+            floor_reach[idx[at]] = np.where(near < 1.0, near, np.nan)
         conv = okp & (np.abs(G) <= tol[idx])
         for j in np.flatnonzero(conv):
             i, gi = idx[j], live[idx[j]]
@@ -1007,6 +1039,19 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
                 detail[live[i]] = _closed_bracket_detail(final[i], hi[i], "relaxed state")
                 open_[i] = False
             sigma[i] = nxt
+    # a state left open whose every iterate met the clamp too near (G < 0, none above 0) and that has not reached
+    # the floor (its residual nearly constant, the steps small: a pole stretch just below the flat zone's): one
+    # trial at the floor says whether it lies below the flat zone
+    last = np.flatnonzero(open_ & np.isinf(lo) & np.isfinite(good_sigma) & ~floor_tried)
+    if last.size:
+        sub = _Layout(n=lay.n[:, last], phi=lay.phi[:, last], f=lay.f, electrode=lay.electrode)
+        res = _relaxed_pass(model, settings, sub, l0[last], p_t[last], floor[last], _take_pole(pole, last))
+        steps[live[last]] += res["steps"]
+        reach = np.where(res["status"] == 0, res["R"] / np.exp(floor[last]), np.nan)
+        for i, r in zip(last[reach < 1.0], reach[reach < 1.0]):
+            final[i] = BELOW_FLAT
+            detail[live[i]] = _below_floor_detail(BELOW_FLAT, math.exp(floor[i]), r)
+            open_[i] = False
     for i in np.flatnonzero(open_):
         final[i] = last_code[i] if last_code[i] else NOT_FINITE
         detail[live[i]] = (
