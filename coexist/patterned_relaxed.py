@@ -174,21 +174,10 @@ def _increasing_root(fun, target, x0):
             return np.full(x0.shape, np.nan), ok
         x = np.clip(x0, lo, hi)
         x = np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi))
-        hi_nan = np.isnan(g_hi)  # no value at the upper end (no natural width); +inf there is locked, a root beyond
         for _ in range(JUMP_ITERATIONS):
             g, d = fun(x)[:2]
             g = g - target
-            # below the target where T̂1ʷ falls, with no natural width at the bracket's upper end (its pull-in): past
-            # the wrinkled side's maximum, no rising root is left before the pull-in (it had bisected to the pull-in
-            # at roundoff, ~50 evaluations, for the NaN; 168 of 274 calls of a neo-Hookean ring's `coexist shape`)
-            falling = (g < 0) & (d < 0) & hi_nan
-            if falling.any():
-                ok &= ~falling
-                x = np.where(falling, np.nan, x)
-                if not ok.any():
-                    return np.full(x0.shape, np.nan), ok
             lo = np.where(g < 0, x, lo)
-            hi_nan = np.where(~(g < 0), np.isnan(g), hi_nan)
             hi = np.where(~(g < 0), x, hi)
             step = g / d
             nxt = x - step
@@ -196,7 +185,7 @@ def _increasing_root(fun, target, x0):
             bad = ~np.isfinite(nxt) | (nxt <= lo) | (nxt >= hi) | ~(d > 0)
             nxt = np.where(bad & ~settled, 0.5 * (lo + hi), nxt)
             nxt = np.where(settled, x, nxt)
-            done = (np.abs(nxt - x) <= 4e-16 * np.abs(x)) | ~ok
+            done = np.abs(nxt - x) <= 4e-16 * np.abs(x)
             x = nxt
             if done.all():
                 break
