@@ -117,7 +117,11 @@ LAST_REGION_REACH = 8.0
 #: (``s`` too large), the clamp not reached within LAST_REGION_REACH·s (``s`` too small)
 _EARLY_CLAMP = 90
 _FAR_CLAMP = 91
-#: a slope ``dG/dσ`` above this is not trusted (the step uses ``−1``, the uniform zone's slope)
+#: a slope ``dG/dσ`` above this is not trusted as a hint (an interpolated slope, :func:`_join`), nor is an exact slope
+#: that is not negative (the step then uses ``−1``, the uniform zone's slope). An exact slope between this and 0 is
+#: used: near the flat end of a curve ``G ≈ a − b s²`` (``a ∝ λ0 − λflat``), the slope at the root is ``≈ −2a``,
+#: and steps of ``−G`` instead of ``−G/slope`` crawled (30 passes of ~1e-2 where a step of ~1 was needed: the states
+#: within ~3e-3 of the flat pole stretch were lost as NO_CLAMP)
 SLOPE_CEILING = -0.05
 #: a Newton pass computes the slope ``dG/dσ`` only where the last residual ``|G|`` exceeded this (or there is no
 #: slope yet); elsewhere the last pass's slope serves (it is off by ``O(|Δσ|)``, so the step's error is
@@ -2231,8 +2235,12 @@ def _newton(
         # the slope where the last residual was large (or there is none): elsewhere the last one serves
         # (a hinted slope serves until a residual exceeds HINTED_SLOPE_AGAIN: before the first pass G_prev is inf)
         Gp = G_prev[idx]
+        # (a small slope, above SLOPE_CEILING, is taken again where the last step |G/slope| exceeded SLOPE_AGAIN:
+        # near the flat end it changes by a factor e^(2Δσ) from one iterate to the next)
+        ls = last_slope[idx]
+        again = np.where(ls > SLOPE_CEILING, SLOPE_AGAIN * np.abs(ls), SLOPE_AGAIN)
         need = ~np.isfinite(last_slope[idx]) | np.where(
-            hinted[idx], np.isfinite(Gp) & ~(Gp <= HINTED_SLOPE_AGAIN), ~(Gp <= SLOPE_AGAIN)
+            hinted[idx], np.isfinite(Gp) & ~(Gp <= HINTED_SLOPE_AGAIN), ~(Gp <= again)
         )
         R_star, dRs, quad, st, nsteps, tr, stop_R, _ = _pass(
             model,
@@ -2316,7 +2324,7 @@ def _newton(
             up = G[nj] > 0
             lo[ni[up]] = sigma[ni[up]]
             hi[ni[~up]] = sigma[ni[~up]]
-            d = np.where((slope[nj] < SLOPE_CEILING) & np.isfinite(slope[nj]), slope[nj], -1.0)
+            d = np.where((slope[nj] < 0.0) & np.isfinite(slope[nj]), slope[nj], -1.0)
             nxt = sigma[ni] + np.clip(-G[nj] / d, -MAX_SCALE_STEP, MAX_SCALE_STEP)
             _step_bracketed(ni, nxt, sigma, lo, hi, last_code, final, detail, live, open_)
         for j in np.flatnonzero(~conv & ~okp):
@@ -2368,6 +2376,12 @@ def _newton(
             final[i] = BELOW_FLAT
             detail[live[i]] = _below_floor_detail(BELOW_FLAT, math.exp(floor[i]), r)
             open_[i] = False
+    # a state whose last pass was the trial at the floor, there too near (G < 0), no iterate above 0: below the flat
+    # zone's pole stretch as in _at_floor (its next iterate would have gone below the floor)
+    for i in np.flatnonzero(open_ & floor_tried & np.isfinite(floor_reach) & np.isinf(lo)):
+        final[i] = BELOW_FLAT
+        detail[live[i]] = _below_floor_detail(BELOW_FLAT, math.exp(floor[i]), floor_reach[i])
+        open_[i] = False
     for i in np.flatnonzero(open_):
         final[i] = last_code[i] if last_code[i] else NO_CLAMP
         detail[live[i]] = (
