@@ -18,6 +18,8 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from .errors import SceneError
+
 #: names tried for a temporary file before giving up (each a fresh random name)
 _ATTEMPTS = 100
 
@@ -57,10 +59,16 @@ def temp_file(target: str | Path, suffix: str | None = None) -> Path:
 
     Raises
     ------
+    SceneError
+        If ``target`` (or the file its link resolves to) exists and is not a regular file.
     OSError
         If the folder does not take a new file.
     """
     real = real_target(target)
+    if real.exists() and not real.is_file():
+        # a device, pipe or socket (or a folder): the rename would replace the node itself (helper-95: a link to
+        # /dev/full given with --overwrite left a regular file in its place)
+        raise SceneError(f"{target} is not a regular file (a folder, device, pipe or socket); give a file path", "path")
     folder = real.parent if str(real.parent) else Path(".")
     suffix = real.suffix if suffix is None else suffix
     try:

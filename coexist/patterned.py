@@ -1148,7 +1148,7 @@ def _region_params(y, lay, k, cols, p_t):
     y[-1] = lay.phi[k, cols]
 
 
-def pole_series_radius(model, settings, phi1, n1, l0, p_t, p1=None) -> np.ndarray:
+def pole_series_radius(model, settings, phi1, n1, l0, p_t, p1=None, f1=None) -> np.ndarray:
     """The radius at which the pole region starts from its series, per state.
 
     The shooting's series radius (``settings.series_radius``) is chosen for a zone whose own trial pressure
@@ -1158,7 +1158,10 @@ def pole_series_radius(model, settings, phi1, n1, l0, p_t, p1=None) -> np.ndarra
     pole wrinkles ``p̂1`` (∝ the pole tension) falls towards zero while ``p̂t`` (set by the passive regions) does
     not, and a fixed radius would start the series outside the boundary layer at the pole (measured on the
     ``inner-circle`` zone: ``p̂`` off by 4e-3 at rtol 1e-10, its states jumping between branches). Never larger
-    than the shooting's radius (``c ≤ 1``); that radius where ``p̂1`` is not positive (the state fails anyway).
+    than the shooting's radius (``c ≤ 1``); that radius where ``p̂1`` is not positive (the state fails anyway). With
+    the pole region's outer fraction ``f1``, never more than ``FLOOR_SCALE_MAX (1 − POLE_MARGIN) f1 / SCALE_FLOOR``
+    either: a small pole region (an electrode disc of 1e-4 of the radius) starts its series inside itself at the
+    scales where states lie (:data:`FLOOR_SCALE_MAX`); regions wider than about 6 % of the radius are not affected.
 
     Parameters
     ----------
@@ -1174,18 +1177,23 @@ def pole_series_radius(model, settings, phi1, n1, l0, p_t, p1=None) -> np.ndarra
         Pole stretches and the stack's trial pressures.
     p1 : ndarray, optional
         ``trial_pressure(λ0, Φ̂/n1)`` if the caller has it (else computed here).
+    f1 : float, optional
+        The pole region's outer radius over the zone's (None: not capped by it).
 
     Returns
     -------
     ndarray
-        ``settings.series_radius · min(1, n1 p̂1/p̂t)``.
+        ``settings.series_radius · min(1, n1 p̂1/p̂t)``, at most ``FLOOR_SCALE_MAX (1 − POLE_MARGIN) f1 / SCALE_FLOOR``.
     """
     if p1 is None:
         p1 = trial_pressure(model, l0, phi1)
     with np.errstate(all="ignore"):
         c = np.asarray(n1 * p1 / p_t, dtype=float)
     c = np.where(np.isfinite(c) & (c > 0), np.minimum(c, 1.0), 1.0)
-    return settings.series_radius * c * np.ones(np.shape(l0))
+    R0 = settings.series_radius * c * np.ones(np.shape(l0))
+    if f1 is not None:
+        R0 = np.minimum(R0, FLOOR_SCALE_MAX * (1.0 - POLE_MARGIN) * float(f1) / SCALE_FLOOR)
+    return R0
 
 
 def _pole_start(model, settings, lay, l0, p_t, tp=None):
@@ -1204,7 +1212,7 @@ def _pole_start(model, settings, lay, l0, p_t, tp=None):
     phi1 = lay.phi[0]
     if tp is None:
         tp = _trial_pressures(model, lay, l0)
-    R0 = pole_series_radius(model, settings, phi1, lay.n[0], l0, p_t, tp[0])
+    R0 = pole_series_radius(model, settings, phi1, lay.n[0], l0, p_t, tp[0], lay.f[0])
     both = model.series_start(
         np.concatenate([l0, np.tile(l0, K)]),
         np.concatenate([p_t / lay.n[0], tp.reshape(-1)]),
@@ -1252,6 +1260,12 @@ POLE_MARGIN = 0.02
 #: stretches differ from the unpressurised zone's by ``O((p̂t s/T̂)²)`` (~1e-6 on a prestretched inner circle), so a
 #: state whose clamp is still reached before the rim has a pole stretch below the flat zone's (``BELOW_FLAT``)
 SCALE_FLOOR = 2.0
+#: the interface scale at which :data:`SCALE_FLOOR` lies at most: a pole region too small for it at the shooting's
+#: series radius starts its series nearer the pole instead (:func:`pole_series_radius`). States lie near ``s = 1``
+#: (the trial pressure puts the clamp there) and down to ~1e-2 near a prestretched zone's flat end; an electrode
+#: disc of fraction 1e-4 had put the floor at ``s ≈ 6.5`` (two series radii of 3.2e-4 over the disc), above every
+#: state, and its whole curve was called ``BELOW_FLAT`` (helper-95)
+FLOOR_SCALE_MAX = 1e-2
 #: the first step of a region after an interface at ``R̂i``, as a fraction of ``R̂i`` (Hairer's estimate there,
 #: measured on the headline curve at rtol 1e-10: 0.065–0.10; the step control corrects it in an attempt or two)
 OUTER_FIRST_STEP = 0.07
@@ -2382,6 +2396,12 @@ def _newton(
         final[i] = BELOW_FLAT
         detail[live[i]] = _below_floor_detail(BELOW_FLAT, math.exp(floor[i]), floor_reach[i])
         open_[i] = False
+    for i in np.flatnonzero(waiting):
+        # never joined: every state it was to start from ended in the same pass (all at the scale floor, say), and
+        # the loop ended before the join; not a state (its status would stay OK with NaN values): failed, so a
+        # curve retries it from the cap (helper-95: a tiny electrode disc's curve printed rows of NaN)
+        final[i] = last_code[i] if last_code[i] else NO_CLAMP
+        detail[live[i]] = f"{reason_text(final[i])} (not started: the states it was to start from all ended first)"
     for i in np.flatnonzero(open_):
         final[i] = last_code[i] if last_code[i] else NO_CLAMP
         detail[live[i]] = (

@@ -920,7 +920,7 @@ def _patterned_points(model, pattern, st, S, settings) -> list:
     eq = _integrators(model)
     Rs = np.asarray(st.clamp_radius, dtype=float)
     p_t = np.asarray(st.p_hat, dtype=float) / Rs
-    R0 = pole_series_radius(model, settings, ph[0], n[0], l0, p_t)  # the solver's start, per state
+    R0 = pole_series_radius(model, settings, ph[0], n[0], l0, p_t, f1=regions[0].outer)  # the solver's start
     rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam - 1))
     atol7 = start_rows(model, settings, l0, ph[0], False)[2][:7]
     for k in range(1, len(regions)):
@@ -1517,6 +1517,10 @@ def scene_zone_path(scene, phi_hat, settings: SolverSettings | None = None) -> t
     F = np.where(st.ok, st.p_hat - p_close, np.nan)
     rising = np.flatnonzero((F[:-1] < 0) & (F[1:] >= 0))
     peak = float(np.nanmax(np.where(st.ok, st.p_hat, np.nan)))
+    if rising.size == 0 and st.ok.any() and bool(np.all(F[st.ok] > 0)):
+        # every state lies above it: not a pressure too high, one below the states computed (as `coexist check` says)
+        low = float(np.min(st.p_hat[st.ok]))
+        raise SceneError(f"p̂ = {p_close:.6g} is below the smallest computed state (p̂ = {low:.3g})", field_name)
     if rising.size == 0:
         raise SceneError(
             f"the zone cannot hold p̂ = {p_close:.4g} ({scene.pressure(p_close) / 100:.4g} mbar) at 0 V: its largest "

@@ -298,6 +298,8 @@ class Outputs:
             raise InputError(f"{option}: cannot write in folder {parent} ({exc.strerror or exc})") from None
         if p.is_dir():
             raise InputError(f"{option}: {p} is a folder")
+        if real.exists() and not real.is_file():  # a device, FIFO or socket: a rename would replace the node itself
+            raise InputError(f"{option}: {p} is not a regular file (a device, pipe or socket); give a file path")
         if p.exists() and not self.overwrite:
             raise InputError(f"{option}: {p} exists; pass --overwrite to replace it")
         key = p.resolve()

@@ -1,0 +1,163 @@
+"""What a command-line fuzz sweep found (helper-95, 560 cases), each a test that failed before its fix.
+
+1. ``--overwrite`` through a path whose file is a FIFO (or a device) replaced that node with a regular file (a link
+   to ``/dev/full`` left a regular file in its place); it is refused, and ``coexist.files.atomic`` refuses it too.
+2. A tiny electrode disc (``inner_fraction = 1e-4``) had the interface-scale floor (two series radii over the disc)
+   above every state: the whole curve was called ``BELOW_FLAT``, and the curve's later states, never started, were
+   returned as OK with NaN values (``coexist curves --csv`` printed rows of ``nan``, ``check`` an internal error).
+   The pole series now starts inside a small pole region, and a state never started is not OK. Checked against the
+   analytical limit: as the disc shrinks, the pressure maximum tends to the passive two-layer zone's as ``f²``.
+3. A full disk (or stdout on one) was an "internal error"; it is one line, exit code 1.
+4. ``coexist shape`` said a closing pressure below every computed state was above the zone's largest.
+"""
+
+import os
+import stat
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from conftest import one_line_error as refused
+
+from coexist import patterned
+from coexist.cli.main import cli
+from coexist.curves import pressure_volume_curve
+from coexist.errors import SceneError
+from coexist.files import atomic
+from coexist.model import build_model
+from coexist.patterned import PatternedModel, ZonePattern
+from coexist.scene import builtin_scene_text
+
+
+def run(args, folder):
+    cwd = os.getcwd()
+    os.chdir(folder)
+    try:
+        return CliRunner().invoke(cli, args)
+    finally:
+        os.chdir(cwd)
+
+
+# --- 1. a FIFO (or device) is never replaced -------------------------------------------------------------------
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_overwrite_refuses_a_fifo_and_a_link_to_one(tmp_path):
+    os.mkfifo(tmp_path / "pipe.csv")
+    (tmp_path / "link.csv").symlink_to("pipe.csv")
+    for name in ("pipe.csv", "link.csv"):
+        args = ["curves", "--phi-hat", "0.1", "--p-hat", "none", "--points", "20", "--csv", name, "--overwrite"]
+        refused(run(args, tmp_path), "--csv", name, "not a regular file")
+        assert stat.S_ISFIFO(os.stat(tmp_path / "pipe.csv").st_mode)
+    assert sorted(os.listdir(tmp_path)) == ["link.csv", "pipe.csv"]
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_atomic_refuses_a_fifo(tmp_path):
+    os.mkfifo(tmp_path / "pipe.txt")
+    with pytest.raises(SceneError, match="not a regular file"):
+        with atomic(tmp_path / "pipe.txt") as tmp:
+            tmp.write_text("x")
+    assert stat.S_ISFIFO(os.stat(tmp_path / "pipe.txt").st_mode) and os.listdir(tmp_path) == ["pipe.txt"]
+
+
+# --- 2. a tiny electrode disc ----------------------------------------------------------------------------------
+@pytest.fixture(scope="module")
+def gent():
+    return build_model("gent", jlim=97.0, voltage=True, prestretch=1.0)
+
+
+def _pressure_max(model, pattern, phi=0.2):
+    c = pressure_volume_curve(PatternedModel.of(model, pattern), phi)
+    assert np.all(np.isfinite(c.states.p_hat))
+    return next(lp for lp in c.limit_points if lp.kind == "pressure_max")
+
+
+def test_a_tiny_disc_tends_to_the_passive_zone_as_its_area(gent):
+    """``p̂max(f) − p̂max(passive) ∝ f²`` (the disc's area): measured 1.6e-5 at f = 1e-3 and 1.6e-7 at 1e-4 (the
+    curve at 1e-4 had no state at all: every one ``BELOW_FLAT``). Their ratio is 100 to 1 % (each ± 5e-10)."""
+    passive = _pressure_max(gent, ZonePattern.no_electrode(2)).p_hat
+    d3 = passive - _pressure_max(gent, ZonePattern.inner_circle(1e-3, 2)).p_hat
+    tiny = _pressure_max(gent, ZonePattern.inner_circle(1e-4, 2))
+    d4 = passive - tiny.p_hat
+    assert 1.5e-5 < d3 < 1.7e-5
+    assert abs(d3 / d4 / 100 - 1) < 0.01, (d3, d4)
+    assert tiny.pole_stretch > 3.6  # the one-layer disc at Φ̂ = 0.2 (passive: 2.467), the limit point of the disc
+
+
+def test_a_state_never_started_is_not_ok(tmp_path, monkeypatch):
+    """With the floor as it was (the series radius not fitted to the pole region), the coarse states of the tiny
+    disc's curve end at the floor in one pass, and a state waiting to join them was never started: it came back OK
+    with NaN values, the curve's one "valid" state (``--csv`` printed a row of ``nan``). Now it fails (and is
+    retried from the cap, which fails the same way): no curve, exit code 1."""
+    monkeypatch.setattr(patterned, "FLOOR_SCALE_MAX", 1e6)
+    text = builtin_scene_text("inner-circle").replace("inner_fraction = 0.5", "inner_fraction = 1e-4")
+    (tmp_path / "tiny.toml").write_text(text)
+    result = run(["curves", "--scene", "tiny.toml", "--phi-hat", "0.2", "--p-hat", "none", "--csv", "-"], tmp_path)
+    assert "nan" not in result.stdout.lower()
+    assert result.exit_code in (1, 2) and "no pressure holds a pole stretch this small" in result.output
+
+
+def test_the_tiny_disc_scene_from_the_command_line(tmp_path):
+    text = builtin_scene_text("inner-circle").replace("inner_fraction = 0.5", "inner_fraction = 1e-4")
+    assert "inner_fraction = 1e-4" in text
+    (tmp_path / "tiny.toml").write_text(text)
+    checked = run(["check", "tiny.toml"], tmp_path)
+    assert checked.exit_code == 0, checked.output
+    assert "a stable start" in checked.output
+    result = run(["curves", "--scene", "tiny.toml", "--phi-hat", "0,0.2", "--p-hat", "none", "--csv", "-"], tmp_path)
+    assert result.exit_code == 0, result.output
+    assert "nan" not in result.stdout.lower() and result.stdout.count("\n") > 300
+
+
+# --- 3. a full disk ---------------------------------------------------------------------------------------------
+@pytest.mark.skipif(not os.path.exists("/dev/full"), reason="no /dev/full here")
+def test_stdout_on_a_full_disk_is_one_line_and_exit_1(tmp_path):
+    with open("/dev/full", "w") as full:  # written to, never replaced
+        done = subprocess.run(
+            [sys.executable, "-m", "coexist", "curves", "--phi-hat", "0.1", "--p-hat", "none", "--csv", "-"],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+            cwd=tmp_path,
+            timeout=120,
+        )
+    lines = done.stderr.strip().splitlines()
+    assert done.returncode == 1, done.stderr
+    assert lines[-1].startswith("Error: cannot write the output") and "No space left" in lines[-1]
+    assert "internal error" not in done.stderr and "Traceback" not in done.stderr
+
+
+# --- 4. shape: a closing pressure below every computed state ----------------------------------------------------
+def test_shape_says_below_the_smallest_state(tmp_path):
+    """A prestretched neo-Hookean ring (helper-92's s7_26): ``check`` says the closing pressure is below the smallest
+    computed state; ``shape`` had said the zone cannot hold it, its largest pressure being above it."""
+    scene = """name = "low"
+[membrane]
+material = "neo-hookean"
+shear_modulus_kPa = 45
+relative_permittivity = 4.7
+thickness_mm = 0.5
+zone_radius_mm = 10
+prestretch = 2.0
+wrinkling = "tension-field"
+[zones]
+count = 1
+[chamber]
+volume_ml = 1e+06
+closing_pressure_mbar = 20.8125
+[voltage]
+start_kV = 0
+stop_kV = 12
+step_kV = 0.1
+[electrodes]
+pattern = "ring"
+inner_fraction = 0.3
+outer_fraction = 0.6
+[layers]
+passive = 3
+"""
+    (tmp_path / "low.toml").write_text(scene)
+    for command in ("check", "shape"):
+        line = refused(run([command, "low.toml"], tmp_path), "[chamber].closing_pressure_mbar")
+        assert "below the smallest computed state" in line and "cannot hold" not in line
