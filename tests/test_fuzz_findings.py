@@ -9,6 +9,8 @@
    analytical limit: as the disc shrinks, the pressure maximum tends to the passive two-layer zone's as ``f²``.
 3. A full disk (or stdout on one) was an "internal error"; it is one line, exit code 1.
 4. ``coexist shape`` said a closing pressure below every computed state was above the zone's largest.
+5. ``coexist check`` printed a ramp cost for a scene that nothing holds at a pressure (no ``[chamber]``, no
+   ``[zones].pressure_mbar``), which ``coexist ramp`` then refused.
 """
 
 import os
@@ -161,3 +163,21 @@ passive = 3
     for command in ("check", "shape"):
         line = refused(run([command, "low.toml"], tmp_path), "[chamber].closing_pressure_mbar")
         assert "below the smallest computed state" in line and "cannot hold" not in line
+
+
+# --- 5. check: a scene nothing holds at a pressure ---------------------------------------------------------------
+def test_check_says_what_a_scene_without_a_chamber_is_for(tmp_path):
+    text = builtin_scene_text("tricircle")
+    start = text.index("[chamber]")
+    end = text.index("[", start + 1)
+    (tmp_path / "open.toml").write_text(text[:start] + text[end:])
+    checked = run(["check", "open.toml"], tmp_path)
+    assert checked.exit_code == 0, checked.output
+    assert "ramp cost" not in checked.output and "no [chamber] and no [zones].pressure_mbar" in checked.output
+    refused(run(["ramp", "open.toml"], tmp_path), "[chamber]", "needs a [chamber]")
+
+
+def test_ramp_refuses_a_scene_without_voltage_before_it_starts(tmp_path):
+    result = run(["ramp", "two-balloons"], tmp_path)
+    refused(result, "[voltage]", "nothing to ramp")
+    assert "following the stable states" not in result.output

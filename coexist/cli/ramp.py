@@ -63,15 +63,14 @@ def ramp(scene, plot, states_plot, as_json, every, shapes, overwrite, accuracy, 
         plot_path = out.figure(plot, "--plot")
         states_path = out.figure(states_plot, "--states-plot")
         info(f"scene {sc.name or sc.source}: effects {', '.join(sc.effects())}")
-        if sc.voltage is not None:
-            from coexist.cost import ramp_cost
+        from coexist.cost import ramp_cost
 
-            cost = ramp_cost(sc, every)
-            cost.check(every)
-            info(f"estimated cost: {cost.describe()}")
+        cost = ramp_cost(sc, every)  # a scene without [voltage] is refused here, before any work or progress
+        cost.check(every)
+        info(f"estimated cost: {cost.describe()}")
         sim = Simulation.from_scene(sc, settings)  # refuses a closing pressure the zones cannot hold, first
         info("following the stable states along the voltage path ...")
-        n = len(sc.voltage_hat_path) if sc.voltage is not None else 0
+        n = len(sc.voltage_hat_path)
         with stderr_progress(n, "ramp") as bar:
             report = sim.ramp(progress=lambda i: bar.update(1))
         if shapes:

@@ -88,6 +88,12 @@ def check(scene, as_json, no_solve):
             "times a uniform scene's time); `coexist fit` fits their zone radius and `coexist sweep` sweeps them, "
             "[electrodes] and [layers] keys included"
         )
+    elif not held:  # nothing holds a pressure: no equilibrium to follow, so no ramp cost (ramp refuses it)
+        info(
+            "note: no [chamber] and no [zones].pressure_mbar: `coexist ramp`, `coexistence`, `phase-diagram` and "
+            "`shape` need one (a gas the zones share, or a controlled pressure), `coexist fit` a [chamber]; "
+            "`coexist curves --scene` computes the zone's curves"
+        )
     elif loaded.voltage is not None:
         from coexist.cost import ramp_cost
 
