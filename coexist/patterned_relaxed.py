@@ -107,6 +107,14 @@ NO_RELAXED_DERIVATIVES = (
 )
 #: Newton iterations of the relaxed interface jump at most
 JUMP_ITERATIONS = 80
+#: the least share of the way to the estimate of a pull-in that a step of the relaxed interface root stays short of it
+#: (:class:`_pull_in_secant`)
+PULL_IN_SHORT = 1e-3
+#: ... and the widest bracket (relative to its upper end) in which it does so: wider ones are bisected as before (the
+#: roots of a wrinkled side past its first maximum, on its Gent-stiffened branch, were all found by the bisection while
+#: their NaN-ended brackets were still 0.375 wide or wider, in the three tests that showed them and a neo-Hookean ring's
+#: shape: helper-94)
+PULL_IN_BRACKET = 0.125
 #: internal codes of an iterate (never a state's status), as in :mod:`coexist.patterned`
 _EARLY_CLAMP = 90
 _FAR_CLAMP = 91
@@ -155,7 +163,17 @@ def _increasing_root(fun, target, x0):
     """Roots of ``fun(x)[0] = target`` on the branch where ``fun`` increases, from ``x0``: the bracket widened
     from ``x0`` (halving its lower end, doubling its upper one while the slope is positive), then Newton's
     method with bisection where a step leaves the bracket. NaN where no such root is bracketed (a NaN value
-    counts as beyond the root). Returns ``(x, ok)``."""
+    counts as beyond the root). Returns ``(x, ok)``.
+
+    Where the bracket's upper end has no value (NaN: the wrinkled far side's pull-in, no natural width) and the
+    lower end lies below the target where ``fun`` falls, a step that Newton's method cannot take is the secant root
+    of ``r = g/g'`` (``g = fun − target``) through the last two such points instead of the bisection, when ``r``
+    shrinks towards the upper end (:class:`_pull_in_secant`): towards a pull-in where ``g → −∞`` like a power
+    ``−C(λp − x)^(−α)``, ``r ≈ (λp − x)/α`` vanishes linearly at the pull-in ``λp``, so the iterates reach it
+    superlinearly (the bisection had halved down to it at roundoff, ~50 evaluations of ``fun``, each a natural-width
+    solve, for the NaN: 13 s of the 15 s of a neo-Hookean ring's ``coexist shape``, helper-94). Every iterate
+    stays inside the bracket and the iteration still ends only where a step is at roundoff, so a value at or above
+    the target met on the way (a rising root before the pull-in) is taken up by Newton's method as before."""
     x0 = np.asarray(x0, dtype=float)
     ok = np.ones(x0.shape, dtype=bool)
 
@@ -174,24 +192,60 @@ def _increasing_root(fun, target, x0):
             return np.full(x0.shape, np.nan), ok
         x = np.clip(x0, lo, hi)
         x = np.where((x > lo) & (x < hi), x, 0.5 * (lo + hi))
+        pull_in = _pull_in_secant(x0.shape, np.isnan(g_hi))
         for _ in range(JUMP_ITERATIONS):
-            g, d = fun(x)[:2]
-            g = g - target
+            x_at, (g_at, d_at) = x, fun(x)[:2]
+            g, d = g_at - target, d_at
             lo = np.where(g < 0, x, lo)
             hi = np.where(~(g < 0), x, hi)
             step = g / d
             nxt = x - step
             settled = (g == 0) | (np.abs(step) <= 4e-16 * np.abs(x))
             bad = ~np.isfinite(nxt) | (nxt <= lo) | (nxt >= hi) | ~(d > 0)
-            nxt = np.where(bad & ~settled, 0.5 * (lo + hi), nxt)
+            nxt = np.where(bad & ~settled, pull_in.step(x, g, step, lo, hi, bad & ~settled), nxt)
             nxt = np.where(settled, x, nxt)
             done = np.abs(nxt - x) <= 4e-16 * np.abs(x)
             x = nxt
             if done.all():
                 break
-        g, d = fun(x)[:2]
+        # where every column settled on its last iterate, that evaluation is the final one (it had been repeated)
+        g, d = (g_at, d_at) if np.array_equal(x, x_at, equal_nan=True) else fun(x)[:2]
         ok &= np.isfinite(x) & (d > 0) & (np.abs(g - target) <= 1e-13 * np.maximum(1.0, np.abs(target)))
     return np.where(ok, x, np.nan), ok
+
+
+class _pull_in_secant:
+    """The step of :func:`_increasing_root` where Newton's cannot be taken: the bisection of ``[lo, hi]``, or where
+    ``hi`` has no value (NaN) and ``lo`` is the last of two points below the target where ``g`` falls, with ``r = g/g'``
+    shrinking from the first to the second (towards the pull-in), a step towards the estimate ``e`` of the pull-in:
+    the secant root of ``r`` through them (``hi`` if beyond it), less the change of that estimate since the last
+    step and at least :data:`PULL_IN_SHORT` of ``e − lo`` (so that the step stays below the pull-in, where the next
+    point gives the next estimate), at most half of it, and at least two units in the last place above ``lo``; the
+    bisection after a step that went past the pull-in (NaN) all the same."""
+
+    def __init__(self, shape, hi_nan):
+        self.hi_nan = np.array(hi_nan, dtype=bool)
+        self.xa, self.ra, self.xb, self.rb, self.est = (np.full(shape, np.nan) for _ in range(5))
+        self.aimed = np.zeros(shape, dtype=bool)  # the last step was one towards the estimate
+
+    def step(self, x, g, r, lo, hi, need):
+        self.hi_nan = np.where(g < 0, self.hi_nan, np.isnan(g))  # hi was moved to x where g is not below
+        overshot = self.aimed & np.isnan(g)
+        falling = (g < 0) & (r > 0)  # g < 0 and g' < 0
+        self.xa, self.ra = np.where(falling, self.xb, self.xa), np.where(falling, self.rb, self.ra)
+        self.xb, self.rb = np.where(falling, x, self.xb), np.where(falling, r, self.rb)
+        est = np.minimum(self.xb - self.rb * (self.xb - self.xa) / (self.rb - self.ra), hi)
+        use = need & self.hi_nan & ~overshot & (hi - lo <= PULL_IN_BRACKET * hi)
+        use &= (self.xb == lo) & (self.xa < self.xb) & (self.rb < self.ra) & (est > lo)
+        back = np.clip(np.abs(est - self.est), PULL_IN_SHORT * (est - lo), 0.5 * (est - lo))
+        back = np.where(np.isfinite(back), back, 0.5 * (est - lo))
+        # at least two units in the last place above lo: where the estimate is lo itself to rounding, that point (NaN)
+        # closes the bracket (a far upper end had been bisected down to it, ~20 more evaluations)
+        aim = np.maximum(est - back, lo + 2.0 * np.spacing(lo))
+        use &= aim < hi
+        self.est = np.where(use, est, self.est)
+        self.aimed = use
+        return np.where(use, aim, 0.5 * (lo + hi))
 
 
 def relaxed_interface_stretch(model: MembraneModel, l1_in, w_in, wrinkled_in, rho, phi_in, n_in, phi_out, n_out):
