@@ -181,3 +181,41 @@ def test_ramp_refuses_a_scene_without_voltage_before_it_starts(tmp_path):
     result = run(["ramp", "two-balloons"], tmp_path)
     refused(result, "[voltage]", "nothing to ramp")
     assert "following the stable states" not in result.output
+
+
+@pytest.mark.parametrize("name", ["", "  "])
+def test_an_empty_scene_name_is_refused_as_such(tmp_path, name):
+    line = refused(run(["check", name], tmp_path), "scene name is empty")
+    assert "folder" not in line
+
+
+def test_curves_of_a_scene_past_the_default_range_say_how_far(tmp_path):
+    """A prestretched inner circle in a five-layer annulus (helper-95's q32): its flat zone's pole stretch lies above
+    the default range (3.03..4.5), where every state is below it; the refusal names the scene's own range, and that
+    range has the curve (its pressure maximum at λ0 = 10.1)."""
+    scene = """name = "far"
+[membrane]
+material = "neo-hookean"
+shear_modulus_kPa = 1000
+relative_permittivity = 4.7
+thickness_mm = 0.5
+zone_radius_mm = 100
+prestretch = 3.0
+wrinkling = "tension-field"
+[zones]
+count = 1
+[chamber]
+volume_ml = 10000.0
+closing_pressure_mbar = 158.27
+[electrodes]
+pattern = "inner-circle"
+inner_fraction = 0.01
+[layers]
+passive = 5
+"""
+    (tmp_path / "far.toml").write_text(scene)
+    args = ["curves", "--scene", "far.toml", "--phi-hat", "0", "--p-hat", "none"]
+    refused(run(args, tmp_path), "--phi-hat", "--pole-stretch 3.03,18")
+    result = run([*args, "--pole-stretch", "3.03,18", "--points", "60"], tmp_path)
+    assert result.exit_code == 0, result.output
+    assert "pressure_max" in result.output

@@ -483,6 +483,8 @@ def load_scene_arg(scene):
     from coexist.errors import SceneError
     from coexist.scene import load_scene, parse_scene
 
+    if scene is not None and not str(scene).strip():  # "" is not the default scene, nor the folder "."
+        raise InputError("the scene name is empty: give a scene file, a built-in scene's name (coexist scenes) or -")
     label = scene or "default scene"
     try:
         loaded = parse_scene(sys.stdin.read(), source="<stdin>") if scene == "-" else load_scene(scene)

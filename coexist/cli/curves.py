@@ -155,8 +155,15 @@ def curves(
     lam = model.prestretch
     if jlim is not None and 2 * lam**2 + lam**-4 - 3 >= jlim:  # as a scene's [membrane] is checked
         raise InputError(f"--prestretch: a prestretch of {lam:g} locks a Gent membrane with jlim = {jlim:g}")
+    wider = ""  # a scene's zones are followed further than the default range: say how far, should it be needed
     if pole_stretch is None:  # the library's default range, which follows the prestretch
         lo, hi = 1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch)
+        if sc is not None:
+            from coexist.simulation import stretch_range_end
+
+            end = stretch_range_end(model.elasticity, model.prestretch, settings)
+            if end > hi:
+                wider = f" (this scene's zones are followed up to λ0 = {end:.4g}: --pole-stretch {lo:.4g},{end:.4g})"
     if lo <= model.prestretch:
         raise InputError(f"--pole-stretch: must start above the prestretch {model.prestretch:g}, got {lo:g}")
     from coexist.cost import curves_cost
@@ -186,7 +193,7 @@ def curves(
             else:
                 pv.append(pressure_volume_curve(model, phi, grid, settings))
         except ModelRangeError as exc:
-            raise _no_curve(exc, "--phi-hat", f"Φ̂ = {phi:g}") from None
+            raise _no_curve(exc, "--phi-hat", f"Φ̂ = {phi:g}", wider) from None
         _note(pv[-1])
     if zone is not None and pressures:
         from coexist.patterned import PatternedModel
@@ -198,7 +205,7 @@ def curves(
             vq.append(voltage_charge_curve(model if zone is None else zone_model, p, grid, settings))
         except ModelRangeError as exc:
             if not defaulted_pressures:
-                raise _no_curve(exc, "--p-hat", f"p̂ = {p:g}") from None
+                raise _no_curve(exc, "--p-hat", f"p̂ = {p:g}", wider) from None
             # a default pressure this zone does not reach with any voltage: said, not fatal
             info(f"note: no Φ̂–Q̂ curve at the default p̂ = {p:g}: {exc}")
             continue
@@ -228,19 +235,20 @@ def curves(
         _summary(pv, vq, settings)
 
 
-def _no_curve(exc, option: str, value: str) -> Exception:
+def _no_curve(exc, option: str, value: str, wider: str = "") -> Exception:
     """The error of a curve that failed at ``value`` of ``option``: when the zone has no state at that value
     anywhere in the pole-stretch range, the value is out of the model's range for that range, bad input (an
-    :class:`InputError` naming the option, exit 2); any other failure keeps its kind (exit 1), the value named."""
+    :class:`InputError` naming the option, exit 2); any other failure keeps its kind (exit 1), the value named.
+    ``wider``: a ``--pole-stretch`` range to suggest (a scene's, where the default range stops short of it)."""
     from coexist.errors import ModelRangeError, NoStateInRange
 
     text = str(exc)
     if isinstance(exc, NoStateInRange):
         where = text.removeprefix("no valid state anywhere").lstrip()
         return InputError(
-            f"{option}: the zone has no state at {value} {where}; take another value or --pole-stretch range, or "
-            "another membrane (--jlim, --prestretch, the pattern: a state missing at every voltage, Φ̂ = 0 too, is "
-            "theirs)"
+            f"{option}: the zone has no state at {value} {where}; take another value or --pole-stretch range"
+            f"{wider}, or another membrane (--jlim, --prestretch, the pattern: a state missing at every voltage, "
+            "Φ̂ = 0 too, is theirs)"
         )
     return ModelRangeError(f"{value} ({option}): {text}", exc.reason)
 
