@@ -21,6 +21,7 @@ import sys
 import numpy as np
 import pytest
 from click.testing import CliRunner
+from conftest import complete_scene
 from conftest import one_line_error as refused
 
 from coexist import patterned
@@ -134,17 +135,12 @@ def test_stdout_on_a_full_disk_is_one_line_and_exit_1(tmp_path):
 def test_shape_says_below_the_smallest_state(tmp_path):
     """A prestretched neo-Hookean ring (helper-92's s7_26): ``check`` says the closing pressure is below the smallest
     computed state; ``shape`` had said the zone cannot hold it, its largest pressure being above it."""
-    scene = """name = "low"
+    scene = complete_scene(
+        """name = "low"
 [membrane]
 material = "neo-hookean"
-shear_modulus_kPa = 45
-relative_permittivity = 4.7
-thickness_mm = 0.5
-zone_radius_mm = 10
 prestretch = 2.0
 wrinkling = "tension-field"
-[zones]
-count = 1
 [chamber]
 volume_ml = 1e+06
 closing_pressure_mbar = 20.8125
@@ -159,6 +155,7 @@ outer_fraction = 0.6
 [layers]
 passive = 3
 """
+    )
     (tmp_path / "low.toml").write_text(scene)
     for command in ("check", "shape"):
         line = refused(run([command, "low.toml"], tmp_path), "[chamber].closing_pressure_mbar")
@@ -193,17 +190,14 @@ def test_curves_of_a_scene_past_the_default_range_say_how_far(tmp_path):
     """A prestretched inner circle in a five-layer annulus (helper-95's q32): its flat zone's pole stretch lies above
     the default range (3.03..4.5), where every state is below it; the refusal names the scene's own range, and that
     range has the curve (its pressure maximum at λ0 = 10.1)."""
-    scene = """name = "far"
+    scene = complete_scene(
+        """name = "far"
 [membrane]
 material = "neo-hookean"
 shear_modulus_kPa = 1000
-relative_permittivity = 4.7
-thickness_mm = 0.5
 zone_radius_mm = 100
 prestretch = 3.0
 wrinkling = "tension-field"
-[zones]
-count = 1
 [chamber]
 volume_ml = 10000.0
 closing_pressure_mbar = 158.27
@@ -213,6 +207,7 @@ inner_fraction = 0.01
 [layers]
 passive = 5
 """
+    )
     (tmp_path / "far.toml").write_text(scene)
     args = ["curves", "--scene", "far.toml", "--phi-hat", "0", "--p-hat", "none"]
     refused(run(args, tmp_path), "--phi-hat", "--pole-stretch 3.03,18")
