@@ -862,10 +862,35 @@ def _slopes_along(st: MembraneStates, family: str) -> dict:
     return {k: np.where(st.ok, x, np.nan) for k, x in out.items()}
 
 
+def _refuse_huge_curve(points: int, patterned: bool = False) -> None:
+    """Refuse, before any state is shot, a curve whose states would pass the memory or output limits of
+    :mod:`coexist.cost` (as ``coexist curves`` is refused): ``SolverSettings(curve_points=10**7)`` allocated until a
+    MemoryError (a raw numpy error) or the machine's memory ran out."""
+    from .cost import (
+        CURVES_BYTES_PER_PATTERNED_STATE,
+        CURVES_BYTES_PER_STATE,
+        CURVES_NUMBERS_PER_STATE,
+        MAX_MEMORY_BYTES,
+        MAX_OUTPUT_NUMBERS,
+    )
+
+    per_state = CURVES_BYTES_PER_PATTERNED_STATE if patterned else CURVES_BYTES_PER_STATE
+    if points * per_state > MAX_MEMORY_BYTES or points * CURVES_NUMBERS_PER_STATE > MAX_OUTPUT_NUMBERS:
+        fits = int(min(0.9 * MAX_MEMORY_BYTES / per_state, 0.9 * MAX_OUTPUT_NUMBERS / CURVES_NUMBERS_PER_STATE))
+        raise SceneError(
+            f"a curve of {points:,} pole stretches would need about {points * per_state / 1e9:.3g} GB and give "
+            f"{points * CURVES_NUMBERS_PER_STATE:,} numbers; the limits are {MAX_MEMORY_BYTES / 1e9:g} GB and "
+            f"{MAX_OUTPUT_NUMBERS:,} numbers: give {fits:,} or fewer (pole_stretch, or settings.curve_points / "
+            "charge_curve_points)",
+            "pole_stretch",
+        )
+
+
 def _check_range(pole_stretch, model):
     l0 = validation.real_array(pole_stretch, "pole_stretch")
     if l0.ndim != 1 or l0.size < 3:
         raise SceneError("needs at least 3 pole stretches", "pole_stretch")
+    _refuse_huge_curve(l0.size, getattr(model, "pattern", None) is not None)
     if np.any(np.diff(l0) <= 0):
         raise SceneError("pole stretches must increase", "pole_stretch")
     if l0[0] <= model.prestretch:
@@ -957,6 +982,7 @@ def _trace(
     are those ``evaluate`` gives (its derivatives computed apart, as a patterned zone's are), so a limit point's
     state need not be evaluated again."""
     if pole_stretch is None:
+        _refuse_huge_curve(points, getattr(model, "pattern", None) is not None)
         pole_stretch = np.linspace(1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), points)
     l0 = _check_range(pole_stretch, model)
     states = evaluate(l0)
@@ -1939,6 +1965,7 @@ def voltage_charge_curve(
     """
     p_hat, settings = _checked_voltage_inputs(model, p_hat, settings)
     if pole_stretch is None:
+        _refuse_huge_curve(settings.charge_curve_points, getattr(model, "pattern", None) is not None)
         pole_stretch = np.linspace(
             1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch), settings.charge_curve_points
         )

@@ -116,6 +116,8 @@ def transition_voltage(
     """
     if kind not in TRANSITION_KINDS:
         raise SceneError(f"unknown transition kind {kind!r}; use 'spinodal' or 'equal_free_energy'", "kind")
+    if shared is not None and not isinstance(shared, Shared):
+        raise SceneError(f"shared must be a Shared (Shared.of(scene)), got {type(shared).__name__}", "shared")
     shared = shared or Shared.of(scene)
     settings = shared.settings if measure else replace(shared.settings, error_estimates=False)
     sim = Simulation.from_scene(scene, settings, model=shared.model, snap=shared.snap)
@@ -428,11 +430,19 @@ def sensitivity(scene: Scene, relative_change: float = 0.01, shared: Shared | No
     Raises
     ------
     SceneError
-        If the scene has no ``[chamber]``.
+        If the scene has no ``[chamber]``, or ``relative_change`` is not a number in ``(0, 1)``.
     """
     validation.scene(scene)
     if scene.chamber is None:
         raise SceneError("the sensitivity table needs a scene with a [chamber]", "[chamber]")
+    relative_change = validation.real(relative_change, "relative_change", lo=0.0, lo_open=True)
+    if relative_change >= 1:  # value·(1 − relative_change) would be a zero or negative radius, modulus, pressure ...
+        raise SceneError(
+            f"must lie in (0, 1) (each input is moved to value·(1 ± relative_change)), got {relative_change:g}",
+            "relative_change",
+        )
+    if shared is not None and not isinstance(shared, Shared):
+        raise SceneError(f"shared must be a Shared (Shared.of(scene)), got {type(shared).__name__}", "shared")
     shared = shared or Shared.of(scene)
     rows: list[dict] = []
 

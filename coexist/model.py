@@ -666,10 +666,14 @@ def build_model(
     Raises
     ------
     SceneError
-        For an unknown material, a Gent material without a positive ``jlim``, or ``prestretch < 1``.
+        For an unknown material, a Gent material without a positive ``jlim``, ``prestretch < 1``, or a ``voltage``
+        that is not a bool.
     """
     from .effects import material_from_name
 
+    if type(voltage).__name__ not in ("bool", "bool_"):  # Python's bool, numpy's (np.bool_, np.bool)
+        # "no" is truthy: it had given a model with electrostatics (helper-97)
+        raise SceneError(f"voltage must be True or False, got {voltage!r}", "voltage")
     return MembraneModel(
         elasticity=material_from_name(material, jlim),
         electrostatics=IdealDielectric() if voltage else NoElectrostatics(),

@@ -1979,6 +1979,8 @@ def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivat
     lay = _layout(pattern, phi)
     if scale_guess is not None:
         g = validation.real_array(scale_guess, "scale_guess")
+        if g.size not in (1, n_states):
+            raise SceneError(f"must give one value or one per state ({n_states}), got {g.size}", "scale_guess")
         sigma0 = np.broadcast_to(g, (n_states,)).astype(float).copy()
     elif stage is not None:  # the joining states are started from the others
         sigma0 = np.zeros(n_states)

@@ -732,6 +732,27 @@ def builtin_scene_text(name: str) -> str:
     return (_SCENES / f"{name}.toml").read_text(encoding="utf-8")
 
 
+#: the largest scene file read (a scene of 1000 zones and 2 x 100 000 listed voltages is ~3 MB): a device such as
+#: /dev/zero, or a huge file given by mistake, is refused instead of read until the memory runs out
+MAX_SCENE_BYTES = 16 * 1024 * 1024
+
+
+def _read_scene_bytes(path: Path) -> bytes:
+    """The bytes of the scene file ``path``: a regular file of at most :data:`MAX_SCENE_BYTES` (a device, FIFO or
+    socket is refused before it is read: /dev/zero was read until the process was killed for its memory)."""
+    import os
+    import stat
+
+    st = os.stat(path)  # FileNotFoundError / OSError: the caller's messages
+    if not stat.S_ISREG(st.st_mode):
+        raise SceneError(f"{str(path)!r} is not a regular file (a device, pipe or socket), not a scene")
+    with open(path, "rb") as f:
+        data = f.read(MAX_SCENE_BYTES + 1)
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError(f"scene file {str(path)!r} is larger than {MAX_SCENE_BYTES // (1024 * 1024)} MB: not a scene")
+    return data
+
+
 def load_scene(name_or_path: str | Path | None = None) -> Scene:
     """Load a built-in scene by name, or a scene file by path (``None``: the default, ``tricircle``).
 
@@ -774,7 +795,7 @@ def load_scene(name_or_path: str | Path | None = None) -> Scene:
     if not looks_like_path and (text in _builtin_names() or not Path(text).is_file()):
         return parse_scene(builtin_scene_text(text), source=text)
     try:
-        data = path.read_bytes()
+        data = _read_scene_bytes(path)
     except FileNotFoundError:
         raise SceneError(f"scene file {str(path)!r} not found") from None
     except OSError as exc:

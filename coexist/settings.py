@@ -156,8 +156,8 @@ class SolverSettings:
             if isinstance(f.default, bool):
                 if not isinstance(value, bool):
                     raise SceneError(f"{f.name} must be True or False, got {value!r}", f.name)
-            elif isinstance(f.default, int):
-                validation.integer(value, f.name, lo=1)
+            elif isinstance(f.default, int):  # a numpy integer is taken as the int it is
+                object.__setattr__(self, f.name, validation.integer(value, f.name, lo=1))
             else:
                 object.__setattr__(self, f.name, validation.real(value, f.name, lo=0.0, lo_open=True))
         if not (RTOL_MIN <= self.rtol <= RTOL_MAX):

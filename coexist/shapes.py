@@ -315,6 +315,7 @@ def profiles(
     l0 = np.array(l0, dtype=float).ravel()
     phi = np.array(phi, dtype=float).ravel()
     n = l0.size
+    _refuse_huge_profiles(n, int(points))
     s = np.linspace(0.0, 1.0, int(points))
     out: list[Profile | None] = [None] * n
     flat = l0 == model.prestretch
@@ -634,6 +635,30 @@ def _scaled_points(l0, phi, radii, rows, Rs, ztot) -> list:
             raise SolverError(f"profile at pole stretch {l0[j]:.6g}, Φ̂ = {phi[j]:.6g}: non-finite points")
         out.append((R / Rs[j], r_hat, z_hat))
     return out
+
+
+def _refuse_huge_profiles(states: int, points: int) -> None:
+    """Refuse, before any work, profiles whose output or memory would pass the limits of :mod:`coexist.cost` (as
+    ``coexist shape`` is refused): ``profile(..., points=10**8)`` ran for minutes, and a large batch of states with
+    many points each ran out of memory."""
+    from .cost import (
+        MAX_MEMORY_BYTES,
+        MAX_OUTPUT_NUMBERS,
+        SHAPE_BYTES_PER_NUMBER,
+        SHAPE_NUMBERS_PER_POINT,
+        SHAPE_NUMBERS_PER_SHAPE,
+    )
+
+    numbers = states * (SHAPE_NUMBERS_PER_POINT * points + SHAPE_NUMBERS_PER_SHAPE)
+    if numbers > MAX_OUTPUT_NUMBERS or numbers * SHAPE_BYTES_PER_NUMBER > MAX_MEMORY_BYTES:
+        per = (SHAPE_NUMBERS_PER_POINT * states) or 1
+        fits = int(min(0.9 * MAX_OUTPUT_NUMBERS, 0.9 * MAX_MEMORY_BYTES / SHAPE_BYTES_PER_NUMBER) // per)
+        raise SceneError(
+            f"{states} profiles × {points} points would give {numbers:,} numbers (about "
+            f"{numbers * SHAPE_BYTES_PER_NUMBER / 1e9:.3g} GB); the limits are {MAX_OUTPUT_NUMBERS:,} numbers and "
+            f"{MAX_MEMORY_BYTES / 1e9:g} GB: take points {fits} or fewer, or fewer states",
+            "points",
+        )
 
 
 def _checked_profile_inputs(model, zone_radius, points, settings):

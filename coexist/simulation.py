@@ -353,6 +353,11 @@ def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: flo
     return float(root.x[0])
 
 
+#: the most voltages :meth:`Simulation.discover` searches at (each shoots a whole zone curve, ``zone_curve_points``
+#: states: 10 000 voltages are 2.4 million states, a minute; 10**6 ran out of memory)
+MAX_DISCOVERY_VOLTAGES = 10_000
+
+
 @dataclass
 class Simulation:
     """A scene made ready to solve: model, what holds the pressure, and the map of its stable states.
@@ -674,15 +679,29 @@ class Simulation:
         bulged : iterable of int, optional
             Numbers ``k`` of bulged zones, each in ``1..N−1``; default ``1..N−1``.
         voltages : int, optional
-            Number of voltages, evenly spaced over :attr:`phi_window` (one if the window is a single voltage).
+            Number of voltages, evenly spaced over :attr:`phi_window` (one if the window is a single voltage), a
+            whole number in ``1..MAX_DISCOVERY_VOLTAGES``.
+
+        Raises
+        ------
+        SceneError
+            If a number of bulged zones is not a whole number in ``1..N−1`` (field ``bulged``), or ``voltages`` is
+            not a whole number in ``1..MAX_DISCOVERY_VOLTAGES`` (field ``voltages``).
         """
         from .candidates import candidate_equilibria
         from .zone_curves import ZoneCurve
 
+        # checked like equilibria_at's (a bare number, text, or k outside 1..N-1 was a raw TypeError/ValueError or
+        # silently nothing), and the voltages a whole number: -1 or 2.5 were numpy errors, 10**6 shot 240 million
+        # states (minutes, then the machine's memory) before anything was refused
+        if bulged is not None and not (hasattr(bulged, "__len__") and len(bulged) == 0):  # [] (one zone): none
+            bulged = self._bulged_counts(bulged)
+        if voltages is None:
+            voltages = self.settings.discovery_voltages
+        voltages = validation.integer(voltages, "voltages", lo=1, hi=MAX_DISCOVERY_VOLTAGES)
         lo, hi = self.phi_window
         pre = self.model.prestretch
         u = np.linspace(np.sqrt(1e-3 * pre), np.sqrt(self.lam_max - pre), self.settings.zone_curve_points)
-        voltages = voltages or self.settings.discovery_voltages
         phis = np.linspace(lo, hi, voltages) if hi > lo else np.array([lo])
         if hi > lo:
             ends = [

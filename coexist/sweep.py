@@ -357,6 +357,8 @@ def make_axes(vary) -> tuple[Axis, ...]:
     if isinstance(vary, Mapping):
         for key, values in vary.items():
             section, name, unit = parse_key(key)
+            if not isinstance(values, str) and not isinstance(values, Iterable):
+                values = [values]  # one value: a list of one (a bare number was a TypeError)
             text = values if isinstance(values, str) else ",".join(str(v) for v in values)
             axes.append(Axis(str(key).strip(), section, name, unit, parse_values(text, section, name, unit, key)))
     elif isinstance(vary, Iterable) and not isinstance(vary, str):

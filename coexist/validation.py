@@ -291,7 +291,15 @@ def scene(value):
     Raises
     ------
     SceneError
+        If ``value`` is not a Scene, or (made with ``dataclasses.replace``) its shear modulus, permittivity,
+        thickness or zone radius is not a positive number, or its zone count not a whole number of at least 1.
     """
     from .scene import Scene
 
-    return instance(value, Scene, "scene", "a Scene (load_scene('tricircle') or parse_scene(text))")
+    sc = instance(value, Scene, "scene", "a Scene (load_scene('tricircle') or parse_scene(text))")
+    # a Scene made by dataclasses.replace bypasses the scene format's checks: the fields every computation divides
+    # by or counts with are checked again (a zero radius had been a ZeroDivisionError, 2.5 zones a result; helper-97)
+    for name in ("shear_modulus", "relative_permittivity", "thickness", "zone_radius"):
+        real(getattr(sc, name), name, lo=0.0, lo_open=True)
+    integer(sc.zone_count, "zone_count", lo=1)
+    return sc
