@@ -49,6 +49,7 @@ from .equilibria import (
     Residual,
     failure_reason,
     make_equilibrium,
+    scale_starts,
     shoot_groups,
 )
 from .errors import SolverError
@@ -1082,7 +1083,11 @@ class Tracer:
         counts = list(self.counts)
         merged_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2 :]
         coarse = GroupSystem(
-            self.system.model, self.system.gas, Configuration(tuple(merged_counts)), self.system.settings
+            self.system.model,
+            self.system.gas,
+            Configuration(tuple(merged_counts)),
+            self.system.settings,
+            self.system.starts,
         )
         u = list(near.z[: self.M])
         uc = u[:j] + [0.5 * (u[j] + u[j + 1])] + u[j + 2 :]
@@ -1445,7 +1450,9 @@ class Tracer:
         Tracer
             A tracer of the same configuration whose system has ``settings``.
         """
-        system = GroupSystem(self.system.model, self.system.gas, self.system.configuration, settings)
+        system = GroupSystem(
+            self.system.model, self.system.gas, self.system.configuration, settings, self.system.starts
+        )
         out = Tracer(system, (self.phi_lo, self.phi_hi), self.breakdown)
         out.stable_only = getattr(self, "stable_only", False)
         out.base_steps = self.base_steps
@@ -1768,7 +1775,11 @@ def relocate(event: Event, tracer: Tracer, tight: Tracer) -> float:
         counts = list(tracer.counts)
         coarse_counts = counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2 :]
         coarse = GroupSystem(
-            tight.system.model, tight.system.gas, Configuration(tuple(coarse_counts)), tight.system.settings
+            tight.system.model,
+            tight.system.gas,
+            Configuration(tuple(coarse_counts)),
+            tight.system.settings,
+            tight.system.starts,
         )
         u = list(event.z[:M])
         uc = u[:j] + [u[j]] + u[j + 2 :]
@@ -2225,6 +2236,7 @@ class StableSegment:
                 system.gas,
                 Configuration(tuple(counts[:j] + [counts[j] + counts[j + 1]] + counts[j + 2 :])),
                 system.settings,
+                system.starts,
             )
             z = np.concatenate([e.z[: j + 1], e.z[j + 2 :]])  # the merged groups once
             z[-1] = phi * w
@@ -2291,7 +2303,7 @@ class StableSegment:
         res = system.residual(u[None], np.array([phi]))
         m, x = 0.5 * (u[j] + u[j + 1]), u[j + 1] - u[j]
         nodes = m + 0.5 * x * np.array([[0.0, -np.sqrt(0.6), np.sqrt(0.6)]])
-        st = shoot_groups(system.model, nodes, np.array([phi]), system.settings)
+        st = shoot_groups(system.model, nodes, np.array([phi]), system.settings, starts=system.starts)
         if not (res.states.ok.all() and st.ok.all()):
             return None
         r = res.r[0].copy()
@@ -2492,6 +2504,9 @@ class EquilibriumMap:
         self.breakdown = breakdown
         self.segments: list[StableSegment] = []
         self._tracers: dict = {}
+        # the converged states of a patterned zone, shared by every configuration's system: each starts the
+        # interface-scale iteration of the states shot near it (coexist.patterned.ScaleStarts; a start only)
+        self._starts = scale_starts(model)
 
     def tracer(self, counts) -> Tracer:
         """The tracer of the configuration ``counts`` (made once, then kept).
@@ -2508,7 +2523,7 @@ class EquilibriumMap:
         """
         counts = tuple(int(c) for c in counts)
         if counts not in self._tracers:
-            system = GroupSystem(self.model, self.gas, Configuration(counts), self.settings)
+            system = GroupSystem(self.model, self.gas, Configuration(counts), self.settings, self._starts)
             self._tracers[counts] = Tracer(system, self.phi_window, self.breakdown)
         return self._tracers[counts]
 

@@ -166,7 +166,7 @@ class GroupStates:
         return np.all(self.status == OK, axis=1)
 
 
-def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: bool = True) -> GroupStates:
+def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: bool = True, starts=None) -> GroupStates:
     """Shoot the states of every group at every point in one vectorised call (with derivatives).
 
     ``u`` has shape ``(P, M)`` and ``phi`` shape ``(P,)``.
@@ -190,6 +190,8 @@ def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: boo
         Continue through a non-positive hoop tension (see :func:`coexist.shooting.solve_states`).
     derivatives : bool, optional
         Integrate the variational equations (default True); False leaves every derivative NaN.
+    starts : coexist.patterned.ScaleStarts, optional
+        A patterned zone's store of converged states to start from (see :func:`coexist.shooting.solve_states`).
 
     Returns
     -------
@@ -207,7 +209,7 @@ def shoot_groups(model, u, phi, settings, formal: bool = False, derivatives: boo
     # mirror image, with the charge and every Φ̂-derivative changing sign
     sign = np.where(phi < 0, -1.0, 1.0)[:, None]
     phi_rep = np.repeat(np.where(np.isfinite(phi), np.abs(phi), 0.0), M)
-    st = solve_states(model, lam_safe.ravel(), phi_rep, settings, derivatives=derivatives, formal=formal)
+    st = solve_states(model, lam_safe.ravel(), phi_rep, settings, derivatives=derivatives, formal=formal, starts=starts)
     d = st.derivatives
 
     def shaped(a):
@@ -277,6 +279,26 @@ class Residual:
     gas_stiffness: np.ndarray
 
 
+def scale_starts(model):
+    """A new store of converged states to start a patterned zone's shooting from.
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The zone's model.
+
+    Returns
+    -------
+    coexist.patterned.ScaleStarts or None
+        Empty; None for a model without a pattern.
+    """
+    if getattr(model, "pattern", None) is None:
+        return None
+    from .patterned import ScaleStarts
+
+    return ScaleStarts()
+
+
 class GroupSystem:
     """The equilibrium equations of one configuration of identical zones on a gas.
 
@@ -286,14 +308,19 @@ class GroupSystem:
     gas : GasChamber or PressureReservoir
     configuration : Configuration
     settings : SolverSettings
+    starts : coexist.patterned.ScaleStarts, optional
+        A patterned zone's store of converged states (default: a new one for a patterned model, None otherwise):
+        each state shot starts its interface-scale iteration from the nearest kept one (a start, never a result)
+        and is kept. A system derived from this one (other settings, the same continuation) may share it.
     """
 
-    def __init__(self, model, gas, configuration: Configuration, settings):
+    def __init__(self, model, gas, configuration: Configuration, settings, starts=None):
         self.model = model
         self.gas = gas
         self.configuration = configuration
         self.settings = settings
         self.n = np.asarray(configuration.counts, dtype=float)
+        self.starts = scale_starts(model) if starts is None else starts
 
     @property
     def groups(self) -> int:
@@ -325,7 +352,7 @@ class GroupSystem:
             ``r`` of shape ``(P, M)``, ``J`` of shape ``(P, M, M + 1)`` (columns ``u1 … uM, Φ̂``), the
             shot states, and ``ΣV̂``, ``p̂_gas`` and the gas stiffness ``c`` per point.
         """
-        st = shoot_groups(self.model, u, phi, self.settings, formal, derivatives)
+        st = shoot_groups(self.model, u, phi, self.settings, formal, derivatives, self.starts)
         return self._residual(st)
 
     def _residual(self, st: GroupStates) -> Residual:

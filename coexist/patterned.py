@@ -56,6 +56,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import threading
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -98,6 +99,7 @@ __all__ = [
     "PatternedModel",
     "PatternedStates",
     "Region",
+    "ScaleStarts",
     "ZonePattern",
     "interface_stretch",
     "patterned_pressure_volume_curve",
@@ -131,6 +133,9 @@ SLOPE_AGAIN = 1e-3
 #: state while its residual stays at or below this; above, its error (relative ``~1e-3`` or worse where the scale
 #: bends) would cost passes, and the pass integrates the variational equations
 HINTED_SLOPE_AGAIN = 1e-6
+#: a state started from a kept neighbour (:class:`ScaleStarts`) is accepted on its first pass only where its residual
+#: is at most this fraction of the tolerance (:func:`_newton`); elsewhere one more Newton step
+WARM_FIRST_RESIDUAL = 1e-2
 #: iterates of one state that may fail (a trajectory that stops: no meridional tension, loss of ellipticity, ...)
 #: before the state is given up with that failure
 MAX_FAILED_TRIALS = 6
@@ -461,7 +466,9 @@ class PatternedModel(MembraneModel):
         return out
 
 
-def shoot_zone(model: MembraneModel, pole_stretch, phi_hat, settings, shape=False, derivatives=False, formal=False):
+def shoot_zone(
+    model: MembraneModel, pole_stretch, phi_hat, settings, shape=False, derivatives=False, formal=False, starts=None
+):
     """:func:`coexist.shooting.solve_states` of a :class:`PatternedModel`: :func:`solve_patterned_states` of its
     membrane and pattern (the dispatch :func:`~coexist.shooting.solve_states` makes for a model with a pattern).
 
@@ -473,6 +480,8 @@ def shoot_zone(model: MembraneModel, pole_stretch, phi_hat, settings, shape=Fals
         As for :func:`~coexist.shooting.solve_states`.
     shape : bool
         Must be False: the meridian of a patterned zone is not returned.
+    starts : ScaleStarts, optional
+        A continuation's store of converged states: the states near a kept one start from it (and are kept).
 
     Returns
     -------
@@ -490,9 +499,150 @@ def shoot_zone(model: MembraneModel, pole_stretch, phi_hat, settings, shape=Fals
         raise SceneError(
             "the meridian of a patterned zone is not computed (solve_states(..., shape=True))", "[electrodes].pattern"
         )
-    return solve_patterned_states(
-        zone.uniform, zone.pattern, pole_stretch, phi_hat, settings, derivatives=derivatives, formal=formal
+    if starts is None:
+        return solve_patterned_states(
+            zone.uniform, zone.pattern, pole_stretch, phi_hat, settings, derivatives=derivatives, formal=formal
+        )
+    validation.instance(starts, ScaleStarts, "starts", "a ScaleStarts")
+    st, kept = _solve(
+        zone.uniform, zone.pattern, pole_stretch, phi_hat, settings, None, derivatives, formal, starts=starts
     )
+    # a warm-started state that failed is solved once more from the cold start: a start must never lose a state
+    # the cold iteration finds (measured: 3 warm NO_CLAMP states of a tension-field ring were WRINKLED, relaxed
+    # next). Not a converged wrinkled state, nor one below the flat zone's pole stretch (decided at the scale
+    # floor, whatever the start; measured: 46 of 46 the same cold)
+    again = kept.get("warm", np.zeros(st.status.size, dtype=bool)) & ~st.ok
+    again &= (st.status != WRINKLED) & (st.status != BELOW_FLAT)
+    if again.any():
+        x = st.pole_stretch
+        retry = _solve(zone.uniform, zone.pattern, x[again], st.phi_hat[again], settings, None, derivatives, formal)[0]
+        st = _merge(x, ~again, _take_patterned(st, ~again), retry)
+    return st
+
+
+# --- warm starts of a continuation -------------------------------------------------------------------------
+
+#: converged states a :class:`ScaleStarts` keeps per zone at most (the oldest are dropped first)
+STARTS_KEPT = 512
+#: a kept state starts a new one only within this distance ``|Δλ0|/max(λ0, 1) + |ΔΦ̂|``
+STARTS_REACH = 0.05
+
+
+class ScaleStarts:
+    """Converged states of patterned zones kept to start the interface-scale iteration of later ones.
+
+    A continuation (:class:`coexist.equilibria.GroupSystem`) shoots its zones at points that move a little from
+    one call to the next; without a start each state's Newton iteration on ``σ = ln s`` (:func:`_newton`) begins
+    from the pole region's uniform zone (:func:`_pole_region_scale`, ``|σ − σ*|`` up to ~0.3). A store kept by
+    the continuation and passed down (``solve_states(..., starts=...)``) keeps, per zone (material and pattern),
+    the last :data:`STARTS_KEPT` converged states: ``(λ0, Φ̂)``, ``σ``, the exact slope ``dG/dσ``, the interface
+    stretches ``λ1⁺`` and, where the states were shot with derivatives, ``dσ/dλ0`` and ``dσ/dΦ̂`` (the implicit
+    function theorem, :func:`_derivative_pass`). A new state within :data:`STARTS_REACH` of a kept one starts
+    from the nearest: ``σ`` extrapolated to first order, its slope and ``λ1⁺`` as the hint of :func:`_solve`.
+
+    A start is never a result: every returned state comes from a pass with its own residual ``|G| ≤ rtol`` (the
+    starts change the passes, not the states beyond that tolerance); a warm-started state is accepted on its first
+    pass only at ``|G| ≤`` :data:`WARM_FIRST_RESIDUAL` ``rtol`` (as near its root as a cold state after its last
+    Newton step), and one that fails is solved again from the cold start (:func:`shoot_zone`). A store belongs to
+    one equilibrium map (:class:`coexist.continuation.EquilibriumMap`, shared by the systems of its configurations;
+    a :class:`~coexist.equilibria.GroupSystem` made alone has its own): its results depend on that map's own
+    earlier calls only, never on unrelated ones. It is bounded (:data:`STARTS_KEPT` states per zone and kind) and
+    guarded by a lock (threads may share a map). A copy or a pickle of it starts empty.
+    """
+
+    def __init__(self, kept: int = STARTS_KEPT, reach: float = STARTS_REACH):
+        self.kept = int(kept)
+        self.reach = float(reach)
+        self._lock = threading.Lock()
+        self._zones: dict = {}  # (id(material), id(pattern), kind) -> (material, pattern, {name: array})
+
+    def __getstate__(self):
+        return {"kept": self.kept, "reach": self.reach}
+
+    def __setstate__(self, state):
+        self.kept, self.reach = int(state["kept"]), float(state["reach"])
+        self._lock = threading.Lock()
+        self._zones = {}
+
+    def __len__(self) -> int:
+        with self._lock:
+            return sum(z[2]["l0"].size for z in self._zones.values())
+
+    def _zone(self, model, pattern, kind):
+        z = self._zones.get((id(model), id(pattern), kind))
+        return None if z is None or z[0] is not model or z[1] is not pattern else z[2]
+
+    def start(self, model, pattern, l0, phi, kind: str = "taut"):
+        """The starts of the states at ``(l0, phi)`` from the nearest kept ones.
+
+        Parameters
+        ----------
+        model : MembraneModel
+            One layer of the zone's membrane (the store keeps each material and pattern apart).
+        pattern : ZonePattern
+        l0, phi : ndarray
+            Pole stretches and voltages of the states, one each.
+        kind : str
+            ``"taut"`` (:func:`_solve`) or ``"relaxed"``
+            (:func:`coexist.patterned_relaxed.solve_patterned_relaxed`), kept apart.
+
+        Returns
+        -------
+        tuple or None
+            ``(σ guess, hint)`` as :func:`_solve` takes them: NaN (and a NaN slope and jumps) where no kept state
+            lies within reach; None where none lies within reach of any state.
+        """
+        with self._lock:
+            kept = self._zone(model, pattern, kind)
+            if kept is None:
+                return None
+            kept = dict(kept)  # the arrays are replaced, never changed in place: a consistent snapshot
+        dl = l0[:, None] - kept["l0"][None, :]
+        dp = phi[:, None] - kept["phi"][None, :]
+        dist = np.abs(dl) / np.maximum(l0, 1.0)[:, None] + np.abs(dp)
+        j = np.argmin(dist, axis=1)
+        rows = np.arange(l0.size)
+        near = dist[rows, j] <= self.reach
+        if not near.any():
+            return None
+        dl, dp = dl[rows, j], dp[rows, j]
+        step = np.nan_to_num(kept["dsig_dl0"][j] * dl) + np.nan_to_num(kept["dsig_dphi"][j] * dp)
+        guess = np.where(near, kept["sigma"][j] + step, np.nan)
+        hint = {
+            "slope": np.where(near, kept["slope"][j], np.nan),
+            "jump": {k: np.where(near, v[j], np.nan) for k, v in kept["jump"].items()},
+        }
+        return guess, hint
+
+    def keep(self, model, pattern, values: dict, kind: str = "taut") -> None:
+        """Keep converged states (the oldest beyond :attr:`kept` are dropped).
+
+        Parameters
+        ----------
+        model : MembraneModel
+            One layer of the zone's membrane.
+        pattern : ZonePattern
+        values : dict
+            ``l0, phi, sigma, slope, dsig_dl0, dsig_dphi`` (arrays, one entry per state; NaN where unknown) and
+            ``jump`` (``{k: λ1⁺ across interface k}``).
+        kind : str
+            ``"taut"`` or ``"relaxed"`` (:meth:`start`).
+        """
+        if not values["l0"].size:
+            return
+        with self._lock:
+            old = self._zone(model, pattern, kind)
+            new: dict
+            if old is None:
+                new = {k: (dict(v) if k == "jump" else v) for k, v in values.items()}
+            else:
+                new = {k: np.concatenate([old[k], v])[-self.kept :] for k, v in values.items() if k != "jump"}
+                new["jump"] = {k: np.concatenate([old["jump"][k], v])[-self.kept :] for k, v in values["jump"].items()}
+            if np.size(new["l0"]) > self.kept:
+                new = {k: v[-self.kept :] for k, v in new.items() if k != "jump"} | {
+                    "jump": {k: v[-self.kept :] for k, v in new["jump"].items()}
+                }
+            self._zones[(id(model), id(pattern), kind)] = (model, pattern, new)
 
 
 # --- states -----------------------------------------------------------------------------------------------
@@ -1956,17 +2106,34 @@ def solve_patterned_states(
     return _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivatives, formal)[0]
 
 
-def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivatives, formal, hint=None, stage=None):
+def _solve(
+    model,
+    pattern,
+    pole_stretch,
+    phi_hat,
+    settings,
+    scale_guess,
+    derivatives,
+    formal,
+    hint=None,
+    stage=None,
+    starts=None,
+):
     """:func:`solve_patterned_states`, with what a curve keeps of its converged states for the next calls.
 
     ``hint`` (optional, from :func:`patterned_pressure_volume_curve`): ``{"slope": dG/dσ per state (NaN where
     none), "jump": {k: λ1⁺ across interface k per state}}``, values interpolated from converged neighbours
     (:func:`_newton`: a start, never a result). Returns the states and ``{"slope": the last exact dG/dσ of each
-    converged state (NaN where only a hinted one served), "jump": {k: its λ1⁺}}`` (empty for one region).
+    converged state (NaN where only a hinted one served), "jump": {k: its λ1⁺}, "warm": the states started from
+    ``starts``}`` (empty for one region).
 
     ``stage`` (optional, from :func:`patterned_pressure_volume_curve`): ``(later, start)``, a mask of the states
     that join the Newton iteration only once the others are nearly converged, started by ``start(λ0 known, σ
     known, exact slopes known, {k: λ1⁺ known}, λ0 of the joining states) -> (σ guess, hint)`` (:func:`_newton`).
+
+    ``starts`` (optional, a continuation's :class:`ScaleStarts`; only without ``scale_guess``, ``hint`` and
+    ``stage``): the states near a kept converged one start from it (the scale extrapolated to first order, its
+    slope and jumps as the hint), the others from :func:`_pole_region_scale`; the converged states are kept.
     """
     validation.membrane_model(model)
     validation.instance(pattern, ZonePattern, "pattern", "a ZonePattern (e.g. ZonePattern.inner_circle(0.5))")
@@ -1977,6 +2144,7 @@ def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivat
         return _uniform(model, pattern, l0, phi, settings, derivatives, formal), {}
     n_states = l0.size
     lay = _layout(pattern, phi)
+    warm_started = np.zeros(n_states, dtype=bool)
     if scale_guess is not None:
         g = validation.real_array(scale_guess, "scale_guess")
         if g.size not in (1, n_states):
@@ -1987,7 +2155,17 @@ def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivat
         first = ~stage[0]
         sigma0[first] = _pole_region_scale(model, settings, _sub_layout(lay, first), l0[first])
     else:
-        sigma0 = _pole_region_scale(model, settings, lay, l0)
+        sigma0 = np.full(n_states, np.nan)
+        if starts is not None and hint is None:
+            warm = starts.start(model, pattern, l0, phi)
+            if warm is not None:
+                sigma0, hint = warm
+        cold = ~np.isfinite(sigma0)  # (the cold guess is a function of each state alone: the same on a subset)
+        warm_started = ~cold
+        if cold.all():
+            sigma0 = _pole_region_scale(model, settings, lay, l0)
+        elif cold.any():
+            sigma0[cold] = _pole_region_scale(model, settings, _sub_layout(lay, cold), l0[cold])
     status = np.zeros(n_states, dtype=int)
     with np.errstate(all="ignore"):
         T0, alpha, _, _, _ = (np.asarray(x, dtype=float) * np.ones(n_states) for x in model.pole(l0, lay.phi[0]))
@@ -2024,8 +2202,11 @@ def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivat
                 formal,
                 hint,
                 None if stage is None else (stage[0][live], stage[1]),
+                warm_started[live],
             )
     d_out = None
+    dsig = {"l0": np.full(n_states, np.nan), "phi": np.full(n_states, np.nan)}
+    exact_slope = out["slope"].copy()  # (NaN where only a hinted slope served)
     if derivatives:
         d_out = {k: np.full(n_states, np.nan) for k in ("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi")}
         ok = np.flatnonzero(status == OK)
@@ -2035,6 +2216,10 @@ def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivat
             steps[ok] += dp["steps"]
             for k in d_out:
                 d_out[k][ok] = dp[k]
+            exact_slope[ok] = dp["slope"]
+            if starts is not None:  # dσ/da at fixed p̂t, and σ's share of the trial pressure's own change
+                for a, v in _trial_log_slopes(model, settings, pattern, l0[ok], phi[ok]).items():
+                    dsig[a][ok] = dp[f"dsigma_d{a}"] - v
             lost = ok[(dp["status"] != 0) | ~np.all(np.isfinite([dp[k] for k in d_out]), axis=0)]
             for i in lost:  # not expected: the same shooting as the converged state's
                 status[i] = NOT_FINITE
@@ -2059,7 +2244,23 @@ def _solve(model, pattern, pole_stretch, phi_hat, settings, scale_guess, derivat
     if d_out is not None:
         states.derivatives = clamped_derivatives(d_out, out["p"], R, states.v_hat, states.q_hat, bad)
     edges[bad] = np.nan
+    if starts is not None:  # (a wrinkled state is a converged taut one too: a tension-field zone relaxes it next)
+        good = np.flatnonzero(((status == OK) | (status == WRINKLED)) & np.isfinite(out["sigma"]))
+        starts.keep(
+            model,
+            pattern,
+            {
+                "l0": l0[good],
+                "phi": phi[good],
+                "sigma": out["sigma"][good],
+                "slope": exact_slope[good],
+                "dsig_dl0": dsig["l0"][good],
+                "dsig_dphi": dsig["phi"][good],
+                "jump": {k: out[f"jump{k}"][good] for k in range(1, len(pattern.regions))},
+            },
+        )
     kept = {
+        "warm": warm_started,
         "slope": np.where(bad, np.nan, out["slope"]),
         "jump": {k: np.where(bad, np.nan, out[f"jump{k}"]) for k in range(1, len(pattern.regions))},
     }
@@ -2081,6 +2282,18 @@ def _trial(model, settings, lay, l0, tp=None):
     p_t = np.sum(area[:, None] * lay.n * tp, axis=0)
     rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / model.prestretch - 1))
     return p_t, rtol
+
+
+def _trial_log_slopes(model, settings, pattern, l0, phi) -> dict:
+    """``d ln p̂t/dλ0`` and ``d ln p̂t/dΦ̂`` of the trial pressure (forward differences, relative step 1e-7: a
+    continuation's first-order start, :class:`ScaleStarts`, not a result). The scale ``σ = ln(R*)`` is measured
+    in the trial membrane's units: at a fixed state ``R* ∝ 1/p̂t``, so ``dσ/da = (dσ/da at fixed p̂t) − d ln p̂t/da``."""
+    base = np.log(_trial(model, settings, _layout(pattern, phi), l0)[0])
+    h = 1e-7 * np.maximum(l0, 1.0)
+    out = {"l0": (np.log(_trial(model, settings, _layout(pattern, phi), l0 + h)[0]) - base) / h}
+    hp = 1e-7 * np.maximum(phi, 1.0)
+    out["phi"] = (np.log(_trial(model, settings, _layout(pattern, phi + hp), l0)[0]) - base) / hp
+    return out
 
 
 def _pole_region_scale(model, settings, lay, l0) -> np.ndarray:
@@ -2115,7 +2328,8 @@ def _derivative_pass(model, settings, lay, l0, sigma):
     -------
     dict
         ``R`` (the clamp radius of this pass), ``dR_dl0, dV_dl0, dQ_dl0, dR_dphi, dV_dphi, dQ_dphi`` (the
-        trial membrane's ``V̂t``, ``Q̂t``, with their factors π and 2π), and ``status`` (0 where it landed).
+        trial membrane's ``V̂t``, ``Q̂t``, with their factors π and 2π), ``status`` (0 where it landed), the exact
+        ``slope`` ``G_σ`` and ``dsigma_dl0``, ``dsigma_dphi`` (at fixed ``p̂t``).
     """
     m = l0.size
     p_t, rtol = _trial(model, settings, lay, l0)
@@ -2137,10 +2351,11 @@ def _derivative_pass(model, settings, lay, l0, sigma):
 
     Rs, Vs, Qs = partial(ends[0:5, :m])
     slope = s / R * Rs - 1.0
-    out = {"R": R, "status": status, "steps": steps[:m] + steps[m:]}
+    out = {"R": R, "status": status, "steps": steps[:m] + steps[m:], "slope": slope}
     for a, Z in (("l0", ends[0:5, m:]), ("phi", ends[5:10, :m])):
         Ra, Va, Qa = partial(Z)
         ds = -s * (Ra / R) / slope
+        out[f"dsigma_d{a}"] = ds / s  # (at fixed p̂t: a continuation's first-order start, ScaleStarts)
         out[f"dR_d{a}"] = Ra + Rs * ds
         out[f"dV_d{a}"] = fV * (Va + Vs * ds)
         out[f"dQ_d{a}"] = fQ * (Qa + Qs * ds)
@@ -2164,6 +2379,7 @@ def _newton(
     formal=False,
     hint=None,
     stage=None,
+    warm_started=None,
 ):
     """Newton's method on ``σ = ln s`` for the live states; fills ``status``, ``out``, ``steps``, ``detail``
     (``formal``: a converged state whose hoop tension is not positive somewhere stays a state).
@@ -2228,6 +2444,11 @@ def _newton(
     if stage is not None:
         waiting = stage[0].copy()
         open_[waiting] = False
+    # a state started from a kept neighbour (ScaleStarts) is accepted on its first pass only with a residual far
+    # below the tolerance: a cold state's last pass follows a Newton step (|G| ~ G_prev² ≪ tol), and a warm one
+    # should be as close to its root (accepted at |G| ≤ tol, the states' noise amplified the ramp's
+    # equal-free-energy voltages' error estimates up to 18-fold)
+    strict = np.zeros(m, dtype=bool) if warm_started is None else np.asarray(warm_started, dtype=bool).copy()
     passes = 0
     while passes < MAX_SCALE_ITERATIONS:
         if stage is not None:
@@ -2286,6 +2507,8 @@ def _newton(
         last_slope[idx[~okp]] = np.nan  # a failed iterate: the slope is taken again at the next one
         slope = np.where(need, slope, last_slope[idx])
         conv = okp & ((np.abs(G) <= tol[idx]) | ((np.abs(G) >= 0.5 * G_prev[idx]) & (np.abs(G) <= 100 * tol[idx])))
+        conv &= ~strict[idx] | (np.abs(G) <= WARM_FIRST_RESIDUAL * tol[idx])
+        strict[idx] = False
         vague = np.flatnonzero(conv & ~(tr.min_T > 0) & ~tr.exact)
         if vague.size:
             # a tension not positive somewhere, from the attempt function (its place not recorded): the same

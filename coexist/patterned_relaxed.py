@@ -55,13 +55,16 @@ from .patterned import (
     _keep_bracketed,
     _Layout,
     _layout,
+    _merge,
     _meridional_tension,
     _patterned,
     _pole_region_scale,
     _pole_start,
     _sub_layout,
+    _take_patterned,
     _take_pole,
     _trial,
+    _trial_log_slopes,
     _uniform,
     _widen_bracket,
     interface_stretch,
@@ -773,12 +776,13 @@ def _relaxed_derivative_pass(model, settings, lay, l0, p_t, sigma, pole):
     sig = np.exp(sigma)
     Rs, Vs, Qs = res["dR_a"][:m], res["dV_a"][:m], res["dQ_a"][:m]
     slope = sig / R * Rs - 1.0
-    out = {"R": R, "status": st_out, "steps": steps[:m] + steps[m:]}
+    out = {"R": R, "status": st_out, "steps": steps[:m] + steps[m:], "slope": slope}
     for a, (Ra, Va, Qa) in (
         ("l0", (res["dR_a"][m:], res["dV_a"][m:], res["dQ_a"][m:])),
         ("phi", (res["dR_phi"][:m], res["dV_phi"][:m], res["dQ_phi"][:m])),
     ):
         ds = -sig * (Ra / R) / slope
+        out[f"dsigma_d{a}"] = ds / sig  # (at fixed p̂t: a continuation's start, coexist.patterned.ScaleStarts)
         out[f"dR_d{a}"] = Ra + Rs * ds
         out[f"dV_d{a}"] = Va + Vs * ds
         out[f"dQ_d{a}"] = Qa + Qs * ds
@@ -842,6 +846,7 @@ def solve_patterned_relaxed(
     settings: SolverSettings | None = None,
     scale_guess=None,
     derivatives: bool = False,
+    starts=None,
 ) -> PatternedStates:
     """The relaxed (tension-field) states of a patterned zone: taut where both tensions are positive, hoop-wrinkled
     where the taut state would need a negative hoop tension.
@@ -879,6 +884,10 @@ def solve_patterned_relaxed(
         interface, and the scale's own dependence from the implicit function theorem on ``G = 0``
         (:func:`_relaxed_derivative_pass`). About 1.2–1.35 times the cost of the states alone (measured CPU time,
         20 wrinkled states of an inner circle and of a ring).
+    starts : coexist.patterned.ScaleStarts, optional
+        A continuation's store of converged states (without ``scale_guess``): a state near a kept relaxed one
+        starts from its scale (to first order) with its exact slope as the secant's first; the converged states
+        are kept. A start only: every state is the one whose own residual is within the tolerance.
 
     Returns
     -------
@@ -916,14 +925,27 @@ def solve_patterned_relaxed(
     edges = np.full((m, K - 1, 2, 5), np.nan)
     radii: list = [[] for _ in range(m)]
     steps = np.zeros(m, dtype=int)
+    warm_started = np.zeros(m, dtype=bool)
     if live.size:
+        slope0 = None
         if scale_guess is not None:
             g = validation.real_array(scale_guess, "scale_guess")
             sigma0 = np.broadcast_to(g, (m,)).astype(float).copy()
         else:
-            sigma0 = _pole_region_scale(model, settings, lay, l0)
+            sigma0 = np.full(m, np.nan)
+            warm = None if starts is None else starts.start(model, pattern, l0, phi, "relaxed")
+            if warm is not None:  # the nearest kept relaxed state: its scale to first order, its exact slope
+                sigma0, slope0 = warm[0], warm[1]["slope"]
+            cold = ~np.isfinite(sigma0)
+            warm_started = ~cold
+            if cold.all():
+                sigma0 = _pole_region_scale(model, settings, lay, l0)
+            elif cold.any():
+                sigma0[cold] = _pole_region_scale(model, settings, _sub_layout(lay, cold), l0[cold])
         with np.errstate(all="ignore"):
-            _secant(model, pattern, settings, lay, l0, sigma0, live, status, out, steps, detail, edges, radii)
+            _secant(model, pattern, settings, lay, l0, sigma0, live, status, out, steps, detail, edges, radii, slope0)
+    exact_slope = np.full(m, np.nan)
+    dsig = {"l0": np.full(m, np.nan), "phi": np.full(m, np.nan)}
     d_out = None
     if derivatives:
         d_out = {k: np.full(m, np.nan) for k in ("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi")}
@@ -937,6 +959,10 @@ def solve_patterned_relaxed(
             steps[ok] += dp["steps"]
             for k in d_out:
                 d_out[k][ok] = dp[k]
+            if starts is not None:  # (as coexist.patterned._solve keeps them)
+                exact_slope[ok] = dp["slope"]
+                for a, v in _trial_log_slopes(model, settings, pattern, l0[ok], phi[ok]).items():
+                    dsig[a][ok] = dp[f"dsigma_d{a}"] - v
             # the derivative pass shoots the converged state again: its clamp radius must be the state's (to the
             # integration tolerance), or the derivatives belong to another state
             other = np.abs(dp["R"] - out["R"][ok]) > 100 * settings.rtol * np.abs(out["R"][ok])
@@ -970,6 +996,18 @@ def solve_patterned_relaxed(
     if d_out is not None:
         states.derivatives = clamped_derivatives(d_out, out["p"], R, states.v_hat, states.q_hat, bad)
     edges[bad] = np.nan
+    if starts is not None:
+        good = np.flatnonzero(~bad & np.isfinite(out["sigma"]))
+        values = {"l0": l0[good], "phi": phi[good], "sigma": out["sigma"][good], "slope": exact_slope[good]}
+        values |= {"dsig_dl0": dsig["l0"][good], "dsig_dphi": dsig["phi"][good], "jump": {}}
+        starts.keep(model, pattern, values, "relaxed")
+        # a warm-started state that failed is solved once more from the cold start (a start must never lose a
+        # state), unless a band pulled in (measured on a ring: 68 of 68 the same cold, and their retries cost a
+        # third of the relaxed shooting)
+        again = warm_started & bad & (status != PULL_IN)
+        if again.any():
+            retry = solve_patterned_relaxed(model, pattern, l0[again], phi[again], settings, derivatives=derivatives)
+            return _merge(l0, ~again, _take_patterned(_patterned(states, detail, edges), ~again), retry)
     return _patterned(states, detail, edges)
 
 
@@ -990,8 +1028,12 @@ def _one_region(model, pattern, l0, phi, settings, derivatives=False) -> Pattern
     return st
 
 
-def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out, steps, detail, edges_out, radii):
+def _secant(
+    model, pattern, settings, lay_all, l0_all, sigma0, live, status, out, steps, detail, edges_out, radii, slope0=None
+):
     """The safeguarded secant iteration on ``σ = ln s`` for the live states; fills the outputs in place.
+    ``slope0`` (per state, NaN where none): the first step's slope ``dG/dσ`` (a kept neighbour's, exact), instead of
+    ``−1`` (the uniform zone's); the secant's own slope replaces it from the second step on.
 
     No iterate goes below the interface scale whose first interface lies :data:`~coexist.patterned.SCALE_FLOOR`
     series radii from the pole (its pole region would end inside the series radius, integrated backwards towards the
@@ -1022,6 +1064,10 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
     last_code = np.zeros(m, dtype=int)
     open_ = np.ones(m, dtype=bool)
     final = np.zeros(m, dtype=int)
+    first_slope = np.full(m, -1.0)
+    if slope0 is not None:
+        s0 = np.asarray(slope0, dtype=float)[live]
+        first_slope = np.where(np.isfinite(s0) & (s0 < SLOPE_CEILING), s0, -1.0)
     for _ in range(MAX_SCALE_ITERATIONS):
         idx = _at_floor(
             np.flatnonzero(open_), sigma, (floor, floor_tried, floor_reach), last_code, final, detail, live, open_
@@ -1061,7 +1107,7 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
                     lo[i] = sigma[i]
                 else:
                     hi[i] = sigma[i]
-                slope = -1.0
+                slope = first_slope[i]
                 if np.isfinite(prev_G[i]) and prev_sigma[i] != sigma[i]:
                     secant = (G[j] - prev_G[i]) / (sigma[i] - prev_sigma[i])
                     if np.isfinite(secant) and secant < SLOPE_CEILING:
@@ -1118,7 +1164,9 @@ def _secant(model, pattern, settings, lay_all, l0_all, sigma0, live, status, out
 # --- the dispatch ----------------------------------------------------------------------------------------------
 
 
-def shoot_zone_relaxed(model, pole_stretch, phi_hat, settings, shape=False, derivatives=False, formal=False):
+def shoot_zone_relaxed(
+    model, pole_stretch, phi_hat, settings, shape=False, derivatives=False, formal=False, starts=None
+):
     """:func:`coexist.shooting.solve_states` of a tension-field :class:`~coexist.patterned.PatternedModel`: the
     taut patterned states (:func:`~coexist.patterned.shoot_zone`), the ``WRINKLED`` ones shot again relaxed
     (:func:`solve_patterned_relaxed`), as :func:`~coexist.shooting.solve_states` does for a uniform zone.
@@ -1131,7 +1179,7 @@ def shoot_zone_relaxed(model, pole_stretch, phi_hat, settings, shape=False, deri
     ----------
     model : PatternedModel
         With ``wrinkling="tension-field"``.
-    pole_stretch, phi_hat, settings, shape, derivatives, formal
+    pole_stretch, phi_hat, settings, shape, derivatives, formal, starts
         As for :func:`~coexist.shooting.solve_states`.
 
     Returns
@@ -1144,13 +1192,13 @@ def shoot_zone_relaxed(model, pole_stretch, phi_hat, settings, shape=False, deri
     if len(model.pattern.regions) == 1 and not formal and not shape:  # a uniform zone: solve_states relaxes it
         settings, l0, phi = checked_state_inputs(model.uniform, pole_stretch, phi_hat, settings)
         return _one_region(model.uniform, model.pattern, l0, phi, settings, derivatives)
-    taut = shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)
+    taut = shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal, starts)
     if formal:
         return taut
-    return relax_wrinkled(model.uniform, model.pattern, taut, settings, derivatives)
+    return relax_wrinkled(model.uniform, model.pattern, taut, settings, derivatives, starts)
 
 
-def relax_wrinkled(model, pattern: ZonePattern, taut: PatternedStates, settings=None, derivatives=False):
+def relax_wrinkled(model, pattern: ZonePattern, taut: PatternedStates, settings=None, derivatives=False, starts=None):
     """The taut patterned states ``taut`` with their ``WRINKLED`` ones shot again relaxed (in place).
 
     Parameters
@@ -1164,6 +1212,8 @@ def relax_wrinkled(model, pattern: ZonePattern, taut: PatternedStates, settings=
     derivatives : bool
         Whether ``taut`` carries derivatives: the relaxed states then get theirs too (exact,
         :func:`_relaxed_derivative_pass`).
+    starts : coexist.patterned.ScaleStarts, optional
+        A continuation's store of converged states (:func:`solve_patterned_relaxed`).
 
     Returns
     -------
@@ -1179,7 +1229,7 @@ def relax_wrinkled(model, pattern: ZonePattern, taut: PatternedStates, settings=
     if not again.size:
         return taut
     rel = solve_patterned_relaxed(
-        model, pattern, taut.pole_stretch[again], taut.phi_hat[again], settings, derivatives=derivatives
+        model, pattern, taut.pole_stretch[again], taut.phi_hat[again], settings, derivatives=derivatives, starts=starts
     )
     for name, value in rel.__dict__.items():
         mine = taut.__dict__.get(name)

@@ -1018,6 +1018,7 @@ def solve_states(
     shape: bool = False,
     derivatives: bool = False,
     formal: bool = False,
+    starts=None,
 ) -> MembraneStates:
     """Equilibrium states of a clamped zone at the given pole stretches and voltages.
 
@@ -1042,6 +1043,10 @@ def solve_states(
         equations stay regular while the meridional tension is positive, and ``min_tension`` then goes
         smoothly through zero. Such a state is *not* a membrane equilibrium (it would wrinkle); this is
         only for locating the onset of wrinkling as the root of a smooth function.
+    starts : coexist.patterned.ScaleStarts, optional
+        A patterned zone only (ignored otherwise): a continuation's store of converged states, whose nearest
+        kept neighbour starts each state's interface-scale iteration (a start, never a result: the states are
+        the same to the solver's tolerance); the converged states are kept in it.
 
     Returns
     -------
@@ -1058,10 +1063,10 @@ def solve_states(
         if model.tension_field:  # its WRINKLED states shot again relaxed
             from .patterned_relaxed import shoot_zone_relaxed
 
-            return shoot_zone_relaxed(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)
+            return shoot_zone_relaxed(model, pole_stretch, phi_hat, settings, shape, derivatives, formal, starts)
         from .patterned import shoot_zone
 
-        return shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal)
+        return shoot_zone(model, pole_stretch, phi_hat, settings, shape, derivatives, formal, starts)
     settings, l0, phi = checked_state_inputs(model, pole_stretch, phi_hat, settings)
     states = _solve_uniform(model, l0, phi, settings, shape, derivatives, formal)
     # the trial pressure is proportional to the pole tension T̂0 while the pressure stays finite as T̂0 → 0 (the tension

@@ -204,7 +204,7 @@ def patterned_ramp():
 
 def test_a_patterned_scene_ramps_with_equal_pressures_across_zones(patterned_ramp):
     """Every equilibrium of the ramp, its zones re-shot directly with :func:`solve_patterned_states`, holds
-    one pressure in all its zones (1e-10), and that pressure is the equilibrium's; after the split (at a
+    one pressure in all its zones (1e-10), and that pressure is the equilibrium's (1e-9); after the split (at a
     voltage of its own, not the uniform tricircle's 3.900031 kV) one bulged zone coexists with two unbulged."""
     from coexist.patterned import PatternedModel
 
@@ -217,8 +217,11 @@ def test_a_patterned_scene_ramps_with_equal_pressures_across_zones(patterned_ram
         l0 = np.array(eq.pole_stretch)
         direct = solve_patterned_states(sim.model.uniform, sim.model.pattern, l0, eq.phi_hat)
         assert np.all(direct.status == OK)
-        assert np.max(np.abs(direct.p_hat - eq.p_hat)) <= 1e-10 * eq.p_hat, (direct.p_hat, eq.p_hat)
-        assert np.allclose(direct.v_hat, eq.v_hat, rtol=1e-12, atol=0)
+        # (1e-9: the continuation's states start from its kept neighbours, coexist.patterned.ScaleStarts, so they
+        # are not bit for bit the direct cold ones but the same to the integration's tolerance; measured 1.6e-10,
+        # from cold starts 1e-14)
+        assert np.max(np.abs(direct.p_hat - eq.p_hat)) <= 1e-9 * eq.p_hat, (direct.p_hat, eq.p_hat)
+        assert np.allclose(direct.v_hat, eq.v_hat, rtol=1e-9, atol=0)  # (measured 2e-11; cold starts: 1e-12)
         if len(l0) == 2:
             coexisting += 1
             assert l0[1] - l0[0] > 0.5  # bulged and unbulged: far apart on the zone curve
