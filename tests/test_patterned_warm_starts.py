@@ -31,8 +31,7 @@ def zone():
     return PatternedModel.of(build_model("gent", jlim=97.0, voltage=True), PATTERN)
 
 
-@pytest.fixture
-def columns(monkeypatch):
+def _count_columns(monkeypatch) -> dict:
     """Count the columns of every Newton pass of the patterned shooting (derivative passes included)."""
     count = {"cols": 0}
     orig = patterned._pass
@@ -43,6 +42,11 @@ def columns(monkeypatch):
 
     monkeypatch.setattr(patterned, "_pass", counting)
     return count
+
+
+@pytest.fixture
+def columns(monkeypatch):
+    return _count_columns(monkeypatch)
 
 
 def _fields(st):
@@ -129,8 +133,9 @@ def _ramp(monkeypatch, warm: bool):
         import coexist.continuation as continuation
 
         monkeypatch.setattr(continuation, "scale_starts", lambda model: None)
-    count = {"cols": 0}
+    count = {"cols": 0}  # the passes inside the continuation's shootings only
     orig = equilibria.shoot_groups
+    columns_seen = _count_columns(monkeypatch)
 
     def counted(*args, **kwargs):
         before = columns_seen["cols"]
@@ -138,14 +143,6 @@ def _ramp(monkeypatch, warm: bool):
         count["cols"] += columns_seen["cols"] - before
         return out
 
-    columns_seen = {"cols": 0}
-    orig_pass = patterned._pass
-
-    def counting(*args, **kwargs):
-        columns_seen["cols"] += len(args[3])
-        return orig_pass(*args, **kwargs)
-
-    monkeypatch.setattr(patterned, "_pass", counting)
     monkeypatch.setattr(equilibria, "shoot_groups", counted)
     report = simulate_ramp(load_scene("inner-circle"))
     monkeypatch.undo()
