@@ -214,3 +214,23 @@ passive = 5
     result = run([*args, "--pole-stretch", "3.03,18", "--points", "60"], tmp_path)
     assert result.exit_code == 0, result.output
     assert "pressure_max" in result.output
+
+
+def test_another_os_error_is_still_one_line(monkeypatch, capsys):
+    """Only a full disk (ENOSPC and kin) is "cannot write the output"; any other OSError stays the one-line internal
+    error it was (the first version of that handler re-raised it: a traceback)."""
+    import errno
+
+    import coexist.scene
+    from coexist.cli.main import main
+
+    def denied(*args, **kwargs):
+        raise PermissionError(errno.EACCES, "Permission denied", "x.toml")
+
+    monkeypatch.setattr(coexist.scene, "load_scene", denied)
+    monkeypatch.delenv("COEXIST_DEBUG", raising=False)
+    monkeypatch.setattr(sys, "argv", ["coexist", "check", "x.toml"])
+    with pytest.raises(SystemExit) as exit_:
+        main()
+    err = capsys.readouterr().err.strip().splitlines()
+    assert exit_.value.code == 1 and len(err) == 1 and err[0].startswith("internal error: PermissionError")

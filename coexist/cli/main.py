@@ -84,21 +84,18 @@ def main():
     except RecursionError:
         click.echo("Error: the input is nested too deeply to be read", err=True)
         sys.exit(2)
-    except OSError as exc:
-        import errno
-
-        if exc.errno not in (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EROFS, errno.EFBIG) or os.environ.get(
-            "COEXIST_DEBUG"
-        ):
-            raise
-        # not a bug: an output (a file, or stdout redirected to a full disk) could not be written; staged files are
-        # already removed and existing ones untouched (Outputs)
-        where = f" ({exc.filename})" if exc.filename else ""
-        click.echo(f"Error: cannot write the output{where}: {exc.strerror or exc}", err=True)
-        sys.exit(1)
-    except Exception as exc:  # a bug: say so in one line, keep the traceback for those who ask
+    except Exception as exc:
         if os.environ.get("COEXIST_DEBUG"):
             raise
+        import errno
+
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EROFS, errno.EFBIG):
+            # not a bug: an output (a file, or stdout redirected to a full disk) could not be written; staged files
+            # are already removed and existing ones untouched (Outputs)
+            where = f" ({exc.filename})" if exc.filename else ""
+            click.echo(f"Error: cannot write the output{where}: {exc.strerror or exc}", err=True)
+            sys.exit(1)
+        # a bug: say so in one line, keep the traceback for those who ask
         click.echo(
             f"internal error: {type(exc).__name__}: {exc} (please report it; COEXIST_DEBUG=1 shows where)", err=True
         )
