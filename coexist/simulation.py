@@ -902,8 +902,12 @@ class Simulation:
             stable up to the window's end, a range end or breakdown, or no one-bulged state reaches its free
             energy; or if the state the valves closed in is not stable.
         SceneError
-            If ``kind`` is unknown.
+            If ``kind`` is unknown, or the scene has no ``[voltage]`` (no voltage to look along).
         """
+        if self.scene.voltage is None:  # its window is the one voltage 0: it had said "homogeneous up to 0 kV"
+            raise SceneError(
+                "this scene has no [voltage]: there is no voltage path to find a transition on", "[voltage]"
+            )
         start = self.start
         end = start.end(+1)
         if kind == "spinodal":

@@ -153,3 +153,13 @@ def test_a_scene_made_by_replace_is_checked_again(change, field):
     with pytest.raises(SceneError) as info:
         bounded(Simulation.from_scene, replace(load_scene("tricircle"), **change), seconds=30)
     assert info.value.field == field
+
+
+def test_first_transition_without_a_voltage_path_says_so():
+    """It had answered "the zones stay homogeneous up to 0 kV (the window ends)" for a scene with no [voltage]."""
+    from coexist import Simulation
+
+    sim = Simulation.from_scene(load_scene("two-balloons"))
+    with pytest.raises(SceneError) as info:
+        bounded(sim.first_transition, seconds=30)
+    assert info.value.field == "[voltage]"
