@@ -32,6 +32,7 @@ from .settings import SolverSettings, error_reference, measured_error
 from .shooting import (
     NO_VOLTAGE,
     OK,
+    VOLTAGE_ITERATIONS,
     WRINKLED_AT_POLE,
     MembraneStates,
     StateDerivatives,
@@ -1354,7 +1355,10 @@ class _VoltageRoots:
         """The states found (flags and NaN set as :func:`voltage_at_pressure` documents)."""
         result = self.result
         status = result.status.copy()
-        status[~self.accepted() & (status == OK)] = NO_VOLTAGE
+        open_ = ~self.accepted() & (status == OK)
+        # a search still open when its iterations ran out (a valid last state, not at the pressure): said as such, not
+        # as a pole stretch that no voltage holds (voltage_at_pressure(iterations=1) had called every one so)
+        status[open_] = np.where(self.finished[open_], NO_VOLTAGE, VOLTAGE_ITERATIONS)
         infeasible = self.known & ~self.feasible
         status[infeasible] = np.where(self.status0[infeasible] == OK, NO_VOLTAGE, self.status0[infeasible])
         result.status = status
@@ -1425,7 +1429,8 @@ def voltage_at_pressure(
     MembraneStates
         One entry per pole stretch, ``phi_hat`` the voltage found, with the exact derivatives of the
         states found (``derivatives``); entries without one have status ``NO_VOLTAGE`` (or the failure of
-        their zero-voltage state, or of the last voltage tried) and NaN quantities.
+        their zero-voltage state, or of the last voltage tried; ``VOLTAGE_ITERATIONS`` where the search was still
+        open when its ``iterations`` ran out) and NaN quantities.
 
     Raises
     ------

@@ -61,6 +61,9 @@ TOO_MANY_SWITCHES = 22
 BEYOND_RUN = 23
 #: a patterned zone's pole stretch below that of its flat (unpressurised) state (coexist.patterned): no equilibrium
 BELOW_FLAT = 24
+#: the search of the voltage at a pressure (coexist.curves.voltage_at_pressure) used up its iterations, its last state
+#: valid but not at the pressure: not a failure of the physics (more iterations may find it)
+VOLTAGE_ITERATIONS = 25
 
 #: a short tag and a sentence for every way a state can fail
 REASONS = {
@@ -117,6 +120,11 @@ REASONS = {
         "no pressure holds a pole stretch this small: unpressurised, the zone's regions already stretch its pole "
         "region further (e.g. a stiffer passive annulus pulling an electrode disc open), and inflation stretches it "
         "more (the clamp stretch is reached before the rim even where the zone is flat)",
+    ),
+    VOLTAGE_ITERATIONS: (
+        "solver_budget",
+        "the search of the voltage that holds the requested pressure used up its iterations before meeting it "
+        "(voltage_at_pressure's iterations): not a failure of the physics",
     ),
 }
 

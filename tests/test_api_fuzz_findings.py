@@ -163,3 +163,20 @@ def test_first_transition_without_a_voltage_path_says_so():
     with pytest.raises(SceneError) as info:
         bounded(sim.first_transition, seconds=30)
     assert info.value.field == "[voltage]"
+
+
+def test_a_voltage_search_out_of_iterations_says_so():
+    """``voltage_at_pressure(iterations=1)`` had called every pole stretch one that no voltage holds (``NO_VOLTAGE``)
+    though the default 60 iterations find all of them: a search still open when its iterations run out is
+    ``VOLTAGE_ITERATIONS`` (tag ``solver_budget``); a pole stretch below the pressure at zero voltage stays
+    ``NO_VOLTAGE`` however few the iterations."""
+    from coexist.curves import voltage_at_pressure
+    from coexist.shooting import NO_VOLTAGE, OK, VOLTAGE_ITERATIONS, reason_tag
+
+    model = build_model("gent", 97.0)
+    l0 = np.array([1.05, 1.5, 2.0, 3.0])  # p̂(1.05, 0) < 1.5: no voltage holds it
+    short = bounded(voltage_at_pressure, model, l0, 1.5, iterations=1, seconds=30)
+    assert short.status.tolist() == [NO_VOLTAGE] + [VOLTAGE_ITERATIONS] * 3
+    assert reason_tag(VOLTAGE_ITERATIONS) == "solver_budget" and np.all(np.isnan(short.p_hat[1:]))
+    full = bounded(voltage_at_pressure, model, l0, 1.5, seconds=30)
+    assert full.status.tolist() == [NO_VOLTAGE, OK, OK, OK]
