@@ -207,7 +207,7 @@ def instance(value, kind, name: str, what: str):
 
 
 def has_methods(value, methods: tuple, name: str, what: str):
-    """``value`` if it has every method of a Protocol (``methods``), else a SceneError.
+    """``value`` if it is an object (not a class) with every method of a Protocol (``methods``), else a SceneError.
 
     Parameters
     ----------
@@ -226,6 +226,8 @@ def has_methods(value, methods: tuple, name: str, what: str):
     ------
     SceneError
     """
+    if isinstance(value, type):  # the class itself (Gent, not Gent(97)): its methods are there, unbound
+        raise SceneError(f"must be {what}: an instance, got the class {value.__name__} (call it)", name)
     missing = [m for m in methods if not callable(getattr(value, m, None))]
     if missing:
         raise SceneError(

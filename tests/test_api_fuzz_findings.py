@@ -180,3 +180,14 @@ def test_a_voltage_search_out_of_iterations_says_so():
     assert reason_tag(VOLTAGE_ITERATIONS) == "solver_budget" and np.all(np.isnan(short.p_hat[1:]))
     full = bounded(voltage_at_pressure, model, l0, 1.5, seconds=30)
     assert full.status.tolist() == [NO_VOLTAGE, OK, OK, OK]
+
+
+def test_an_effect_class_instead_of_an_instance_is_refused():
+    """``MembraneModel(elasticity=Gent)`` (the class, not ``Gent(97)``) had passed the Protocol check (the class has
+    the methods, unbound) and failed in the symbolic model with a raw TypeError."""
+    from coexist.effects import Gent, IdealDielectric
+
+    for kw, field in (({"elasticity": Gent}, "elasticity"), ({"electrostatics": IdealDielectric}, "electrostatics")):
+        with pytest.raises(SceneError, match="the class") as info:
+            MembraneModel(**kw)
+        assert info.value.field == field
