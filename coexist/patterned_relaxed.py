@@ -315,9 +315,13 @@ def relaxed_interface_stretch(model: MembraneModel, l1_in, w_in, wrinkled_in, rh
     w_out = np.where(taut_ok, rho, np.nan)
     need = np.flatnonzero(~taut_ok)
     if need.size:
+        last_width = np.full(need.size, np.nan)  # the natural widths of the last evaluation: the next one's start
 
         def wrinkled_side(x):
-            T1, K, w = relaxed_meridional_tension(model, x, rho[need], phi_out[need], np.ones(x.shape, dtype=bool))
+            T1, K, w = relaxed_meridional_tension(
+                model, x, rho[need], phi_out[need], np.ones(x.shape, dtype=bool), width_guess=last_width
+            )
+            last_width[:] = np.where(np.isfinite(w), w, last_width)
             # locked at its natural width (stretched along the meridian): beyond every root, as for a taut side
             with np.errstate(all="ignore"):
                 locked = np.isfinite(w) & ~(np.asarray(model.tensions(x, w, phi_out[need])[4]) * np.ones(x.shape) > 0)

@@ -133,6 +133,9 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
     done = ~(np.isfinite(l1a) & np.isfinite(phia) & (l1a > 0))
     x = np.where(done, np.nan, x)
     lo_zero = np.zeros(l1a.shape, dtype=bool)  # T̂2 is exactly zero at the bracket's lower end
+    # the bracket's lower end has been evaluated (a start there, or moved to a point): a locked upper end is not
+    # bisected before the lower end is known to be free of locking
+    lo_seen = np.zeros(l1a.shape, dtype=bool)
     locking = getattr(getattr(model, "elasticity", None), "locking_stretch", None)
     limit = max(WIDTH_LIMIT, 2 * locking) if locking is not None else WIDTH_LIMIT
     with np.errstate(all="ignore"):
@@ -146,16 +149,23 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
             # beyond Gent locking: too far (the tensions there can be finite, with T̂2 < 0, and would move
             # the bracket's lower end past the root)
             bad = ~np.isfinite(T2) | ~(margin > 0)
+            # locked at λ2 = λ1^(−1/2) itself, where I1 (at this λ1) is least: locked at every hoop stretch, no width
+            # (a Gent membrane stretched past locking along the meridian had bisected its bracket down to that end,
+            # ~50 evaluations for the NaN: 1700 of the 20000 calls, a third of the evaluations, of a tension-field
+            # ring's `coexist coexistence`)
+            locked_everywhere = ~done & ~(margin > 0) & (x == lo)
+            lo_seen |= x == lo
             # (only a point above the lower end bounds the root: a guess below λ1^(−1/2) past locking had set the upper
             # end below the lower one, and the bracket, "closed", returned their mean, no root; review, helper-70)
             hi = np.where(~done & (bad | (T2 > 0)) & (x > lo), np.minimum(hi, x), hi)
             moved = ~done & ~bad & (T2 <= 0) & (x >= lo)
             lo = np.where(moved, x, lo)
+            lo_seen |= moved
             lo_zero = np.where(moved, T2 == 0, lo_zero)
             step = np.where(bad, np.nan, T2 / T22)
             new = x - step
             ok = np.isfinite(new) & (T22 > 0) & (new > lo) & (new < hi)
-            fallback = np.where(np.isfinite(hi), 0.5 * (lo + hi), 2 * lo)
+            fallback = np.where(np.isfinite(hi), np.where(lo_seen, 0.5 * (lo + hi), lo), 2 * lo)
             new = np.where(ok, new, fallback)
             conv = ok & (np.abs(step) <= WIDTH_TOL * x)
             # at the root T̂2 of either sign at roundoff puts x itself at one end of the bracket, and the Newton step
@@ -177,7 +187,7 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
             # a bracket below roundoff (the root sits between two neighbouring floats)
             conv |= np.isfinite(hi) & (hi - lo <= 4 * np.finfo(float).eps * hi)
             # the hoop tension still negative beyond the limit: no width (NaN below, where T̂22 is not positive)
-            none = ~done & ~conv & ~np.isfinite(hi) & (lo > limit)
+            none = ~done & ~conv & ~np.isfinite(hi) & (lo > limit) | locked_everywhere
             new = np.where(none, np.nan, new)
             x = np.where(done, x, new)
             done |= conv | none

@@ -87,3 +87,32 @@ def test_root_past_the_first_maximum_on_a_gent_side_is_still_found():
     assert abs(x[0] - 0.5 * (lo + hi)) <= 4e-15 * x[0], (x[0], lo, hi)
     g, d = fun(x)
     assert abs(g[0] - 5.0) <= 1e-13 * 5.0 and d[0] > 0
+
+
+def test_the_wrinkled_far_side_starts_each_natural_width_from_the_last():
+    """Each evaluation of the wrinkled far side's ``T̂1ʷ(λ1⁺)`` in ``relaxed_interface_stretch`` solves a natural width;
+    those of one root search lie close together, and each now starts from the last instead of ``λ1^(−1/2)``. An
+    interface of helper-92's s7_5 ring (Gent 60, three passive layers inside, one electrode layer outside at
+    per-layer Φ̂ = 0.342): 161 evaluations of the tensions before, 106 now; the root is the same, and it balances
+    the meridional force ``n⁺ T̂1ʷ(λ1⁺) = n⁻ T̂1⁻`` with the hoop tension zero at its width, to rounding."""
+    from coexist.patterned_relaxed import relaxed_interface_stretch
+
+    model = MembraneModel(Gent(60.0), IdealDielectric(), wrinkling="tension-field")
+    calls = []
+    tensions = type(model).tensions
+
+    class Counted(MembraneModel):
+        def tensions(self, *args):
+            calls.append(1)
+            return tensions(self, *args)
+
+    counted = Counted(Gent(60.0), IdealDielectric(), wrinkling="tension-field")
+    args = [np.array([v]) for v in (1.4352284581719128, 1.435260775046448, 0.0, 1.435212367557369, 0.0, 3.0)]
+    phi_out = 0.3424446685387127
+    l1, wrinkled, w, force, ok = relaxed_interface_stretch(counted, *args, np.array([phi_out]), np.array([1.0]))
+    assert len(calls) <= 120, len(calls)
+    assert ok[0] and wrinkled[0]
+    assert l1[0] == pytest.approx(4.93687337, rel=1e-8)
+    t = model.tensions(np.float64(l1[0]), np.float64(w[0]), np.float64(phi_out))
+    assert abs(float(t[1])) <= 1e-12 and float(t[6]) > 0
+    assert float(t[0]) == pytest.approx(force[0], rel=1e-13)

@@ -596,6 +596,25 @@ def test_natural_width_without_a_root_ends_at_the_width_limit(monkeypatch):
     assert np.isnan(natural_width(model, np.array([np.nan]), phi)[0]) and len(calls) <= 1
 
 
+def test_natural_width_of_a_meridian_past_gent_locking_is_none_at_once(monkeypatch):
+    """``I1 = λ1² + λ2² + λ1⁻²λ2⁻²`` is least over the hoop stretch at ``λ2 = λ1^(−1/2)``, the bracket's lower end: a
+    meridional stretch locked there (Gent 60, λ1 = 10.5: ``I1 ≥ 110 > Jlim + 3``) is locked at every hoop stretch and
+    has no natural width. Its search had doubled to a locked upper end and bisected the bracket down to the lower one,
+    54 evaluations for the NaN (1700 of the 20000 calls of a tension-field ring's `coexist coexistence`, a third of
+    its width evaluations); it ends at the first now (with the final check every width has: 2). With a guess (locked
+    too) the lower end is tried before the bracket is bisected. A width just below locking is found as before
+    (against a bracketing root finder)."""
+    model = taut("gent", 60.0)
+    calls = counted_tensions(model, monkeypatch)
+    for guess, at_most in ((None, 2), (2.0, 4)):
+        calls.clear()
+        assert np.isnan(natural_width(model, np.array([10.5]), np.array([0.28]), guess=guess)[0])
+        assert len(calls) <= at_most, (guess, len(calls))
+    l1 = 7.5  # I1 at the lower end 56.4, below 63: the width lies before locking
+    w = natural_width(model, np.array([l1]), np.array([0.28]), guess=2.0)[0]
+    assert w == pytest.approx(bracketed_width(model, l1, 0.28), rel=1e-13)
+
+
 def test_natural_width_of_a_gent_membrane_far_from_locking_is_not_cut_at_the_width_limit():
     """A Gent width lies below locking, ``λ2² < Jlim + 3``: for Jlim above ~1e12 that is beyond ``WIDTH_LIMIT``, and the
     search goes on to twice the locking stretch there (review, helper-69: Jlim = 1e13, λ1 = 1.2755, Φ̂ = 1.3088 has its
