@@ -499,16 +499,15 @@ def trial_pressure(model: MembraneModel, l0, phi, pole_tension=None):
 
 
 def _check_inputs(model, l0, phi):
-    if np.any(~np.isfinite(l0)) or np.any(l0 <= model.prestretch):
-        bad = l0[~np.isfinite(l0) | (l0 <= model.prestretch)][0]
+    """What :func:`checked_state_inputs` checks beyond ``validation.real_array`` (finite ``λ0``, finite ``Φ̂ ≥ 0``):
+    ``λ0 > λpre``, and no voltage on a model without electrostatics."""
+    below = l0 <= model.prestretch
+    if below.any():
         raise SceneError(
-            f"pole stretch must be finite and exceed the prestretch {model.prestretch:g}, got {bad:g}",
+            f"pole stretch must be finite and exceed the prestretch {model.prestretch:g}, got {l0[below][0]:g}",
             "pole_stretch",
         )
-    if np.any(~np.isfinite(phi)) or np.any(phi < 0):
-        bad = phi[~np.isfinite(phi) | (phi < 0)][0]
-        raise SceneError(f"Φ̂ must be a finite number >= 0, got {bad:g}", "phi_hat")
-    if not model.has_voltage and np.any(phi != 0):
+    if not model.has_voltage and phi.any():
         raise SceneError("this model has no electrostatics: Φ̂ must be 0", "phi_hat")
 
 
@@ -623,6 +622,10 @@ class _Integrators:
         """The attempt function ``make()`` (a CasADi function named ``attempts_{kind}``), built once per model
         and ``kind``, cached on disk and compiled like :meth:`attempts`; returns its entry (``fun``, ``maps``,
         ``fast``)."""
+        entry = self._casadi.get(("attempts", kind))
+        if entry is not None and entry["compiled"]:  # built and compiled (or tried): nothing left to do but count
+            entry["uses"] += 1
+            return entry
         from .numerics.compiled import compiled, load_cached
 
         entry = self._casadi.setdefault(("attempts", kind), {"fun": None, "uses": 0, "compiled": False, "maps": {}})
@@ -673,10 +676,12 @@ class _Integrators:
         limit = COMPILED_BATCH_LIMIT if medium else CASADI_BATCH_LIMIT
         if n > limit:
             return _int.NumpyStepper(fun)
+        st = self._casadi.get(kind)
+        if st is not None and self._casadi[("stepper compiled", kind)]:  # compiled: its uses no longer matter
+            return st
         from .numerics.compiled import compiled, load_cached
 
         name, key = f"coexist_dop853_{kind}", self.key(kind)
-        st = self._casadi.get(kind)
         if st is None:
             # compiled by an earlier process, else CasADi's graph (deserialised, or built and kept)
             step = None if key is None else load_cached(name, key, f"dop853_{kind}")
@@ -1084,7 +1089,7 @@ def solve_states(
     # review, helper-72); only those, so that every other state is the same whatever it is batched with, and one
     # that finds no clamp again keeps its first failure (a wider search of a trajectory that never returns costs
     # many steps: review, helper-75)
-    none = np.flatnonzero(states.status == NO_CLAMP)  # the pole tension only for those (the hot path has none)
+    none = (states.status == NO_CLAMP).nonzero()[0]  # the pole tension only for those (the hot path has none)
     if none.size:
         with np.errstate(all="ignore"):
             T0 = np.asarray(model.pole(l0[none], phi[none])[0], dtype=float) * np.ones(none.size)
@@ -1114,6 +1119,12 @@ def _put(states: MembraneStates, new: MembraneStates, rows, take) -> None:
                 getattr(value, k)[idx] = getattr(new.derivatives, k)[sub]
 
 
+def _per_state(value, n: int) -> np.ndarray:
+    """An output of a generated function as a float array of the ``n`` states (a view where it is one already)."""
+    value = np.asarray(value, dtype=float)
+    return value if value.shape == (n,) else np.broadcast_to(value, (n,))
+
+
 def _solve_uniform(model, l0, phi, settings, shape, derivatives, formal) -> MembraneStates:
     """:func:`solve_states` of a uniform zone on checked inputs, with ``settings.max_radius_factor`` as given."""
     n = l0.size
@@ -1122,10 +1133,11 @@ def _solve_uniform(model, l0, phi, settings, shape, derivatives, formal) -> Memb
     fail_radius = np.full(n, np.inf)
 
     with np.errstate(all="ignore"):
-        T0, alpha, beta, W0, q0 = (np.broadcast_to(np.asarray(x, dtype=float), (n,)) for x in model.pole(l0, phi))
+        pole = model.pole(l0, phi)
+        T0, alpha = _per_state(pole[0], n), _per_state(pole[1], n)
         aux0 = model.tensions(l0, l0, phi)
-        margin0 = np.broadcast_to(np.asarray(aux0[4], dtype=float), (n,))
-        max_field = np.abs(np.asarray(aux0[5], dtype=float) * np.ones(n))
+        margin0 = _per_state(aux0[4], n)
+        max_field = np.abs(_per_state(aux0[5], n))
     status[l0 - model.prestretch < FLAT_LIMIT * model.prestretch] = BELOW_RESOLUTION
     status[(status == OK) & (margin0 <= LOCKING_LIMIT)] = LOCKED
     status[(status == OK) & ~np.isfinite(T0)] = NOT_FINITE  # an overflowing pole tension is not a wrinkle
@@ -1133,11 +1145,13 @@ def _solve_uniform(model, l0, phi, settings, shape, derivatives, formal) -> Memb
     status[(status == OK) & (alpha <= 0)] = LOST_ELLIPTICITY
     fail_radius[status != OK] = 0.0
 
-    live = np.flatnonzero(status == OK)
+    # (x.nonzero()[0] here and below: np.flatnonzero of a 1-D x without its Python layers, on every small batch)
+    live = (status == OK).nonzero()[0]
     keys = ("p", "V", "Q", "Psi", "z", "R") + (
         ("dR_dl0", "dV_dl0", "dQ_dl0", "dR_dphi", "dV_dphi", "dQ_dphi") if derivatives else ()
     )
-    out = {k: np.full(n, np.nan) for k in keys}
+    trial = np.full((len(keys), n), np.nan)  # the trial membrane's, one row per key
+    out = dict(zip(keys, trial))
     min_tension = np.where(status == OK, T0, np.nan)
     steps = np.zeros(n, dtype=int)
     shapes = [None] * n if shape else None
@@ -1178,8 +1192,7 @@ def _solve_uniform(model, l0, phi, settings, shape, derivatives, formal) -> Memb
             if shots.band_stiffness is not None:
                 wrinkled_stiffness[again] = shots.band_stiffness
     bad = status != OK
-    for k in out:
-        out[k][bad] = np.nan
+    trial[:, bad] = np.nan
     R = out["R"]
     p_trial = out["p"]
     p_hat, v_hat, q_hat = p_trial * R, out["V"] / R**3, out["Q"] / R**2
@@ -1279,29 +1292,32 @@ def start_rows(model: MembraneModel, settings: SolverSettings, l0, phi, derivati
     # barely inflated membrane has θ ~ δ, V̂ ~ δ, Ψ̂ ~ δ² for an apex deflection δ, and a fixed
     # absolute tolerance would swallow them)
     # (one evaluation for both radii: the generated series costs per call, not per column)
-    both = np.broadcast_arrays(
-        *model.series_start(
-            np.tile(l0, 2), np.tile(p, 2), np.tile(np.broadcast_to(phi, (m,)), 2), np.repeat([R0, 1.0], m)
-        ),
-        np.empty(2 * m),
-    )[:-1]
-    start = [x[:m] for x in both]
-    unit = [x[m:] for x in both]
-    ones = np.ones(m)
-    size = [ones, ones] + [np.abs(unit[i]) for i in range(2, 7)]
-    rows = list(start[:7])
+    inputs = np.empty((4, 2, m))  # λ0, p̂t, Φ̂, R̂: every state at R̂0, then at R̂ = 1
+    inputs[0], inputs[1], inputs[2] = l0, p, phi
+    inputs[3, 0], inputs[3, 1] = R0, 1.0
+    series = model.series_start(*inputs.reshape(4, 2 * m))
+    both = np.empty((len(series), 2 * m))
+    for row, value in zip(both, series):
+        row[:] = value  # (broadcast, as the rows of a generated function are)
+    start, unit = both[:, :m], both[:, m:]
+    rows = 19 if derivatives else 9
+    y0 = np.empty((rows, m))
+    size = np.empty((rows, m))
+    y0[:7] = start[:7]
+    size[:2] = 1.0
+    size[2:7] = np.abs(unit[2:7])
     if derivatives:
-        rows += list(start[7:17])
+        y0[7:17] = start[7:17]
         if settings.sensitivity_error_control:
-            size += [ones, ones] + [np.abs(unit[i]) for i in (9, 10, 11)]
-            size += [np.maximum(np.abs(unit[i]), 1e-30) for i in range(12, 17)]
+            size[7:9] = 1.0
+            size[9:12] = np.abs(unit[9:12])
+            size[12:17] = np.maximum(np.abs(unit[12:17]), 1e-30)
         else:
             # integrated on the steps the states choose: the derivative of the discrete solution
-            size += [np.full(m, np.inf)] * 10
-    rows += [p, phi]
-    size += [ones, ones]
-    y0 = np.vstack(rows)
-    atol = settings.atol * np.maximum(np.vstack(size), 1e-30)
+            size[7:17] = np.inf
+    y0[-2], y0[-1] = p, phi
+    size[-2:] = 1.0
+    atol = settings.atol * np.maximum(size, 1e-30)
     # roundoff bounds what can be asked of a barely inflated membrane: its tensions are differences
     # of O(1) numbers that are O(λ0 − λpre), so their relative precision is ~ε/(λ0 − λpre)
     rtol = np.maximum(settings.rtol, ROUNDOFF_TOLERANCE / (l0 / lam_clamp - 1))
@@ -1356,7 +1372,8 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
     # interpolant of its values and exact slopes (error O(h⁴)); where that estimate comes near zero (where
     # the onset of wrinkling is decided), the step is taken again to the point where dT/dR = 0, so the
     # minimum carries the integrator's own accuracy. At the pole the slopes vanish (even in R).
-    node = np.vstack([np.full(m, R0), T0, T0, np.zeros(m), np.zeros(m)])
+    node = np.zeros((5, m))
+    node[0], node[1], node[2] = R0, T0, T0
     node_y = y0.copy()
     fns = _integrators(model)
     kind = "radius_sens" if derivatives else "radius"
@@ -1500,22 +1517,26 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
     code[(res.status >= _int.FAILED) & (local_code == 0)] = NOT_FINITE
 
     # final step onto the clamp with λ2 as the independent variable
-    go = np.flatnonzero(code == OK)
+    go = (code == OK).nonzero()[0]
     if restart is not None:
         before_clamp = local_min_T.copy()
         h_land = np.full(m, np.nan)
     if go.size:
         yh = res.y[:, go]
         Rh = res.t[go]
-        z0 = np.vstack([Rh, yh[0], yh[2:7], yh[P : P + 2]])  # R, λ1, θ, V, Q, Ψ, z, p, φ
-        atol_h = np.vstack([np.full(go.size, settings.atol), atol[0, go], atol[2:7, go], atol[P : P + 2, go]])
+        # R, λ1, θ, V, Q, Ψ, z, p, φ: λ2 becomes the independent variable, R a row
+        hoop_rows = [0, 2, 3, 4, 5, 6, P, P + 1]
+        z0 = np.empty((9, go.size))
+        z0[0], z0[1:] = Rh, yh[hoop_rows]
+        atol_h = np.empty((9, go.size))
+        atol_h[0], atol_h[1:] = settings.atol, atol[hoop_rows][:, go]
         # usually one step of the size of the remaining stretch lands on the clamp within tolerance;
         # the few that do not are integrated adaptively
         hoop = fns.stepper("hoop", go.size)
         zf, err = _int.single_step(hoop, yh[1], z0, lam_clamp - yh[1], rtol[go][None, :], atol_h)
         landed = err <= 1.0
         steps[live[go]] += 1
-        redo = np.flatnonzero(~landed)
+        redo = (~landed).nonzero()[0]
         if redo.size:
             hop = _int.integrate(
                 fns.stepper("hoop", redo.size),
@@ -1530,7 +1551,7 @@ def _shoot(model, settings, problem, diagnostics: _Diagnostics, derivatives, for
             steps[live[go][redo]] += hop.steps
             zf[:, redo] = hop.y
             landed[redo] = hop.status == _int.REACHED_END
-        bad_turn = ~landed | np.any(~np.isfinite(zf), axis=0) | (zf[0] <= Rh)
+        bad_turn = ~landed | ~np.isfinite(zf).all(axis=0) | (zf[0] <= Rh)
         code[go[bad_turn]] = NOT_FINITE
         good = go[~bad_turn]
         zg = zf[:, ~bad_turn]
@@ -1642,10 +1663,12 @@ def _stalled(X, cols, before, after, status_row: int, steps_row: int, limit_row:
     state running on would have reached), or the column is stopped at once where that is none: bitwise the
     outcome of the calls it is spared (a trajectory whose every attempt is the same rejected step, as a pole region
     asked to end below its series radius: 4000 attempts, some 500 calls, per trial)."""
-    bits_a, bits_b = after.view(np.int64), before.view(np.int64)
-    same = bits_a == bits_b
+    running = (after[status_row] == 0) & (before[steps_row] >= 1)
+    if not running.any():  # the first call, or every column stopped: nothing to compare
+        return
+    same = after.view(np.int64) == before.view(np.int64)
     same[steps_row] = True
-    still = (after[status_row] == 0) & (before[steps_row] >= 1) & np.all(same, axis=0)
+    still = running & same.all(axis=0)
     if not still.any():
         return
     c = cols[still]
@@ -1667,19 +1690,16 @@ def _integrate_attempts(
     filled with the step sizes (a failed trajectory's: the failing step's)."""
     R, m = y0.shape
     entry = fns.attempts(kind)
-    t0 = np.full(m, float(R0))
+    o = len(_HEAD)
+    X = np.zeros((o + 4 * R, m))  # the derivative rows f stay zero: the first attempt computes them
+    H = _H
     # no separate starting-step estimate: from the series radius the step grows tenfold per accepted attempt
     # (a rejected first attempt costs microseconds here, a numpy estimate half a millisecond)
-    h0 = np.full(m, float(R0))
-    f0 = np.zeros_like(y0)  # computed by the first attempt
-    o = len(_HEAD)
-    X = np.zeros((o + 4 * R, m))
-    H = _H
-    X[H["t"]], X[H["h"]], X[H["t_end"]], X[H["rtol"]] = t0, h0, R_end, rtol
+    X[H["t"]], X[H["h"]], X[H["t_end"]], X[H["rtol"]] = R0, R0, R_end, rtol
     X[H["max_steps"]], X[H["formal"]] = max_steps, 1.0 if formal else 0.0
-    X[H["Ra"]], X[H["T1a"]], X[H["T2a"]] = t0, T0, T0
+    X[H["Ra"]], X[H["T1a"]], X[H["T2a"]] = R0, T0, T0
     X[H["minT"]], X[H["maxE"]], X[H["failR"]], X[H["cand_est"]] = min_T, max_E, np.nan, np.inf
-    X[o : o + R], X[o + R : o + 2 * R], X[o + 2 * R : o + 3 * R] = y0, f0, np.where(np.isfinite(atol), atol, 1e300)
+    X[o : o + R], X[o + 2 * R : o + 3 * R] = y0, np.where(np.isfinite(atol), atol, 1e300)
     run_attempts(entry, X, H["status"], H["steps"], H["max_steps"])
     status = X[H["status"]].astype(int)
     if h_out is not None:
@@ -1689,15 +1709,16 @@ def _integrate_attempts(
     failed = status >= _int.FAILED
     code[failed] = status[failed]
     fail_R[failed] = X[H["failR"]][failed]
+    t, y = X[H["t"]].copy(), X[o : o + R].copy()
     res = _int.IntegrationResult(
-        t=X[H["t"]].copy(),
-        y=X[o : o + R].copy(),
+        t=t,
+        y=y,
         status=np.where(failed, _int.FAILED, status),
         steps=X[H["steps"]].astype(int),
-        t_previous=X[H["t"]].copy(),
-        y_previous=X[o : o + R].copy(),
+        t_previous=t,  # (read only: the numpy integration's node before the last, which here is the last)
+        y_previous=y,
     )
-    has = np.flatnonzero(np.isfinite(X[H["cand_est"]]))
+    has = np.isfinite(X[H["cand_est"]]).nonzero()[0]
     if has.size == 0:
         return res, None
     cand = (
@@ -1721,7 +1742,7 @@ def _end_derivatives(fns, y_h, R_h, z_end, rtol, atol, settings, out, idx, steps
     """
     stepper = fns.stepper("radius_sens", R_h.size)
     y_end, err = _int.single_step(stepper, R_h, y_h, z_end[0] - R_h, rtol[None, :], atol)
-    redo = np.flatnonzero(~(err <= 1.0))
+    redo = (~(err <= 1.0)).nonzero()[0]
     steps[step_idx] += 1
     if redo.size:
         hop = _int.integrate(

@@ -358,9 +358,8 @@ def small_batch(vector, scalar, into: bool = False):
         if not 0 < m <= SMALL_BATCH:
             return vector(*args)
         columns = [c if type(c) is list else [float(c)] * m for c in columns]
-        try:
-            with np.errstate(all="ignore"):
-                rows = [scalar(*state) for state in zip(*columns)]
+        try:  # (Python floats only: numpy's error state plays no part)
+            rows = [scalar(*state) for state in zip(*columns)]
         except (ArithmeticError, ValueError):
             return vector(*args)
         values = np.array(rows, dtype=float).T

@@ -270,7 +270,7 @@ def single_step(fun, t, y, h, rtol, atol):
     f0 = None if isinstance(stepper, CasadiStepper) else stepper.rhs(t, y)
     y_new, _, e5, e3 = stepper.step(t, y, f0, h)
     scale = atol + np.maximum(np.abs(y), np.abs(y_new)) * np.asarray(rtol)
-    err = np.where(np.all(np.isfinite(y_new), axis=0), _error_norm(e5, e3, h, scale), np.inf)
+    err = np.where(np.isfinite(y_new).all(axis=0), _error_norm(e5, e3, h, scale), np.inf)
     return y_new, err
 
 
