@@ -459,8 +459,8 @@ def _before(states: MembraneStates, gap: _FailsInside) -> tuple[MembraneStates, 
 def _refine_brackets(states: MembraneStates, brackets, evaluate_states, settings) -> list[LimitPoint]:
     """Locate the extremum in every bracket (:func:`_grid_extrema`) by Chebyshev interpolation on a shrinking
     bracket (:func:`~coexist.numerics.roots.chebyshev_extremum`; the extremum of its kind with the largest
-    or smallest value in the bracket), all brackets of one quantity in one call per round. A state there that fails
-    raises :class:`_FailsInside` (the first such pole stretch and its status)."""
+    or smallest value in the bracket), all brackets of one quantity in one call per round. A state there that fails,
+    the one at the extremum found too, raises :class:`_FailsInside` (the first such pole stretch and its status)."""
     grid = states.pole_stretch
     found: list = [None] * len(brackets)
     for attr in dict.fromkeys(b.attr for b in brackets):
@@ -491,6 +491,11 @@ def _refine_brackets(states: MembraneStates, brackets, evaluate_states, settings
             x_bad, code = min(failed)
             raise _FailsInside(message, x_bad, int(code)) from None
         at = evaluate_states(x_star)
+        if not np.all(at.ok):  # the state at the extremum itself fails: no limit point of NaN leaves here
+            bad = np.flatnonzero(~at.ok)
+            k = int(bad[np.argmin(np.asarray(x_star)[bad])])  # the first along the curve, as for the others
+            message = f"no valid state at a limit point of {attr} (pole stretch {float(x_star[k]):.6g})"
+            raise _FailsInside(message, float(x_star[k]), int(at.status[k]))
         for k, j in enumerate(sel):
             found[j] = _limit_point(brackets[j].kind, _take(at, slice(k, k + 1)))
     return found
@@ -1363,8 +1368,11 @@ class _VoltageRoots:
         status[infeasible] = np.where(self.status0[infeasible] == OK, NO_VOLTAGE, self.status0[infeasible])
         result.status = status
         bad = status != OK
-        for name in ("p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension"):
+        # the voltage too: a failed entry's was the last valid one tried, which does not carry the pressure
+        for name in ("phi_hat", "p_hat", "v_hat", "q_hat", "psi_hat", "apex_height", "max_field", "min_tension"):
             getattr(result, name)[bad] = np.nan
+        if result.wrinkled_stiffness is not None:  # NaN when failed, as MembraneStates documents
+            result.wrinkled_stiffness[bad] = np.nan
         if with_derivatives:
             for k in _DERIVATIVE_FIELDS:
                 self.derivatives[k][bad] = np.nan
@@ -1430,7 +1438,7 @@ def voltage_at_pressure(
         One entry per pole stretch, ``phi_hat`` the voltage found, with the exact derivatives of the
         states found (``derivatives``); entries without one have status ``NO_VOLTAGE`` (or the failure of
         their zero-voltage state, or of the last voltage tried; ``VOLTAGE_ITERATIONS`` where the search was still
-        open when its ``iterations`` ran out) and NaN quantities.
+        open when its ``iterations`` ran out) and NaN quantities, ``phi_hat`` too (no voltage carries ``p̂`` there).
 
     Raises
     ------
@@ -1862,13 +1870,15 @@ def _from_interpolated_values(model, p_hat, settings, states, brackets, evaluate
     with np.errstate(all="ignore"):
         curvature = (t[k:] - t[:k]) / delta
         phi_curvature = (slopes["phi_hat"][k:] - slopes["phi_hat"][:k]) / delta
+    # a state that fails here again carries no voltage (NaN): start from the rough limit point's, which is valid
+    phi = np.where(here.ok[:k], here.phi_hat[:k], np.array([lp.phi_hat for lp in rough]))
     again = _slope_roots(
         model,
         p_hat,
         settings,
         brackets,
         x,
-        here.phi_hat[:k].copy(),
+        phi,
         curvature,
         phi_curvature,
         np.array([grid[b.lo] for b in brackets]),

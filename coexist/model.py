@@ -18,9 +18,11 @@ Equations (docs/physics.md, normalised with ``μ``, ``H`` and the zone radius ``
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
 
 import casadi as ca
+import numpy as np
 
 from .effects import (
     Elasticity,
@@ -40,6 +42,14 @@ from .numerics.codegen import SCALAR_SUFFIX, numpy_module_source, small_batch
 #: constant factors of the quadratures V̂, Q̂, Ψ̂, ẑ: the right-hand side integrates V̂/π, Q̂/2π,
 #: Ψ̂/2π and ẑ (one multiplication fewer per stage each), the shooting multiplies them back
 QUADRATURE_FACTORS = (math.pi, 2 * math.pi, 2 * math.pi, 1.0)
+#: the largest prestretch a model accepts, the bound a scene puts on every number (``scene_format.SI_RANGE``). Once
+#: its ``λpre⁻⁶`` terms lie below rounding a neo-Hookean zone's states scale with the prestretch (``p̂ λpre``,
+#: ``V̂/λpre³``, ``Ψ̂/λpre²`` at fixed ``λ0/λpre``), and the solver's agree with those at ``λpre = 1e6`` to 2e-13 up to
+#: ``λpre = 3e50``; beyond a pole stretch of about 1.5e51 every state fails (the energy's powers ``λ⁶`` overflow near
+#: 2.4e51), as "the integration used up its step budget", after seconds per curve, and above 1e103 as non-finite
+#: values (helper-98). The library follows pole stretches up to ``stretch_max_factor`` (6) times the prestretch: 1e30
+#: leaves twenty decades to the overflow.
+MAX_PRESTRETCH = 1e30
 #: what a state whose hoop tension would turn negative is (:attr:`MembraneModel.wrinkling`)
 WRINKLING_MODES = ("refuse", "tension-field")
 
@@ -55,7 +65,7 @@ class MembraneModel:
     electrostatics : IdealDielectric or NoElectrostatics
         Whether the membrane carries a voltage at all.
     prestretch : float
-        Equibiaxial prestretch ``λpre ≥ 1`` of the clamped membrane; the rim condition is
+        Equibiaxial prestretch ``1 ≤ λpre ≤`` :data:`MAX_PRESTRETCH` of the clamped membrane; the rim condition is
         ``λ2(1) = λpre``, lengths stay normalised by the unstretched radius ``A``.
     wrinkling : {"refuse", "tension-field"}
         What a state whose hoop tension would turn negative is: ``"refuse"`` (no state, status
@@ -66,14 +76,16 @@ class MembraneModel:
     Raises
     ------
     SceneError
-        If ``prestretch`` is not a finite number ``≥ 1`` or ``wrinkling`` is not one of the two.
+        If ``prestretch`` is not a finite number in ``[1, MAX_PRESTRETCH]`` or ``wrinkling`` is not one of the two.
 
     Notes
     -----
     The numeric methods are numpy code generated from the CasADi expressions: they take floats or
     arrays (broadcast against each other) and return one value per output, a float for float inputs
     and an array of the broadcast shape otherwise (a constant output, such as an effect switched off,
-    is broadcast too).
+    is broadcast too). An argument that is not a real number or a numpy array of them (None, text, a list), shapes
+    that do not broadcast, or an ``out`` too small raise a SceneError naming it; the values themselves are not
+    checked (they are the integrator's inner functions: a NaN gives NaN where it enters).
     """
 
     elasticity: Elasticity = field(default_factory=NeoHookean)
@@ -101,6 +113,12 @@ class MembraneModel:
             object.__setattr__(self, "prestretch", validation.real(self.prestretch, "prestretch", lo=1.0))
         except SceneError as exc:
             raise SceneError(f"prestretch {exc.message}", "prestretch") from None
+        if self.prestretch > MAX_PRESTRETCH:
+            raise SceneError(
+                f"prestretch must be at most {MAX_PRESTRETCH:g} (far beyond any elastomer's; the model's numbers "
+                f"overflow near 1e51), got {self.prestretch:g}",
+                "prestretch",
+            )
         if self.wrinkling not in WRINKLING_MODES:
             raise SceneError(
                 f"wrinkling must be one of {', '.join(map(repr, WRINKLING_MODES))}, not {self.wrinkling!r}", "wrinkling"
@@ -174,7 +192,10 @@ class MembraneModel:
         float or ndarray
             ``W*`` per unit reference volume over ``μ``, broadcast shape of the inputs.
         """
-        return self._built["energy"](l1, l2, phi)[0]
+        try:
+            return self._built["energy"](l1, l2, phi)[0]
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, ("l1", "l2", "phi"), (l1, l2, phi)) from None
 
     def tensions(self, l1, l2, phi=0.0):
         """``(T̂1, T̂2, ∂T̂1/∂λ1, ∂T̂1/∂λ2, locking margin, Ê, ∂T̂2/∂λ2)`` at given stretches and voltage.
@@ -194,7 +215,10 @@ class MembraneModel:
             The quantities above, each of the broadcast shape of the inputs; the locking margin is
             ``1 − (I1 − 3)/Jlim`` (Gent) or 1, the true field ``Ê = Φ̂ λ1 λ2``.
         """
-        return self._built["aux"](l1, l2, phi)
+        try:
+            return self._built["aux"](l1, l2, phi)
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, ("l1", "l2", "phi"), (l1, l2, phi)) from None
 
     def rhs(self, R, l1, l2, theta, p, phi):
         """Right-hand side ``(λ1', λ2', θ', V̂'/π, Q̂'/2π, Ψ̂'/2π, ẑ')`` of the membrane equations
@@ -221,7 +245,10 @@ class MembraneModel:
         tuple of 7 float or ndarray
             The derivatives above, each of the broadcast shape of the inputs.
         """
-        return self._built["rhs"](R, l1, l2, theta, p, phi)
+        try:
+            return self._built["rhs"](R, l1, l2, theta, p, phi)
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, _RHS_ARGUMENTS, (R, l1, l2, theta, p, phi)) from None
 
     def rhs_into(self, R, l1, l2, theta, p, phi, out):
         """:meth:`rhs` written into the first seven rows of ``out`` (the integrator's hot path).
@@ -239,7 +266,10 @@ class MembraneModel:
         ndarray
             ``out`` itself.
         """
-        return self._built["rhs_into"](R, l1, l2, theta, p, phi, out)
+        try:
+            return self._built["rhs_into"](R, l1, l2, theta, p, phi, out)
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, (*_RHS_ARGUMENTS, "out"), (R, l1, l2, theta, p, phi, out), 7) from None
 
     def rhs_sensitivities_into(self, R, l1, l2, theta, p, phi, s_l0, s_phi, out):
         """:meth:`rhs` and the variational equations, written into the first 17 rows of ``out``.
@@ -264,7 +294,11 @@ class MembraneModel:
         ndarray
             ``out`` itself.
         """
-        return self._built["rhs_sens_into"](R, l1, l2, theta, p, phi, *s_l0, *s_phi, out)
+        try:
+            return self._built["rhs_sens_into"](R, l1, l2, theta, p, phi, *s_l0, *s_phi, out)
+        except _RAW_ERRORS as exc:
+            names, args = (*_RHS_ARGUMENTS, "s_l0", "s_phi", "out"), (R, l1, l2, theta, p, phi, s_l0, s_phi, out)
+            raise _argument_error(exc, names, args, 17) from None
 
     def series_start(self, l0, p_trial, phi, R0):
         """The series start at the pole and its derivatives (docs/physics.md).
@@ -291,13 +325,17 @@ class MembraneModel:
         tuple of 17 float or ndarray
             The rows above, each of the broadcast shape of the inputs.
         """
-        return self._built["series"](l0, p_trial, phi, R0)
+        try:
+            return self._built["series"](l0, p_trial, phi, R0)
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, ("l0", "p_trial", "phi", "R0"), (l0, p_trial, phi, R0)) from None
 
     # --- hoop-wrinkled segments (tension-field models only) --------------------------------------
     def _wrinkled(self, name: str):
         if name not in self._built:
-            raise ValueError(
-                f"this model refuses wrinkled states (wrinkling={self.wrinkling!r}); {name} needs 'tension-field'"
+            raise SceneError(
+                f"this model refuses wrinkled states (wrinkling={self.wrinkling!r}); {name} needs 'tension-field'",
+                "wrinkling",
             )
         return self._built[name]
 
@@ -322,7 +360,11 @@ class MembraneModel:
         -------
         tuple of 8 float or ndarray
         """
-        return self._wrinkled("wrinkled_rhs")(R, l1, rho, theta, p, phi, width)
+        function = self._wrinkled("wrinkled_rhs")
+        try:
+            return function(R, l1, rho, theta, p, phi, width)
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, _WRINKLED_ARGUMENTS, (R, l1, rho, theta, p, phi, width)) from None
 
     def wrinkled_rhs_sensitivities(self, R, l1, rho, theta, p, phi, width, s_l0, s_phi):
         """:meth:`wrinkled_rhs` with the variational equations (total derivatives through ``w``).
@@ -342,7 +384,12 @@ class MembraneModel:
         -------
         tuple of 18 float or ndarray
         """
-        return self._wrinkled("wrinkled_rhs_sens")(R, l1, rho, theta, p, phi, width, *s_l0, *s_phi)
+        function = self._wrinkled("wrinkled_rhs_sens")
+        try:
+            return function(R, l1, rho, theta, p, phi, width, *s_l0, *s_phi)
+        except _RAW_ERRORS as exc:
+            names, args = (*_WRINKLED_ARGUMENTS, "s_l0", "s_phi"), (R, l1, rho, theta, p, phi, width, s_l0, s_phi)
+            raise _argument_error(exc, names, args) from None
 
     def wrinkle_aux(self, l1, l2, phi=0.0):
         """``(∂T̂2/∂Φ̂, K, dw/dλ1, dw/dΦ̂)`` at ``(λ1, λ2)``; the last three mean something at ``λ2 = w``.
@@ -358,7 +405,11 @@ class MembraneModel:
         -------
         tuple of 4 float or ndarray
         """
-        return self._wrinkled("wrinkle_aux")(l1, l2, phi)
+        function = self._wrinkled("wrinkle_aux")
+        try:
+            return function(l1, l2, phi)
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, ("l1", "l2", "phi"), (l1, l2, phi)) from None
 
     @property
     def casadi_functions(self) -> dict:
@@ -383,7 +434,77 @@ class MembraneModel:
         tuple of 5 float or ndarray
             ``(T̂0, α, β, W0*, q̂0)``, each of the broadcast shape of the inputs.
         """
-        return self._built["pole"](l0, phi)
+        try:
+            return self._built["pole"](l0, phi)
+        except _RAW_ERRORS as exc:
+            raise _argument_error(exc, ("l0", "phi"), (l0, phi)) from None
+
+
+_RHS_ARGUMENTS = ("R", "l1", "l2", "theta", "p", "phi")
+_WRINKLED_ARGUMENTS = ("R", "l1", "rho", "theta", "p", "phi", "width")
+#: what numpy and Python raise for a bad argument of a generated function (None, text, a list, shapes that do not
+#: broadcast, an ``out`` too small)
+_RAW_ERRORS = (TypeError, ValueError, IndexError)
+
+
+def _argument_error(error: Exception, names: tuple, args: tuple, rows: int = 0) -> Exception:
+    """The SceneError naming the argument of a numeric method that caused ``error`` (raised by its generated function),
+    or ``error`` itself where every argument is right. Looked for only once the call has failed: the integrator's hot
+    path pays nothing for it.
+
+    Parameters
+    ----------
+    error : Exception
+        What the call raised.
+    names, args : tuple
+        The arguments' names and values; ``s_l0`` and ``s_phi`` are sequences of three arrays.
+    rows : int
+        The rows an ``out`` argument needs.
+
+    Returns
+    -------
+    Exception
+        A :class:`~coexist.errors.SceneError` for the first argument that is not a real number or a numpy array of
+        them (a sequence of three such for ``s_l0``, ``s_phi``), for shapes that do not broadcast, or for an ``out``
+        that is not a float array of at least ``rows`` rows of the broadcast shape; else ``error``.
+    """
+    from .validation import _describe
+
+    shapes = {}
+    for name, value in zip(names, args):
+        if name == "out":
+            continue
+        if name in ("s_l0", "s_phi"):
+            if isinstance(value, (str, bytes)) or not hasattr(value, "__len__") or len(value) != 3:
+                return SceneError(f"must be a sequence of 3 numpy arrays, got {_describe(value)}", name)
+            items = {f"{name}[{i}]": v for i, v in enumerate(value)}
+        else:
+            items = {name: value}
+        for key, v in items.items():
+            if not (v.dtype.kind in "iuf" if isinstance(v, np.ndarray) else isinstance(v, numbers.Real)):
+                hint = " (pass np.asarray(...))" if isinstance(v, (list, tuple)) else ""
+                return SceneError(
+                    f"must be a real number or a numpy array of them, got {type(v).__name__} {_describe(v)}{hint}", key
+                )
+            shapes[key] = np.shape(v)
+    try:
+        shape = np.broadcast_shapes(*shapes.values())
+    except ValueError:
+        return SceneError(
+            f"shapes {', '.join(map(str, shapes.values()))} do not broadcast (give one value or arrays of one shape)",
+            ", ".join(shapes),
+        )
+    if "out" in names:
+        out = args[names.index("out")]
+        fits = isinstance(out, np.ndarray) and out.dtype.kind == "f" and out.ndim >= 1 and out.shape[0] >= rows
+        try:
+            fits = fits and np.broadcast_shapes(shape, out.shape[1:]) == out.shape[1:]
+        except ValueError:
+            fits = False
+        if not fits:
+            got = f"shape {out.shape}" if isinstance(out, np.ndarray) else f"{type(out).__name__} {_describe(out)}"
+            return SceneError(f"must be a float array of at least {rows} rows of shape {shape}, got {got}", "out")
+    return error
 
 
 def _build(model: MembraneModel) -> dict:
@@ -655,7 +776,7 @@ def build_model(
         With electrostatics (:class:`~coexist.effects.IdealDielectric`) or without
         (:class:`~coexist.effects.NoElectrostatics`).
     prestretch : float
-        Equibiaxial prestretch ``λpre ≥ 1``.
+        Equibiaxial prestretch ``1 ≤ λpre ≤`` :data:`MAX_PRESTRETCH`.
     wrinkling : {"refuse", "tension-field"}
         See :class:`MembraneModel`.
 
@@ -666,8 +787,8 @@ def build_model(
     Raises
     ------
     SceneError
-        For an unknown material, a Gent material without a positive ``jlim``, ``prestretch < 1``, or a ``voltage``
-        that is not a bool.
+        For an unknown material, a Gent material without a positive ``jlim``, a ``prestretch`` below 1 or above
+        :data:`MAX_PRESTRETCH`, or a ``voltage`` that is not a bool.
     """
     from .effects import material_from_name
 

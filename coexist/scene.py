@@ -58,7 +58,8 @@ class Chamber:
     closing_pressure : float
         Gauge pressure ``p`` in Pa when the valves close, at zero voltage.
     atmospheric_pressure : float
-        ``Patm`` in Pa; the gas obeys ``(Vc + Σ Vi)(Patm + p) = NkT``.
+        ``Patm`` in Pa, at most 1 GPa (:data:`~coexist.scene_format.MAX_ATMOSPHERIC_PRESSURE`); the gas obeys
+        ``(Vc + Σ Vi)(Patm + p) = NkT``.
     """
 
     volume: float

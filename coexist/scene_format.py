@@ -16,7 +16,8 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
 [zones]       ``count`` (required), a whole number 1..1000: identical zones sharing one gas and one voltage;
               ``pressure_*``: the gauge pressure held directly when there is no [chamber]
 [chamber]     ``volume_*`` (required), ``closing_pressure_*`` (required, gauge),
-              ``atmospheric_pressure_*`` [101.325 kPa]; absent: the pressure is controlled directly
+              ``atmospheric_pressure_*`` [101.325 kPa], at most 1 GPa (:data:`MAX_ATMOSPHERIC_PRESSURE`);
+              absent: the pressure is controlled directly
 [voltage]     a ramp ``start_*`` [0], ``stop_*`` (required), ``step_*`` [(stop − start)/100], which goes
               up from start to stop and back down to start; or a list ``values_*``; absent: no voltage
 [electrodes]  ``pattern`` ["full": the electrode covers the whole zone; "inner-circle": a disc of radius
@@ -62,6 +63,13 @@ PATTERNS = ("full", "inner-circle", "ring")
 MAX_VOLTAGE_POINTS = 100_000
 #: Dimensional values must lie in this range in SI units (keeps every scale finite and non-zero).
 SI_RANGE = (1e-30, 1e30)
+#: The highest atmospheric pressure in Pa (1 GPa): ten times the pressure at the bottom of the deepest ocean, where
+#: soft dielectric elastomer robots have been run, and far above where any gas is the chamber's ideal gas. The gas's
+#: gauge pressure is the difference ``n̂/(V̂c + ΣV̂) − p̂atm`` and carries its rounding, ``~1e-16 p̂atm``: the
+#: tricircle's ramp (``p̂atm`` = 8.9e5 at 1 GPa) loses digits above it (its equal-free-energy voltage ± 1e-8 kV up to
+#: 1e6 kPa, ± 3e-7 at 1e7, ± 4e-6 at 1e8, as measured) and at 1e9 kPa its gradient flow cannot settle within 1e-8 of
+#: the pressure ("did not settle (stalled)", helper-98).
+MAX_ATMOSPHERIC_PRESSURE = 1e9
 
 #: Accepted unit suffixes per kind of quantity, with their factor to SI.
 UNITS = {
@@ -434,10 +442,17 @@ def _material(membrane: _Section) -> tuple[str, float | None]:
 def _chamber(chamber: _Section, optional) -> dict | None:
     if not chamber.present:
         return None
+    atmospheric = optional(chamber, "atmospheric_pressure", DEFAULTS["atmospheric_pressure"])
+    if atmospheric > MAX_ATMOSPHERIC_PRESSURE:
+        raise SceneError(
+            f"must be at most {MAX_ATMOSPHERIC_PRESSURE / 1e3:g} kPa (1 GPa, ten times the pressure at the bottom of "
+            f"the deepest ocean; no gas is the chamber's ideal gas there), got {atmospheric / 1e3:g} kPa",
+            chamber.where("atmospheric_pressure"),
+        )
     return dict(
         volume=chamber.require("volume", "the chamber volume"),
         closing_pressure=chamber.require("closing_pressure", "the gauge pressure when the valves close"),
-        atmospheric_pressure=optional(chamber, "atmospheric_pressure", DEFAULTS["atmospheric_pressure"]),
+        atmospheric_pressure=atmospheric,
         closing_pressure_field=chamber.where("closing_pressure"),
     )
 

@@ -358,6 +358,10 @@ def state_at_pressure(model, p_hat: float, settings: SolverSettings, lam_lo: flo
 MAX_DISCOVERY_VOLTAGES = 10_000
 
 
+#: what :meth:`Simulation.branches` and :meth:`Simulation.measure_segment_ends` take, in words
+_SEGMENT = "a StableSegment (report.result.segments)"
+
+
 @dataclass
 class Simulation:
     """A scene made ready to solve: model, what holds the pressure, and the map of its stable states.
@@ -561,9 +565,14 @@ class Simulation:
         -------
         list of Branch
             One :class:`~coexist.continuation.Branch` per segment whose trace succeeds (failures are skipped).
+
+        Raises
+        ------
+        SceneError
+            If ``segments`` is not an iterable of StableSegment (None had been a raw TypeError).
         """
         out = []
-        for seg in segments:
+        for seg in validation.instances(segments, StableSegment, "segments", _SEGMENT):
             try:
                 out.append(seg.tracer.extend(seg.branch))
             except SolverError:
@@ -583,9 +592,14 @@ class Simulation:
 
         Raises
         ------
+        SceneError
+            If ``transitions`` is not an iterable of Transition.
         SolverError
             If an equal-free-energy voltage does not converge at the tighter tolerance.
         """
+        transitions = validation.instances(
+            transitions, Transition, "transitions", "a Transition (report.result.transitions)"
+        )
         tight_map = self._tight_map()
         done = {}
         for t in transitions:
@@ -654,7 +668,13 @@ class Simulation:
         ----------
         segments : iterable of StableSegment
             Their end events get ``error`` and ``measured`` updated (:func:`~coexist.continuation.relocate`).
+
+        Raises
+        ------
+        SceneError
+            If ``segments`` is not an iterable of StableSegment.
         """
+        segments = validation.instances(segments, StableSegment, "segments", _SEGMENT)
         tight_map = self._tight_map()
         for seg in segments:
             for ev in (seg.low, seg.high):

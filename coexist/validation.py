@@ -209,6 +209,34 @@ def instance(value, kind, name: str, what: str):
     return value
 
 
+def instances(values, kind, name: str, what: str) -> list:
+    """``values`` as a list if it is an iterable (not text) of instances of ``kind``, else a SceneError naming ``name``.
+
+    Parameters
+    ----------
+    values : object
+    kind : type or tuple of type
+    name : str
+        The argument's name.
+    what : str
+        What one item is expected to be, in words (e.g. ``"a StableSegment (report.result.segments)"``).
+
+    Returns
+    -------
+    list
+
+    Raises
+    ------
+    SceneError
+    """
+    if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+        raise SceneError(f"must be a list, each item {what}; got {type(values).__name__} {_describe(values)}", name)
+    items = list(values)
+    for item in items:
+        instance(item, kind, name, f"a list, each item {what}; an item")
+    return items
+
+
 def has_methods(value, methods: tuple, name: str, what: str):
     """``value`` if it is an object (not a class) with every method of a Protocol (``methods``), else a SceneError.
 
