@@ -89,7 +89,7 @@ from .shooting import (
     reason_text,
     solve_states,
 )
-from .wrinkling import STOPPED, TAUT, natural_width, shoot_relaxed
+from .wrinkling import STOPPED, TAUT, _natural_width_tensions, natural_width, shoot_relaxed
 from .wrinkling import WRINKLED as WRINKLED_MODE
 
 __all__ = [
@@ -149,17 +149,35 @@ def relaxed_meridional_tension(model: MembraneModel, l1, rho, phi, wrinkled, wid
         The tension, its slope and the material hoop stretch (``ρ`` where taut, the natural width where
         wrinkled; NaN where there is none: pull-in).
     """
+    T1, slope, w, _ = _relaxed_tension(model, l1, rho, phi, wrinkled, width_guess)
+    return T1, slope, w
+
+
+def _relaxed_tension(model: MembraneModel, l1, rho, phi, wrinkled, width_guess=None):
+    """:func:`relaxed_meridional_tension` ``(T1, dT1, w)`` and the locking margin at ``(λ1, w)`` (``model.tensions``'s
+    fifth output), from one evaluation of the tensions.
+
+    Where every column is wrinkled (one-dimensional), the tensions are those of the natural width's own last
+    evaluation (:func:`coexist.wrinkling._natural_width_tensions`): the same points in the same order, so the same
+    numbers, without evaluating them again (twice more with the margin of a wrinkled far side: 1 in 8 of the
+    evaluations of a tension-field ring's `coexist coexistence`)."""
     l1, rho, phi, wrinkled = np.broadcast_arrays(
         np.asarray(l1, dtype=float), np.asarray(rho, dtype=float), np.asarray(phi, dtype=float), wrinkled
     )
     w = np.array(rho, dtype=float, copy=True)
+    tensions = None
     if np.any(wrinkled):
         guess = None if width_guess is None else np.broadcast_to(width_guess, l1.shape)[wrinkled]
-        w[wrinkled] = natural_width(model, l1[wrinkled], phi[wrinkled], guess=guess)
-    T1, _, T11, T12, _, _, T22 = (np.asarray(a, dtype=float) * np.ones(l1.shape) for a in model.tensions(l1, w, phi))
+        # (a boolean index gives one-dimensional float copies, as _natural_width_tensions takes them)
+        w[wrinkled], at_width = _natural_width_tensions(model, l1[wrinkled], phi[wrinkled], guess)
+        if l1.ndim == 1 and wrinkled.all():
+            tensions = at_width
+    if tensions is None:
+        tensions = model.tensions(l1, w, phi)
+    T1, _, T11, T12, margin, _, T22 = (np.asarray(a, dtype=float) * np.ones(l1.shape) for a in tensions)
     with np.errstate(all="ignore"):
         slope = np.where(wrinkled, T11 - T12 * T12 / T22, T11)
-    return T1, slope, w
+    return T1, slope, w, margin
 
 
 def _increasing_root(fun, target, x0):
@@ -318,13 +336,13 @@ def relaxed_interface_stretch(model: MembraneModel, l1_in, w_in, wrinkled_in, rh
         last_width = np.full(need.size, np.nan)  # the natural widths of the last evaluation: the next one's start
 
         def wrinkled_side(x):
-            T1, K, w = relaxed_meridional_tension(
+            T1, K, w, margin = _relaxed_tension(
                 model, x, rho[need], phi_out[need], np.ones(x.shape, dtype=bool), width_guess=last_width
             )
             last_width[:] = np.where(np.isfinite(w), w, last_width)
             # locked at its natural width (stretched along the meridian): beyond every root, as for a taut side
             with np.errstate(all="ignore"):
-                locked = np.isfinite(w) & ~(np.asarray(model.tensions(x, w, phi_out[need])[4]) * np.ones(x.shape) > 0)
+                locked = np.isfinite(w) & ~(margin > 0)
             return np.where(locked, np.inf, T1), np.where(locked, np.inf, K)
 
         start = np.where(np.isfinite(taut_l1[need]), taut_l1[need], l1_in[need])

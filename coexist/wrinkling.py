@@ -83,6 +83,9 @@ HERMITE_ITERATIONS = 12
 #: diverges like ``(R̂c − R̂)^(−1/2)`` as ``K → 0``, so the last ``1e-6`` changes the state by ~1e-12
 PULL_IN_TOLERANCE = 1e-9
 
+#: a natural width's bracket narrower than this fraction of its upper end has closed (four units in the last place)
+_WIDTH_ROUNDOFF = 4 * np.finfo(float).eps
+
 TAUT, WRINKLED = 0, 1
 #: status of a column of :func:`shoot_relaxed` that reached its ``stop_radius`` (internal: never a state's status)
 STOPPED = 98
@@ -118,83 +121,136 @@ def natural_width(model: MembraneModel, l1, phi=0.0, guess=None):
         :data:`WIDTH_LIMIT` (or twice the locking stretch), or an input is not finite.
     """
     l1a, phia = np.broadcast_arrays(np.asarray(l1, dtype=float), np.asarray(phi, dtype=float))
-    scalar = l1a.ndim == 0
-    l1a, phia = np.atleast_1d(l1a).astype(float), np.atleast_1d(phia).astype(float)
+    width, _ = _natural_width_tensions(
+        model, np.atleast_1d(l1a).astype(float), np.atleast_1d(phia).astype(float), guess
+    )
+    return float(width[0]) if l1a.ndim == 0 else width
+
+
+def _natural_width_tensions(model: MembraneModel, l1: np.ndarray, phi: np.ndarray, guess=None):
+    """:func:`natural_width` of float arrays ``l1``, ``phi`` of one shape (at least one-dimensional), and the
+    tensions at it.
+
+    The method's last evaluation of ``model.tensions`` checks ``T̂22 > 0`` at the widths: its seven outputs are those
+    at ``(λ1, λ2*, Φ̂)``, the same numbers as a caller's evaluation there (the same points in the same order, so the
+    same path through the generated code), which it need not repeat (a tension-field ring's relaxed meridional
+    tension evaluated every width's tensions twice more: :func:`coexist.patterned_relaxed.relaxed_meridional_tension`).
+
+    Parameters
+    ----------
+    model : MembraneModel
+        The membrane (its tensions).
+    l1, phi : ndarray
+        Meridional stretches and normalised voltages, float arrays of one shape.
+    guess : float or array_like, optional
+        Starting values, as for :func:`natural_width`.
+
+    Returns
+    -------
+    width : ndarray
+        ``λ2*`` of the shape of ``l1`` (NaN where none, as :func:`natural_width`).
+    tensions : tuple of 7 ndarray or None
+        ``model.tensions(l1, width, phi)``, each of that shape; None when the check turned a width it evaluated into
+        NaN (no root there: the tensions at NaN are not those of its evaluation).
+    """
     with np.errstate(all="ignore"):
-        lo = l1a**-0.5  # T̂2(λ1, lo) = −Φ̂²λ1²lo ≤ 0
+        lo = l1**-0.5  # T̂2(λ1, lo) = −Φ̂²λ1²lo ≤ 0
     hi = np.full_like(lo, np.inf)
     x = lo.copy()
     if guess is not None:
-        g = np.broadcast_to(np.asarray(guess, dtype=float), l1a.shape)
+        g = _of_shape(guess, l1.shape)
         x = np.where(np.isfinite(g) & (g > 0), g, x)
     # an input that is not finite (or λ1 ≤ 0) has no width (NaN): it had iterated all WIDTH_MAX_ITER times, and held
     # its batch (a tension-field ring's search for its interface stretch passes such inputs: 157 of 730 calls of one
     # curve)
-    done = ~(np.isfinite(l1a) & np.isfinite(phia) & (l1a > 0))
+    done = ~(np.isfinite(l1) & np.isfinite(phi) & (l1 > 0))
     x = np.where(done, np.nan, x)
-    lo_zero = np.zeros(l1a.shape, dtype=bool)  # T̂2 is exactly zero at the bracket's lower end
+    lo_zero = np.zeros(l1.shape, dtype=bool)  # T̂2 is exactly zero at the bracket's lower end
     # the bracket's lower end has been evaluated (a start there, or moved to a point): a locked upper end is not
     # bisected before the lower end is known to be free of locking
-    lo_seen = np.zeros(l1a.shape, dtype=bool)
+    lo_seen = np.zeros(l1.shape, dtype=bool)
     locking = getattr(getattr(model, "elasticity", None), "locking_stretch", None)
     limit = max(WIDTH_LIMIT, 2 * locking) if locking is not None else WIDTH_LIMIT
+    # A column's width and `done` are all that leave the loop, and a finished column's width is never changed again
+    # (`x = np.where(done, x, new)`): its bracket and flags are not masked by `~done` below (they are not read again).
+    # The arrays are mostly of one to three columns, where each numpy operation costs about a microsecond whatever
+    # it computes: a value needed twice is computed once, and the rare branches (a Newton step at the bracket's end)
+    # only where some column takes them.
     with np.errstate(all="ignore"):
         for _ in range(WIDTH_MAX_ITER):
             if done.all():
                 break
-            out = model.tensions(l1a, x, phia)
-            T2 = np.broadcast_to(np.asarray(out[1], dtype=float), x.shape)
-            T22 = np.broadcast_to(np.asarray(out[6], dtype=float), x.shape)
-            margin = np.broadcast_to(np.asarray(out[4], dtype=float), x.shape)
+            out = model.tensions(l1, x, phi)
+            T2, margin, T22 = (_of_shape(out[k], x.shape) for k in (1, 4, 6))
             # beyond Gent locking: too far (the tensions there can be finite, with T̂2 < 0, and would move
             # the bracket's lower end past the root)
-            bad = ~np.isfinite(T2) | ~(margin > 0)
+            free = margin > 0
+            bad = ~(np.isfinite(T2) & free)
+            at_lo = x == lo
             # locked at λ2 = λ1^(−1/2) itself, where I1 (at this λ1) is least: locked at every hoop stretch, no width
             # (a Gent membrane stretched past locking along the meridian had bisected its bracket down to that end,
             # ~50 evaluations for the NaN: 1700 of the 20000 calls, a third of the evaluations, of a tension-field
             # ring's `coexist coexistence`)
-            locked_everywhere = ~done & ~(margin > 0) & (x == lo)
-            lo_seen |= x == lo
+            locked_everywhere = ~free & at_lo
+            lo_seen |= at_lo
             # (only a point above the lower end bounds the root: a guess below λ1^(−1/2) past locking had set the upper
             # end below the lower one, and the bracket, "closed", returned their mean, no root; review, helper-70)
-            hi = np.where(~done & (bad | (T2 > 0)) & (x > lo), np.minimum(hi, x), hi)
-            moved = ~done & ~bad & (T2 <= 0) & (x >= lo)
+            hi = np.where((bad | (T2 > 0)) & (x > lo), np.minimum(hi, x), hi)
+            moved = ~bad & (T2 <= 0) & (x >= lo)
             lo = np.where(moved, x, lo)
             lo_seen |= moved
             lo_zero = np.where(moved, T2 == 0, lo_zero)
             step = np.where(bad, np.nan, T2 / T22)
-            new = x - step
-            ok = np.isfinite(new) & (T22 > 0) & (new > lo) & (new < hi)
-            fallback = np.where(np.isfinite(hi), np.where(lo_seen, 0.5 * (lo + hi), lo), 2 * lo)
-            new = np.where(ok, new, fallback)
-            conv = ok & (np.abs(step) <= WIDTH_TOL * x)
+            newton = x - step
+            ok = np.isfinite(newton) & (T22 > 0) & (newton > lo) & (newton < hi)
+            bounded = np.isfinite(hi)
+            new = newton
+            if not ok.all():  # (every step is taken in most iterations)
+                fallback = np.where(bounded, np.where(lo_seen, 0.5 * (lo + hi), lo), 2 * lo)
+                new = np.where(ok, newton, fallback)
+            small = np.abs(step) <= WIDTH_TOL * x
+            conv = ok & small
             # at the root T̂2 of either sign at roundoff puts x itself at one end of the bracket, and the Newton step
             # of a few ulp (or zero) is not strictly inside it: it had been refused and the bracket bisected down to
             # roundoff from its far end, ~50 more iterations (the tension-field ring curves). Such a step ends it
             # too where T̂2 rises measurably there (x ∂T̂2/∂λ2 above WIDTH_STIFFNESS), not where T̂2 and its slope
             # merely underflow towards zero far out (no width: Φ̂λ1 = 1 for a neo-Hookean membrane)
-            at_end = np.isfinite(step) & (T22 * x > WIDTH_STIFFNESS) & (np.abs(step) <= WIDTH_TOL * x) & ~ok
-            new = np.where(at_end, np.clip(x - step, lo, hi), new)  # the Newton point, kept in the bracket
-            conv |= at_end
+            at_end = small & ~ok
+            if at_end.any():
+                at_end &= np.isfinite(step) & (T22 * x > WIDTH_STIFFNESS)
+                new = np.where(at_end, np.clip(newton, lo, hi), new)  # the Newton point, kept in the bracket
+                conv |= at_end
             # the bracket's lower end is an exact zero of T̂2 and its upper end is known: a root of the computed tension,
             # whatever its stiffness. Near Φ̂λ1 = 1 (neo-Hookean) T̂2 is flat, zero to rounding over ~1e-5 of λ2* ~ 300:
             # such a bracket had been bisected down to roundoff (85 evaluations, now ~30; the root is as good, its error
             # against the closed form the same). Without an upper end (T̂2 ≤ 0 up to WIDTH_LIMIT: Φ̂λ1 = 1 to
             # rounding) it is none, as before
-            zero = ~done & ~conv & lo_zero & np.isfinite(hi)
+            going = ~conv  # (neither kind of end below needs a bounded bracket's conv: one is bounded, the other not)
+            zero = going & lo_zero & bounded
             new = np.where(zero, lo, new)
             conv |= zero
             # a bracket below roundoff (the root sits between two neighbouring floats)
-            conv |= np.isfinite(hi) & (hi - lo <= 4 * np.finfo(float).eps * hi)
+            conv |= bounded & (hi - lo <= _WIDTH_ROUNDOFF * hi)
             # the hoop tension still negative beyond the limit: no width (NaN below, where T̂22 is not positive)
-            none = ~done & ~conv & ~np.isfinite(hi) & (lo > limit) | locked_everywhere
+            none = going & ~bounded & (lo > limit) | locked_everywhere
             new = np.where(none, np.nan, new)
             x = np.where(done, x, new)
             done |= conv | none
-        out = model.tensions(l1a, x, phia)
-        T22 = np.broadcast_to(np.asarray(out[6], dtype=float), x.shape)
-        x = np.where(done & (T22 > 0), x, np.nan)
-    return float(x[0]) if scalar else x
+        out = model.tensions(l1, x, phi)
+        T22 = _of_shape(out[6], x.shape)
+        found = done & (T22 > 0)
+        width = np.where(found, x, np.nan)
+    # the evaluation was at the widths unless the check turned a finite point into NaN (no root there)
+    tensions = tuple(_of_shape(a, x.shape) for a in out) if (found | np.isnan(x)).all() else None
+    return width, tensions
+
+
+def _of_shape(a, shape) -> np.ndarray:
+    """An output ``a`` of a generated function as a float array of ``shape`` (a constant one is broadcast), not
+    copied where it already is one (``np.broadcast_to`` costs a few microseconds, the arrays are mostly tiny)."""
+    if type(a) is np.ndarray and a.shape == shape and a.dtype == np.float64:
+        return a
+    return np.broadcast_to(np.asarray(a, dtype=float), shape)
 
 
 #: meridional stretches at which the wrinkled stiffness is sampled for :func:`band_pull_in_onset`

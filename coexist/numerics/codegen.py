@@ -344,22 +344,20 @@ def small_batch(vector, scalar, into: bool = False):
     def call(*args):
         ins = args[:-1] if into else args
         m = 0
-        columns = []
         for a in ins:
             if type(a) is np.ndarray:
                 if a.ndim != 1 or (m and a.size != m):
                     return vector(*args)
                 m = a.size
-                columns.append(a.tolist())
-            elif isinstance(a, (float, int)):
-                columns.append(a)
-            else:
+            elif not isinstance(a, (float, int)):
                 return vector(*args)
         if not 0 < m <= SMALL_BATCH:
             return vector(*args)
-        columns = [c if type(c) is list else [float(c)] * m for c in columns]
+        # (a large batch is not turned into lists before it is sent to the numpy code; this runs some 10⁵ times a
+        # command, for one to three states mostly, so each step here costs about as much as the float code itself)
+        columns = [a.tolist() if type(a) is np.ndarray else [float(a)] * m for a in ins]
         try:  # (Python floats only: numpy's error state plays no part)
-            rows = [scalar(*state) for state in zip(*columns)]
+            rows = list(map(scalar, *columns))
         except (ArithmeticError, ValueError):
             return vector(*args)
         values = np.array(rows, dtype=float).T
