@@ -765,8 +765,10 @@ def same_code_path(scene: Scene):
     depend on how many points its process had computed, and on whether another process had already compiled
     the code. Inside this context the scene's model starts with fresh integrators that use the compiled code
     from the first call (loaded from the disk cache, or compiled once per machine); without a C compiler
-    every process uses the virtual machine throughout. Either way a point gives the same bits serially, in a
-    process pool and on a cluster of like machines.
+    every process uses the virtual machine throughout. A library missing from the cache is compiled before the
+    point goes on (:func:`coexist.numerics.compiled.waiting`; in the background, an empty cache had left the serial
+    points in the virtual machine and the workers on the compiled code). Either way a point gives the same bits
+    serially, in a process pool and on a cluster of like machines.
 
     Parameters
     ----------
@@ -777,12 +779,14 @@ def same_code_path(scene: Scene):
     ------
     None
     """
+    from .numerics.compiled import waiting
     from .shooting import fresh_integrators
 
     model = scene.model()
     fresh_integrators(model, compile_after=1)
     try:
-        yield
+        with waiting():  # compiled now if the cache lacks it, not in the background while this point runs on
+            yield
     finally:
         fresh_integrators(model)
 

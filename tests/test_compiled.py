@@ -146,3 +146,31 @@ def test_large_batches_alone_compile_the_attempt_function(tmp_path, monkeypatch)
     assert entry.get("fast"), entry
     np.testing.assert_allclose(last.p_hat, first.p_hat, rtol=1e-9)
     np.testing.assert_allclose(last.v_hat, first.v_hat, rtol=1e-9)
+
+
+def test_a_sweep_point_waits_for_a_missing_library(tmp_path, monkeypatch):
+    """A sweep's points must give the same bits in any process (``coexist.sweep.same_code_path``). With an empty
+    cache the first point had left its library to a background compilation and run in the virtual machine, while the
+    workers started later loaded the library: on a fresh cache the serial, process-pool and Dask records differed in
+    the last bits (the three bit-for-bit tests of tests/test_sweep.py failed there). Inside ``compiled.waiting()`` —
+    and so inside a sweep point — a missing library is compiled before ``compiled`` returns; outside it, in the
+    background as before."""
+    import casadi as ca
+
+    from coexist.scene import load_scene
+    from coexist.sweep import same_code_path
+
+    monkeypatch.setenv("COEXIST_CACHE_DIR", str(tmp_path))
+    if C._compiler() is None or not C.enabled():
+        pytest.skip("no C compiler on this machine")
+    x = ca.SX.sym("x", 2)
+    fun = ca.Function("coexist_wait_f", [x], [ca.vertcat(x[0] * x[1], x[0] + 2.0)])
+    with C.waiting():
+        fast = C.compiled(fun, "coexist_wait_a", key="w1")
+    assert fast is not None and C.STATUS["last"] == "compiled"
+    assert C.library_path("coexist_wait_a", "w1").exists()
+    assert fast([3.0, 4.0]).full().ravel().tolist() == [12.0, 5.0]
+    assert C._WAITING[0] == 0
+    with same_code_path(load_scene("tricircle")):
+        assert C._WAITING[0] == 1
+    assert C._WAITING[0] == 0

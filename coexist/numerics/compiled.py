@@ -22,6 +22,7 @@ compiler is at hand:
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -54,7 +55,31 @@ def enabled() -> bool:
 
 
 def _in_background() -> bool:
-    return BACKGROUND and os.environ.get("COEXIST_COMPILE", "1") != "wait" and os.name == "posix"
+    return BACKGROUND and not _WAITING[0] and os.environ.get("COEXIST_COMPILE", "1") != "wait" and os.name == "posix"
+
+
+#: inside :func:`waiting` (a depth count: blocks may nest, threads share it)
+_WAITING = [0]
+
+
+@contextlib.contextmanager
+def waiting():
+    """Compile in the foreground inside the block, as ``COEXIST_COMPILE=wait`` does: a library missing from the
+    cache is compiled before :func:`compiled` returns, so that every call in the block runs the compiled code.
+
+    For results that must not depend on what the machine had compiled before (:func:`coexist.sweep.same_code_path`:
+    with an empty cache the background compilation left a sweep's serial points in the virtual machine while the
+    workers started later loaded the library, and their numbers differed in the last bits).
+
+    Yields
+    ------
+    None
+    """
+    _WAITING[0] += 1
+    try:
+        yield
+    finally:
+        _WAITING[0] -= 1
 
 
 def compiling() -> bool:
