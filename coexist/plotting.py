@@ -258,7 +258,7 @@ def plot_ramp_volumes(report, path, title=None, branches=()):
             if t.kind == "no_stable_state" and t.direction == "up":  # why the states end there
                 parts = (t.reason or "").split(": ")
                 why = (parts[1] if len(parts) > 1 else parts[0]).replace("_", " ")
-                ax.text(kv, top, f" {kv:.4f} kV: {why}", fontsize=7, va="top", ha="left", rotation=90)
+                ax.text(kv, top, f" {kv:.5g} kV: {why}", fontsize=7, va="top", ha="left", rotation=90)
     for t in res.equal_free_energy:
         ax.axvline(report.voltage_kV(t.phi_hat), color="k", ls="-.", lw=0.8)
     ax.plot([], [], "-", color="0.55", label="stable equilibria")
@@ -467,7 +467,7 @@ def plot_lens(scene, voltages_kV, profiles, end, path, side_views: int = 5):
     lines = [l1, l2]
     if end is not None and end.get("voltage_kV"):
         x_end = end["voltage_kV"][0]
-        l3 = bx.axvline(x_end, color="k", ls=":", lw=1.2, label=f"{end['kind']} at {x_end:.4f} kV: no state above")
+        l3 = bx.axvline(x_end, color="k", ls=":", lw=1.2, label=f"{end['kind']} at {x_end:.5g} kV: no state above")
         lines.append(l3)
     bx.legend(lines, [ln.get_label() for ln in lines], fontsize=8, loc="upper left")
     bx.set_title("apex of the zone against the voltage (each point a converged state)", fontsize=9)

@@ -902,10 +902,11 @@ def summarise(index: int, sim, report) -> dict:
         rec["reason"] = ""
     elif broke is not None:
         rec["status"] = "breakdown_first"
-        rec["reason"] = _one_line(f"breakdown at {rec['breakdown_kV']:.6f} kV in {broke.from_label}: {broke.reason}")
+        # seven significant figures, at any scale (six decimals printed nothing of a micro-actuator's 1e-4 kV)
+        rec["reason"] = _one_line(f"breakdown at {rec['breakdown_kV']:#.7g} kV in {broke.from_label}: {broke.reason}")
     elif left is not None:
         rec["status"] = "leaves_range"
-        rec["reason"] = _one_line(f"{left.from_label} at {rec['range_end_kV']:.6f} kV: {left.reason}")
+        rec["reason"] = _one_line(f"{left.from_label} at {rec['range_end_kV']:#.7g} kV: {left.reason}")
     else:
         rec["reason"] = f"the zones stay equal up to {rec['top_voltage_kV']:.6g} kV"
     missing = _missing_reasons(rec, sim, report)

@@ -4,8 +4,17 @@ from __future__ import annotations
 
 import click
 
-from .common import accuracy_option, info, library_errors, load_scene_arg, parse_floats, settings_from, write_json
-from .ramp import format_voltage
+from .common import (
+    accuracy_option,
+    format_voltage,
+    info,
+    library_errors,
+    load_scene_arg,
+    parse_floats,
+    settings_from,
+    significant,
+    write_json,
+)
 
 #: with more zones than this, the configurations to list must be named with --bulged (each is a continuation)
 MAX_DEFAULT_CONFIGURATIONS = 12
@@ -146,10 +155,11 @@ def coexistence(scene, bulged, as_json, accuracy, rtol):
 
 
 def _described(e) -> str:
-    """One coexisting state of an equal-free-energy entry: the pressure, each kind of zone's volume and pole stretch."""
+    """One coexisting state of an equal-free-energy entry: the pressure, each kind of zone's volume (six significant
+    figures, at any scale) and pole stretch."""
     return (
-        f"{e['pressure_mbar']:.4f} mbar, unbulged {e['unbulged_volume_ml']:.4f} ml "
-        f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {e['bulged_volume_ml']:.4f} ml "
+        f"{significant(e['pressure_mbar'])} mbar, unbulged {significant(e['unbulged_volume_ml'])} ml "
+        f"(λ0 {e['unbulged_pole_stretch']:.4f}), bulged {significant(e['bulged_volume_ml'])} ml "
         f"(λ0 {e['bulged_pole_stretch']:.4f})"
     )
 
@@ -176,9 +186,9 @@ def _without_voltage(sc, sim, as_json, ks):
         return
     click.echo(f"{sc.name}: no voltage; the equilibria of {sc.zone_count} zones on the closed gas:")
     for o in out:
-        vols = " ".join(f"{v:.4f}" for v in o["zone_volumes_ml"])
+        vols = " ".join(significant(v) for v in o["zone_volumes_ml"])
         click.echo(
             f"  {o['configuration']:<16} {'stable' if o['stable'] else 'unstable':<9} "
-            f"{o['pressure_mbar']:.4f} mbar  volumes {vols} ml"
+            f"{significant(o['pressure_mbar'])} mbar  volumes {vols} ml"
         )
     click.echo(f"(states converged on the exact equations, rtol {sim.settings.rtol:.0e})")

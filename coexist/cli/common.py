@@ -443,6 +443,138 @@ def with_error(value: float, error: float | None, decimals: int = 8) -> str:
     return f"{value:.{decimals_for(error)}f} ± {error:.0e}"
 
 
+# Physical numbers in the text output. Scenes range from micro-actuators (a 50 µm zone, µm thick, volts, volumes of
+# 1e-7 ml) to balloons (1 m, hundreds of kV, m³): a fixed number of decimals in kV, mbar or ml shows nothing at one
+# end and noise at the other, so every physical number printed as text goes through these (the JSON and CSV carry
+# full precision). Dimensionless numbers (Φ̂, p̂, λ0) do not depend on the scene's scale and keep their formats.
+
+
+def _exponent(value: float, digits: int) -> int:
+    """The decimal exponent of ``|value|`` once rounded to ``digits`` significant figures (9.9999996 -> 1)."""
+    return int(f"{abs(value):.{max(digits, 1) - 1}e}".split("e")[1])
+
+
+def significant(value: float, digits: int = 6) -> str:
+    """One physical number with ``digits`` significant figures at any scale, trailing zeros kept (they are digits).
+
+    Parameters
+    ----------
+    value : float
+        The number (in the unit its label names).
+    digits : int
+        Significant figures.
+
+    Returns
+    -------
+    str
+        ``"20.0000"``, ``"0.00380738"``, ``"2.29072e+06"`` (``format(value, "#.6g")`` without a bare trailing
+        point: ``"123457"``).
+
+    Examples
+    --------
+    >>> significant(16.96372), significant(0.0038073777), significant(2290722.698, 5)
+    ('16.9637', '0.00380738', '2.2907e+06')
+    """
+    if not math.isfinite(value):
+        return str(value)
+    mantissa, e, exponent = f"{value:#.{digits}g}".partition("e")
+    return mantissa.rstrip(".") + e + exponent
+
+
+def column_format(values, digits: int):
+    """The format of one table column of a physical quantity: the decimals that give its largest value ``digits``
+    significant figures (the same decimals for every row, so the points line up; none where it has more digits before
+    the point), or exponent notation with ``digits`` significant figures where that value is below 1e-4 or from 1e7
+    (``10**digits`` with more digits) up.
+
+    Parameters
+    ----------
+    values : iterable of float or None
+        The column's values (None and non-finite ones are ignored).
+    digits : int
+        Significant figures of the largest value.
+
+    Returns
+    -------
+    callable
+        ``float -> str``.
+
+    Examples
+    --------
+    >>> f = column_format([20.0, 9.53877], 6)
+    >>> f(20.0), f(9.53877)
+    ('20.0000', '9.5388')
+    >>> f = column_format([0.0038073777, 0.0021], 6)
+    >>> f(0.0038073777), f(0.0021)
+    ('0.00380738', '0.00210000')
+    >>> column_format([2.2907e-7, 4.8583e-7], 5)(2.2907e-7), column_format([2290722.698], 5)(2290722.698)
+    ('2.2907e-07', '2290723')
+    """
+    finite = [abs(float(v)) for v in values if v is not None and math.isfinite(v) and v != 0]
+    exponent = _exponent(max(finite), digits) if finite else 0
+    if -4 <= exponent < max(digits, 7):
+        decimals = max(0, digits - 1 - exponent)
+        return lambda v: f"{v:.{decimals}f}"
+    return lambda v: f"{v:.{digits - 1}e}"
+
+
+def voltage_decimals(kv_values, least: int = 3) -> int:
+    """The decimals of a column of voltages in kV: at least ``least`` (a volt), more where the voltages need them to
+    be printed as they are (a path in steps of 6e-7 kV: 7; up to 10 significant figures), or, for voltages no number
+    of decimals prints exactly (steps of 1/3 kV), as many as tell neighbours apart (one digit more than the smallest
+    spacing's first).
+
+    Parameters
+    ----------
+    kv_values : iterable of float
+        The voltages the column holds (e.g. the scene's voltage path), in kV.
+    least : int
+        The fewest decimals.
+
+    Returns
+    -------
+    int
+
+    Examples
+    --------
+    >>> voltage_decimals([0, 0.02, 3.92, 5]), voltage_decimals([0, 1.164e-4, 1.17e-4]), voltage_decimals([3.90003])
+    (3, 7, 5)
+    >>> voltage_decimals([0, 1 / 3, 2 / 3]), voltage_decimals([0, 1e-5 / 3, 2e-5 / 3])
+    (3, 7)
+    """
+    values = sorted({float(v) for v in kv_values if v is not None and math.isfinite(v)})
+    top = max((abs(v) for v in values), default=0.0)
+    most = max(least, 9 - _exponent(top, 10)) if top > 0 else least
+    for d in range(least, most + 1):
+        if all(abs(round(v, d) - v) <= 1e-9 * 10.0**-d + 1e-12 * abs(v) for v in values):
+            return d
+    gaps = [b - a for a, b in zip(values, values[1:]) if b - a > 1e-12 * top]  # not the same voltage rounded
+    return max(least, math.ceil(-math.log10(min(gaps)) - 1e-9) + 1) if gaps else most
+
+
+def format_voltage(kv: float, err_kv: float) -> str:
+    """A voltage in kV with the decimals its measured error supports (``⌈−log10 error⌉``, at least 3), and the error;
+    without an error (0: a window's end, exact) with the decimals it needs (:func:`voltage_decimals`).
+
+    Parameters
+    ----------
+    kv, err_kv : float
+        The voltage and its error, in kV.
+
+    Returns
+    -------
+    str
+        E.g. ``3.900030858 kV ± 5e-09``, ``0.0001162764937 kV ± 1e-13``.
+    """
+    if err_kv > 0 and math.isfinite(err_kv):
+        # no more digits than a float holds (17 significant figures)
+        cap = max(3, 16 - _exponent(kv, 17)) if kv != 0 else 17
+        digits = min(cap, max(3, math.ceil(-math.log10(err_kv))))
+    else:
+        digits = voltage_decimals([kv])
+    return f"{kv:.{digits}f} kV ± {err_kv:.0e}"
+
+
 def printable(text: str) -> str:
     """``text`` safe for a terminal (:func:`coexist.validation.escaped`: control characters from a scene's name or
     description shown as ``\\xNN`` escapes instead of reaching the terminal raw)."""

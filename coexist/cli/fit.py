@@ -10,6 +10,8 @@ import click
 from .common import (
     InputError,
     accuracy_option,
+    column_format,
+    format_voltage,
     info,
     library_errors,
     load_scene_arg,
@@ -17,7 +19,9 @@ from .common import (
     stderr_progress,
     write_json,
 )
-from .ramp import format_voltage
+
+#: significant figures of the sensitivity table's transition voltages (the tricircle's 3.9 kV: four decimals)
+VOLTAGE_DIGITS = 5
 
 
 @click.command()
@@ -108,10 +112,12 @@ def fit(scene, target_kv, kind, no_sensitivity, as_json, accuracy, rtol):
         return
     click.echo("")
     click.echo(f"{'input':<24}{'value':>12}{'spinodal_kV':>14}{'equal_G_kV':>14}")
+    # both voltage columns with the decimals that give the largest five significant figures (at any scale)
+    kv = column_format([r[k] for r in rows for k in ("spinodal", "equal_free_energy")], VOLTAGE_DIGITS)
     for r in rows:
         v = "" if r["value"] is None else f"{r['value']:.5g}"
-        s = "-" if r["spinodal"] is None else f"{r['spinodal']:.4f}"
-        e = "-" if r["equal_free_energy"] is None else f"{r['equal_free_energy']:.4f}"
+        s = "-" if r["spinodal"] is None else kv(r["spinodal"])
+        e = "-" if r["equal_free_energy"] is None else kv(r["equal_free_energy"])
         click.echo(f"{r['parameter']:<24}{v:>12}{s:>14}{e:>14}")
     if any(r["spinodal"] is None or r["equal_free_energy"] is None for r in rows):
         click.echo("('-': no stable start, the zones cannot hold the closing pressure, or no transition in range)")

@@ -8,11 +8,14 @@ from ..settings import SolverSettings, tight_settings
 from .common import (
     Outputs,
     accuracy_option,
+    column_format,
+    format_voltage,
     info,
     library_errors,
     load_scene_arg,
     settings_from,
     stderr_progress,
+    voltage_decimals,
     write_json,
 )
 
@@ -121,47 +124,61 @@ def _states_figure(report, sim, path, out):
     info(f"note: no bulged state on the path; {path} not written")
 
 
-def format_voltage(kv: float, err_kv: float) -> str:
-    """A voltage in kV with the digits its error supports, and the error."""
-    import math
-
-    digits = 3 if not err_kv > 0 else int(min(10, max(3, math.ceil(-math.log10(err_kv)))))
-    return f"{kv:.{digits}f} kV ± {err_kv:.0e}"
+#: significant figures of the largest value of each of the table's columns: pressure and volume (the tricircle's
+#: 20 mbar and 53 ml: the four and three decimals the table always had), apex height and curvature (--shapes: 40 mm
+#: with two decimals; 44 /m with two, one more than before: 3 would print a 10 mm zone's 88.1 to 101.9 /m as 88 to 102)
+PRESSURE_DIGITS, VOLUME_DIGITS, HEIGHT_DIGITS, CURVATURE_DIGITS = 6, 5, 4, 4
 
 
-def _volumes(step) -> str:
+def _volumes(step, fmt) -> str:
     """The zones' volumes of one row: each zone's for up to six zones, else per group (``999×10.798``)."""
     if step["zone_volumes_ml"] is None:
         return "-"
     if len(step["zone_volumes_ml"]) <= 6:
-        return " ".join(f"{v:.3f}" for v in step["zone_volumes_ml"])
-    return " ".join(f"{g['zones']}×{g['volume_ml']:.3f}" for g in step["groups"])
+        return " ".join(fmt(v) for v in step["zone_volumes_ml"])
+    return " ".join(f"{g['zones']}×{fmt(g['volume_ml'])}" for g in step["groups"])
 
 
-def _apex(step) -> str:
+def _apex(step, height, curvature) -> str:
     """The zones' apex heights in mm (and curvatures in 1/m) of one row, as :func:`_volumes` lays them out."""
     if not step.get("shapes"):
         return "-"
     per_zone = [g for g in step["shapes"] for _ in range(g["zones"])]
     if len(per_zone) <= 6:
-        return " ".join(f"{g['apex_height_mm']:.2f}/{g['apex_curvature_per_m']:.1f}" for g in per_zone)
-    return " ".join(f"{g['zones']}×{g['apex_height_mm']:.2f}/{g['apex_curvature_per_m']:.1f}" for g in step["shapes"])
+        return " ".join(f"{height(g['apex_height_mm'])}/{curvature(g['apex_curvature_per_m'])}" for g in per_zone)
+    return " ".join(
+        f"{g['zones']}×{height(g['apex_height_mm'])}/{curvature(g['apex_curvature_per_m'])}" for g in step["shapes"]
+    )
 
 
 def _table(data):
-    shapes = any("shapes" in s for s in data["steps"])
+    steps = data["steps"]
+    shapes = any("shapes" in s for s in steps)
+    # the voltages with the decimals the scene's path needs (its step; 3 for the tricircle's 0.02 kV), the pressures
+    # and volumes with a fixed number of significant figures: any scale, from µm zones at volts to metres at 100 kV
+    path = ((data.get("scene") or {}).get("voltage") or {}).get("values_V")
+    places = voltage_decimals([v / 1e3 for v in path] if path else [s["voltage_kV"] for s in steps])
+    pressure = column_format([s["pressure_mbar"] for s in steps], PRESSURE_DIGITS)
+    volume = column_format([v for s in steps for v in s["zone_volumes_ml"] or ()], VOLUME_DIGITS)
+    shown = [g for s in steps for g in s.get("shapes") or ()]
+    height = column_format([g["apex_height_mm"] for g in shown], HEIGHT_DIGITS)
+    curvature = column_format([g["apex_curvature_per_m"] for g in shown], CURVATURE_DIGITS)
+    # the columns widen for long numbers (and stay lined up)
+    kv_width = max([10] + [len(f"{s['voltage_kV']:.{places}f}") for s in steps])
+    p_width = max([13] + [len(pressure(s["pressure_mbar"])) for s in steps if s["pressure_mbar"] is not None])
+    v_width = max([28] + [len(_volumes(s, volume)) for s in steps])
     extra = f"  {'apex_height_mm/apex_curvature_per_m'}" if shapes else ""
     click.echo(
-        f"{'voltage_kV':>10} {'dir':>4} {'pressure_mbar':>13}  {'zone_volumes_ml':<28} {'configuration':<18} stable"
-        + extra
+        f"{'voltage_kV':>{kv_width}} {'dir':>4} {'pressure_mbar':>{p_width}}  {'zone_volumes_ml':<{v_width}} "
+        f"{'configuration':<18} stable" + extra
     )
     prev = None
-    for s in data["steps"]:
+    for s in steps:
         changed = prev is not None and s["configuration"] != prev
         # a jump onto another branch of the same configuration (a fold inside it) changes no label: its note says
         within = prev is not None and not changed and "note" in s and s["configuration"] != "none"
         prev = s["configuration"]
-        p = "-" if s["pressure_mbar"] is None else f"{s['pressure_mbar']:.4f}"
+        p = "-" if s["pressure_mbar"] is None else pressure(s["pressure_mbar"])
         mark = "  <- " + s.get("note", "transition") if changed or within else ""
         if within and s.get("note") == "transition":
             mark += f" onto another branch of {s['configuration']}"
@@ -171,8 +188,9 @@ def _table(data):
         for note in s.get("state_notes", []):  # what the state itself says (e.g. taken at a branch point)
             mark += f"  [{note}]"
         click.echo(
-            f"{s['voltage_kV']:>10.3f} {s['direction']:>4} {p:>13}  {_volumes(s):<28} {s['configuration']:<18} "
-            f"{'yes' if s['stable'] else 'no'}{mark}" + (f"  {_apex(s)}" if shapes else "")
+            f"{s['voltage_kV']:>{kv_width}.{places}f} {s['direction']:>4} {p:>{p_width}}  "
+            f"{_volumes(s, volume):<{v_width}} {s['configuration']:<18} "
+            f"{'yes' if s['stable'] else 'no'}{mark}" + (f"  {_apex(s, height, curvature)}" if shapes else "")
         )
     click.echo("")
     again = tight_settings(SolverSettings(rtol=data["relative_tolerance"])).rtol

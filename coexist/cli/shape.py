@@ -8,11 +8,14 @@ from .common import (
     InputError,
     Outputs,
     accuracy_option,
+    column_format,
     info,
     library_errors,
     load_scene_arg,
     parse_floats,
     settings_from,
+    significant,
+    voltage_decimals,
     write_json,
 )
 
@@ -26,6 +29,11 @@ MAX_VOLTAGES = 2000
 LENS_SIDE_VIEWS = 5
 #: estimated seconds from which the cost estimate is printed (shorter runs print nothing more)
 LONG_RUN_SECONDS = 10.0
+#: significant figures of the table's largest apex height and curvature, and of its lengths (radius of curvature,
+#: edges): the tricircle's 40 mm and 44 /m with six decimals, its 27 and 21.4 mm with four
+APEX_DIGITS, LENGTH_DIGITS = 8, 6
+#: significant figures of a voltage in a note (an end's bracket: 4.359050 kV)
+NOTE_DIGITS = 7
 
 
 @click.command()
@@ -204,7 +212,11 @@ def _patterned(sc, settings, kv, plot, as_json, points, overwrite):
         for v in kv:
             prof = by_kv.get(v)
             if prof is None:
-                note = f"{path.end_kind}: no state above {end_kv[0]:.6f} kV" if end_kv else path.end_reason
+                note = (
+                    f"{path.end_kind}: no state above {significant(end_kv[0], NOTE_DIGITS)} kV"
+                    if end_kv
+                    else path.end_reason
+                )
                 entries.append({"voltage_kV": v, "configuration": "none", "groups": [], "note": note})
                 continue
             entry = {
@@ -234,7 +246,11 @@ def _patterned(sc, settings, kv, plot, as_json, points, overwrite):
 
             plot_lens(sc, reached, profs, data["end"], out.staged(plot_path), side_views=LENS_SIDE_VIEWS)
     if path.end_kind is not None:
-        where = "" if end_kv is None else f" between {end_kv[0]:.6f} and {end_kv[1]:.6f} kV"
+        where = (
+            ""
+            if end_kv is None
+            else f" between {significant(end_kv[0], NOTE_DIGITS)} and {significant(end_kv[1], NOTE_DIGITS)} kV"
+        )
         info(f"the states end{where}: {path.end_kind}: {path.end_reason}")
     if as_json:
         write_json(data)
@@ -278,33 +294,51 @@ def _zones(entry):
     return [(f"{g['zones']}×", g) for g in groups]
 
 
-def _edges_text(group) -> str:
+def _edges_text(group, length) -> str:
     """Every electrode edge of a zone, from the pole out, as ``(r, z) (r, z)`` in mm (a ring: inner, outer)."""
     edges = group.get("electrode_edges_mm") or [group["electrode_edge_mm"]]
-    return " ".join(f"({r:.4f}, {z:.4f})" for r, z in edges)
+    return " ".join(f"({length(r)}, {length(z)})" for r, z in edges)
 
 
 def _table(data):
     rows = [(e, label, g) for e in data["voltages"] for label, g in _zones(e)]
-    several = any(len(g.get("electrode_edges_mm") or ()) > 1 for _, _, g in rows)
+    groups = [g for _, _, g in rows]
+    # lengths and curvatures with a fixed number of significant figures (the same decimals down a column), the
+    # voltages with the decimals they were given: any scale, from µm zones at volts to metres at 100 kV
+    places = voltage_decimals([e["voltage_kV"] for e in data["voltages"]])
+    height = column_format([g["apex_height_mm"] for g in groups], APEX_DIGITS)
+    curvature = column_format([g["apex_curvature_per_m"] for g in groups], APEX_DIGITS)
+    roc_of = column_format([g["radius_of_curvature_mm"] for g in groups], LENGTH_DIGITS)
+    edges = [x for g in groups for edge in g.get("electrode_edges_mm") or [g["electrode_edge_mm"]] for x in edge]
+    length = column_format(edges, LENGTH_DIGITS)
+    several = any(len(g.get("electrode_edges_mm") or ()) > 1 for g in groups)
     head = "electrode_edges_mm (r, z), from the pole out" if several else "electrode_edge_mm (r, z)"
-    width = max([len(head)] + [len(_edges_text(g)) for _, _, g in rows])
+    width = max([len(head)] + [len(_edges_text(g, length)) for g in groups])
+    kv_width = max([10] + [len(_kv(e["voltage_kV"], places)) for e in data["voltages"]])
+    widths = {  # the headers' widths, wider where a number is longer
+        "apex_height_mm": max([14] + [len(height(g["apex_height_mm"])) for g in groups]),
+        "apex_curvature_per_m": max([20] + [len(curvature(g["apex_curvature_per_m"])) for g in groups]),
+    }
     click.echo(
-        f"{'voltage_kV':>10} {'zone':>5} {'pole_stretch':>12} {'apex_height_mm':>14} {'apex_curvature_per_m':>20} "
-        f"{'radius_of_curvature_mm':>22} {head:>{width}}  configuration"
+        f"{'voltage_kV':>{kv_width}} {'zone':>5} {'pole_stretch':>12} {'apex_height_mm':>{widths['apex_height_mm']}} "
+        f"{'apex_curvature_per_m':>{widths['apex_curvature_per_m']}} {'radius_of_curvature_mm':>22} "
+        f"{head:>{width}}  configuration"
     )
     for e in data["voltages"]:
+        kv = _kv(e["voltage_kV"], places)
         if not e["groups"]:
-            click.echo(f"{_kv(e['voltage_kV']):>10} {'-':>5} no state: {e.get('note') or 'outside the model range'}")
+            click.echo(f"{kv:>{kv_width}} {'-':>5} no state: {e.get('note') or 'outside the model range'}")
             continue
         for label, g in _zones(e):
-            roc = "inf" if g["radius_of_curvature_mm"] is None else f"{g['radius_of_curvature_mm']:.4f}"
-            edge = _edges_text(g)
+            roc = "inf" if g["radius_of_curvature_mm"] is None else roc_of(g["radius_of_curvature_mm"])
+            edge = _edges_text(g, length)
             bands = g.get("wrinkled_radii") or []
             wrinkled = "".join(f"; wrinkled for R/A {a:.4f}-{b:.4f}" for a, b in bands)
             click.echo(
-                f"{_kv(e['voltage_kV']):>10} {label:>5} {g['pole_stretch']:>12.6f} {g['apex_height_mm']:>14.6f} "
-                f"{g['apex_curvature_per_m']:>20.6f} {roc:>22} {edge:>{width}}  {e['configuration']}{wrinkled}"
+                f"{kv:>{kv_width}} {label:>5} {g['pole_stretch']:>12.6f} "
+                f"{height(g['apex_height_mm']):>{widths['apex_height_mm']}} "
+                f"{curvature(g['apex_curvature_per_m']):>{widths['apex_curvature_per_m']}} {roc:>22} "
+                f"{edge:>{width}}  {e['configuration']}{wrinkled}"
             )
     click.echo(
         f"(every state converged on the exact equations, solver rtol {data['relative_tolerance']:.0e}; "
@@ -312,10 +346,11 @@ def _table(data):
     )
 
 
-def _kv(v: float) -> str:
-    """A voltage asked for, in kV: three decimals, or as many as it has (3.90003 and 3.90004 kV both printed 3.900,
-    one state uniform and the other with a zone bulged: review, helper-74)."""
-    return f"{v:.3f}" if abs(v - round(v, 3)) <= 1e-12 else f"{v:.10g}"
+def _kv(v: float, places: int) -> str:
+    """A voltage asked for, in kV, with the table's decimals ``places`` (:func:`voltage_decimals` of the voltages asked
+    for: three, or as many as they have), or more where it has more itself (3.90003 and 3.90004 kV were both printed
+    3.900, one state uniform and the other with a zone bulged: review, helper-74)."""
+    return f"{v:.{max(places, voltage_decimals([v]))}f}"
 
 
 def _figure(sc, rows, path):
@@ -365,7 +400,7 @@ def _figure(sc, rows, path):
                 wrinkle_label = True
             for er, ez in ((r_e * 1e3, z_e * 1e3) for r_e, z_e in p.electrode_edges):  # a ring: inner and outer
                 ax.plot([c - er, c + er], [ez, ez], "|", color="k", ms=9, mew=1.5)
-            label = f"h {p.apex_height * 1e3:.2f} mm\nκ0 {p.apex_curvature:.1f} /m"
+            label = f"h {significant(p.apex_height * 1e3, 4)} mm\nκ0 {significant(p.apex_curvature, 3)} /m"
             if n is not None:
                 label = f"{n} zones\n" + label
             ax.annotate(

@@ -4,7 +4,19 @@ from __future__ import annotations
 
 import click
 
-from .common import InputError, Outputs, accuracy_option, info, library_errors, load_scene_arg, settings_from
+from .common import (
+    InputError,
+    Outputs,
+    accuracy_option,
+    column_format,
+    info,
+    library_errors,
+    load_scene_arg,
+    settings_from,
+)
+
+#: significant figures of the table's largest voltage (the tricircle's 3.9 kV: six decimals)
+VOLTAGE_DIGITS = 7
 
 
 @click.command()
@@ -137,24 +149,32 @@ def _title(sc, result):
 def _report(result):
     """A table of the points on stdout: swept values, jump up, return, hysteresis, status."""
     keys = [ax.key for ax in result.spec.axes]
+    voltages = ("spinodal_up_kV", "spinodal_down_kV", "jump_up_kV", "jump_down_kV")
+    # every voltage (the hysteresis too) with the decimals that give the largest seven significant figures: any scale
+    fmt = column_format([r.get(k) for r in result.records for k in voltages], VOLTAGE_DIGITS)
+
+    def cell(x):
+        if x is None:
+            return "-"
+        text = fmt(x)
+        # (a hysteresis within rounding of zero, e.g. −7e-10 kV inside its ±4e-9, is printed 0.000000, not −0.000000)
+        return fmt(0.0) if float(text) == 0 else text
+
+    rows = [
+        [cell(r.get(k)) for k in ("spinodal_up_kV", "spinodal_down_kV", "hysteresis_kV", "jump_up_kV", "jump_down_kV")]
+        for r in result.records
+    ]
+    heads = ("up_kV", "down_kV", "hyst_kV", "jump_up", "jump_dn")
+    widths = [max([10 if h != "hyst_kV" else 9] + [len(row[i]) for row in rows]) for i, h in enumerate(heads)]
     click.echo(
-        "  ".join(f"{k:>24}" for k in keys)
-        + f"  {'up_kV':>10} {'down_kV':>10} {'hyst_kV':>9} {'jump_up':>10} {'jump_dn':>10} status"
+        "  ".join(f"{k:>24}" for k in keys) + "  " + " ".join(f"{h:>{w}}" for h, w in zip(heads, widths)) + " status"
     )
-
-    def num(x):
-        return f"{x:10.6f}" if x is not None else f"{'-':>10}"
-
-    for r in result.records:
+    for r, row in zip(result.records, rows):
         values = result.spec.values_at(r["index"])
         cells = "  ".join(f"{v:>24.6g}" if isinstance(v, float) else f"{v!s:>24}" for v in values)
-        # (a hysteresis within rounding of zero, e.g. −7e-10 kV inside its ±4e-9, is printed 0.000000, not −0.000000)
-        hyst = f"{round(r['hysteresis_kV'], 6) + 0.0:9.6f}" if r["hysteresis_kV"] is not None else f"{'-':>9}"
         reason = f"  ({r['reason']})" if r["status"] != "bulges" and r["reason"] else ""
-        jumps = f"{num(r.get('jump_up_kV'))} {num(r.get('jump_down_kV'))}"
-        click.echo(
-            f"{cells}  {num(r['spinodal_up_kV'])} {num(r['spinodal_down_kV'])} {hyst} {jumps} {r['status']}{reason}"
-        )
+        numbers = " ".join(f"{c:>{w}}" for c, w in zip(row, widths))
+        click.echo(f"{cells}  {numbers} {r['status']}{reason}")
     counts = ", ".join(f"{k}: {v}" for k, v in sorted(result.counts().items()))
     info(
         f"{result.spec.size} points ({counts}); computed {result.computed}, reused {result.reused}, "
