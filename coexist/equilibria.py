@@ -5,7 +5,7 @@ Potential of the whole system at fixed voltage (docs/physics.md, normalised by `
     G(V̂1..V̂N) = Σ Ψ̂(V̂i) + G_gas(Σ V̂i)
 
 with ``G_gas = −n̂ ln(V̂c + ΣV̂i) + p̂atm ΣV̂i`` for an isothermal ideal gas of amount ``n̂`` in a rigid
-chamber ``V̂c`` (seed eq. 1; evaluated without the constant ``n̂ ln V̂c``,
+chamber ``V̂c`` (seed eq. 1; evaluated relative to the gas at zero gauge pressure, without cancellation,
 :meth:`~coexist.effects.GasChamber.free_energy`), or ``G_gas = −p̂ ΣV̂i`` for a pressure reservoir. Its
 stationary points are the equilibria: every zone at the gauge pressure of the gas.
 
@@ -669,7 +669,8 @@ class Equilibrium:
     residual : float
         Largest entry of the residual ``r`` at the reported state: the pressure balance ``p̂1 − p̂_gas`` and
         the divided differences ``(p̂_{j+1} − p̂_j)/(u_{j+1} − u_j)`` (units of ``dp̂/du``); converged states
-        have it below ``residual_tol (1 + p̂)``.
+        have it below ``residual_tol (1 + p̂)``, or on a stiff gas near its floor ``c · rtol ΣV̂`` (the gas stiffness
+        times the volumes' error; above the former from ``p̂atm`` ≈ 1e3, docs/physics.md section 4).
     wrinkled_fraction : tuple
         Per group, the reference area fraction of its hoop-wrinkled region (tension-field models; empty
         for a model that refuses wrinkling).
@@ -821,12 +822,28 @@ def merged(configuration: Configuration, u, tol: float | None = None) -> tuple[C
     return Configuration(tuple(out_c)), np.asarray(out_u)
 
 
+def _common_pressure(res: Residual, i: int) -> float:
+    """The common gauge pressure of point ``i``: the first group's own (shot) pressure on a gas, the reservoir's
+    pressure under pressure control.
+
+    At equilibrium zones and gas agree to the residual, but on a gas the gas pressure ``n̂/(V̂c + ΣV̂) − p̂atm``
+    turns the volumes' error (the shooting's, ``~rtol V̂``) into ``c ΣδV̂``, with the gas stiffness ``c`` about
+    ``(p̂atm + p̂)/(V̂c + ΣV̂)``: at ``p̂atm`` = 2e8 (``μ`` = 1 Pa, ``H`` = 10 µm under one atmosphere) the tricircle's
+    reported pressure was 5e-3 off (against a run at rtol 1e-12; its pole stretches and volumes 3e-9), and the
+    result depended on ``p̂atm``, which the zones' own pressure does not amplify. A reservoir's is exact.
+    """
+    if float(res.gas_stiffness[i]) > 0:
+        return float(res.states.p[i, 0])
+    return float(res.gas_pressure[i])
+
+
 def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> Equilibrium:
     """The :class:`Equilibrium` at point ``i`` of a residual evaluation (groups ordered by ``u``).
 
     ``dp̂/dV̂ = (dp̂/du)/(dV̂/du)`` per group, ``Ĝ = Σ nj Ψ̂j + G_gas(Σ nj V̂j)``, the Hessian's eigenvalues
-    by :func:`hessian_eigenvalues`; ``p̂`` is the gas pressure. No solve is done here: the point is taken
-    as converged.
+    by :func:`hessian_eigenvalues`; ``p̂`` is the first group's own pressure on a gas (the gas pressure amplifies
+    the volumes' error by its stiffness, :func:`_common_pressure`), the reservoir's under pressure control. No
+    solve is done here: the point is taken as converged.
 
     Parameters
     ----------
@@ -864,7 +881,7 @@ def make_equilibrium(system: GroupSystem, res: Residual, i: int, index=None) -> 
         configuration=conf,
         phi_hat=float(st.phi[i]),
         pole_stretch=tuple(float(x) for x in lam),
-        p_hat=float(res.gas_pressure[i]),
+        p_hat=_common_pressure(res, i),
         v_hat=tuple(float(x) for x in v),
         q_hat=tuple(float(x) for x in st.q[i, order]),
         psi_hat=tuple(float(x) for x in psi),

@@ -164,7 +164,9 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
     In ``u`` the flow reads ``duj/dt = −(p̂(uj) − p̂_gas)/(dV̂/du)(uj)`` (the slope floored at 1e-6 of its
     largest value on the curve), integrated by the Rosenbrock method ROS2
     (:func:`~coexist.numerics.stiff.rosenbrock2`, local error of its embedded first-order step 1e-4
-    relative) until every zone's pressure is within 1e-8 of the pressure scale of the gas pressure. Its
+    relative; its steps below ``0.5/λ+`` of a growing mode) until the zones' pressures are within 1e-8 of the pressure
+    scale of each other and of the gas pressure (or of the gas pressure's rounding floor, :meth:`_FlowEquations.noise`,
+    where that is larger: a stiff gas, ``p̂atm`` above ~1e8). Its
     Jacobian is exact on the splines: ``∂fj/∂uk = −(p̂j' δjk + c nk V̂k')/Dj + (p̂j − p̂_gas) V̂j'' δjk/Dj²``
     (``Dj`` the floored slope ``V̂j'``, ``c = −dp̂_gas/dΣV̂`` the gas stiffness; the second term only where the
     floor is not active), with ``p̂, V̂`` and their slopes from one interval search per evaluation.
@@ -316,9 +318,30 @@ class _FlowEquations:
         return J + np.diag(np.where(dv > self.dv_floor, (p - pg) * ddv / D**2, 0.0))
 
     def settled(self, t, x):
-        """``max |p̂j − p̂_gas| − tol``: falls through zero where the flow has settled."""
+        """Falls through zero where the flow has settled: the zones' pressures within ``tol`` of the gas pressure,
+        ``max(max |p̂j − p̂k| − 2 tol, max |p̂j − p̂_gas| − max(tol, noise))``.
+
+        ``noise`` is the rounding floor of the gas pressure (:meth:`noise`), which moves every ``p̂j − p̂_gas``
+        alike: above ``tol`` where the gas is stiff (a large ``p̂atm``), which the flow could never settle below.
+        The zones' balance with each other does not see it and keeps ``2 tol`` (what ``tol`` of the gas implies:
+        below the floor the function has the sign of ``max |p̂j − p̂_gas| − tol``, as before the floor)."""
         p, _, _, _, pg, _ = self.terms(x)
-        return float(np.max(np.abs(p - pg))) - self.tol
+        apart = float(np.max(p) - np.min(p)) - 2 * self.tol
+        return max(apart, float(np.max(np.abs(p - pg))) - max(self.tol, self.noise(x)))
+
+    def noise(self, x) -> float:
+        """The rounding floor of ``p̂j − p̂_gas`` at ``x``: ``16 ε (|p̂_gas| + p̂atm + c Σ nj |V̂j' uj|)``.
+
+        The gas pressure ``n̂/(V̂c + ΣV̂) − p̂atm`` is a difference of numbers of the size of the absolute pressure
+        ``p̂atm + p̂``, and a zone's ``u``, resolved to ``ε|u|``, moves it by ``c V̂' ε|u|``; both grow with
+        ``p̂atm`` (the gas stiffness ``c`` is about ``(p̂atm + p̂)/(V̂c + ΣV̂)``). At ``p̂atm`` = 1e9 (a membrane of
+        ``μ`` = 45 mPa under one atmosphere) that floor, ~2e-7, lay above the flow's ``1e-8 p̂`` and the flow
+        never settled ("stalled"; it only decides the basin: where it settles is solved exactly).
+        """
+        p, _, dv, _, pg, c = self.terms(x)
+        atm = float(getattr(self.gas, "atmospheric_pressure", 0.0))
+        spread = float(np.sum(self.n * np.abs(dv * np.asarray(x, dtype=float))))
+        return 16 * np.finfo(float).eps * (abs(float(pg)) + atm + c * spread)
 
 
 def _end_reached(curves, u, first) -> str:
@@ -362,6 +385,57 @@ def _equal_volume_shape(curve, u_fold, settings=None):
     if not cands:
         return None
     return float(min(cands, key=lambda x: abs(x - u_fold)))
+
+
+def _snap_at_folds(curves, counts, u, past, settings=None):
+    """The start of a jump's flow where a pushed group of the lost state lies at or past its volume fold on its
+    interpolated curve (``dV̂/du ≤ 0`` there; the exact state is before the fold, ``dV̂/du > 0``, as every stable
+    state's): one zone of each such group snaps at the volume of the curve's fold to the nearest other shape of that
+    volume that is stable (:func:`_equal_volume_shape`), as :func:`gradient_flow` snaps a zone it fills past a fold.
+
+    Under near volume control (a stiff gas: ``p̂atm`` = 3e8, one inner-circle zone) the lost state of a fold lies
+    within ``1/c`` of its zone's volume fold, closer than the curve's interpolation; the push, a volume step over the
+    slope floored at 1e-12, had sent the zone to the end of its curve and the flow stalled there.
+
+    Parameters
+    ----------
+    curves : list of ZoneCurve
+        One per group.
+    counts : list of int
+        Group sizes.
+    u : ndarray, shape (M,)
+        The lost state's groups.
+    past : ndarray of bool, shape (M,)
+        The groups at or past their fold.
+    settings : SolverSettings, optional
+        For the snap targets' fold index.
+
+    Returns
+    -------
+    (counts, u, curves, snaps) or None
+        The flow's start, with ``(u at the fold, u after)`` per snap; None where a group has no other stable shape
+        of its fold's volume.
+    """
+    counts, u, curves = list(counts), np.asarray(u, dtype=float).copy(), list(curves)
+    snaps: list[tuple[float, float]] = []
+    for j in sorted(np.flatnonzero(past), reverse=True):  # from the last group: inserting one keeps the others' index
+        c = curves[j]
+        g = np.asarray(c.grid, dtype=float)
+        below = g[(g < u[j]) & (np.asarray(c.dv(g)) > 0)]
+        if below.size == 0:
+            return None
+        fold = float(bracketed_root(_slope_of(c), float(below[-1]), float(u[j]), xtol=1e-14).x[0])
+        target = _equal_volume_shape(c, fold, settings)
+        if target is None:
+            return None
+        snaps.append((fold, float(target)))
+        if counts[j] > 1:
+            counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1 :]
+            u = np.concatenate([u[: j + 1], [target], u[j + 1 :]])
+            curves = curves[: j + 1] + [curves[j]] + curves[j + 1 :]
+        else:
+            u[j] = target
+    return counts, u, curves, snaps[::-1]
 
 
 def _volume_fold_ahead(curve, u, direction) -> bool:
@@ -685,10 +759,29 @@ class Ramp:
                 continue
             v_scale = max(max(abs(float(c.v(x))) for c, x in zip(curves, u)), 1e-9)
             slope = np.array([float(c.dv(x)) for c, x in zip(curves, u)])
-            du = _bounded_push(curves, u, sign * 1e-3 * v_scale * dv / np.maximum(slope, 1e-12))
+            start_counts, start_u, start_curves, first_snaps = list(counts), u, curves, []
+            if np.any((dv != 0) & (slope <= 0)):
+                # a pushed zone lies at or past its volume fold on the interpolated curve: it cannot take the push
+                # (whose step in u, a volume step over the slope, ran to the end of the curve), it snaps at fixed
+                # volume (_snap_at_folds)
+                snapped = _snap_at_folds(curves, start_counts, u, (dv != 0) & (slope <= 0), self.emap.settings)
+                if snapped is None:
+                    return Landing(
+                        None,
+                        None,
+                        f"on the jump from {seg.label} an inflating zone is at its largest volume (a volume fold of "
+                        "its curve) and no other stable shape holds that volume: past it no axisymmetric state is "
+                        "stable",
+                        mode,
+                    )
+                start_counts, start_u, start_curves, first_snaps = snapped
+                du = np.zeros(len(start_u))
+            else:
+                du = _bounded_push(curves, u, sign * 1e-3 * v_scale * dv / np.maximum(slope, 1e-12))
             counts_end, u_end, status, snaps = gradient_flow(
-                curves, self.emap.gas, counts, u + du, settings=self.emap.settings
+                start_curves, self.emap.gas, start_counts, start_u + du, settings=self.emap.settings
             )
+            snaps = first_snaps + snaps
             if snaps:
                 where = ", ".join(f"{1 + a * a:.4g} -> {1 + b * b:.4g}" for a, b in snaps)
                 mode += (
@@ -1254,9 +1347,10 @@ def _crossing(A: StableSegment, B: StableSegment, lo, hi, dlo, dhi) -> Transitio
 
     Its error is the last Newton step plus the rounding floor of the difference of two free energies,
     ``δΦ̂ = 4 ε max(|Ĝa|, |Ĝb|) / |Q̂a − Q̂b|`` (``ε`` the machine epsilon): ``ΔĜ`` is a difference of two
-    nearly equal numbers, scattered by about ``ε |Ĝ|`` (measured). The gas's part of ``Ĝ`` leaves out the constant
-    ``n̂ ln V̂c`` (:meth:`~coexist.effects.GasChamber.free_energy`), which had made ``|Ĝ| ≈ 2·10¹¹`` for a chamber
-    of 10⁹ ml and this floor ``≈ 10⁻⁶`` in ``Φ̂``.
+    nearly equal numbers, scattered by about ``ε |Ĝ|`` (measured). The gas's part of ``Ĝ`` is taken relative to the gas
+    at zero gauge pressure (:meth:`~coexist.effects.GasChamber.free_energy`): with the constant ``n̂ ln V̂c`` it had
+    made ``|Ĝ| ≈ 2·10¹¹`` for a chamber of 10⁹ ml and this floor ``≈ 10⁻⁶`` in ``Φ̂``; as ``−n̂ ln(1 + ΣV̂/V̂c) +
+    p̂atm ΣV̂``, ``|Ĝ| ≈ p̂atm ΣV̂``, 1e-5 of ``Φ̂`` at ``p̂atm`` = 1e9.
 
     None where both segments hold one state at the root (or, when the iteration fails, at the secant
     estimate; :func:`_same_state`): ``ΔĜ ≡ 0`` there and its sign change is rounding, no coexistence."""

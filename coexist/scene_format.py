@@ -16,7 +16,8 @@ Sections and keys (defaults in brackets; ``*`` marks a key that takes a unit suf
 [zones]       ``count`` (required), a whole number 1..1000: identical zones sharing one gas and one voltage;
               ``pressure_*``: the gauge pressure held directly when there is no [chamber]
 [chamber]     ``volume_*`` (required), ``closing_pressure_*`` (required, gauge),
-              ``atmospheric_pressure_*`` [101.325 kPa], at most 1 GPa (:data:`MAX_ATMOSPHERIC_PRESSURE`);
+              ``atmospheric_pressure_*`` [101.325 kPa], at most 1 GPa (:data:`MAX_ATMOSPHERIC_PRESSURE`) and
+              normalised ``Patm A/(μH)`` at most 1e10 (:data:`MAX_ATMOSPHERIC_PRESSURE_HAT`);
               absent: the pressure is controlled directly
 [voltage]     a ramp ``start_*`` [0], ``stop_*`` (required), ``step_*`` [(stop − start)/100], which goes
               up from start to stop and back down to start; or a list ``values_*``; absent: no voltage
@@ -64,12 +65,20 @@ MAX_VOLTAGE_POINTS = 100_000
 #: Dimensional values must lie in this range in SI units (keeps every scale finite and non-zero).
 SI_RANGE = (1e-30, 1e30)
 #: The highest atmospheric pressure in Pa (1 GPa): ten times the pressure at the bottom of the deepest ocean, where
-#: soft dielectric elastomer robots have been run, and far above where any gas is the chamber's ideal gas. The gas's
-#: gauge pressure is the difference ``n̂/(V̂c + ΣV̂) − p̂atm`` and carries its rounding, ``~1e-16 p̂atm``: the
-#: tricircle's ramp (``p̂atm`` = 8.9e5 at 1 GPa) loses digits above it (its equal-free-energy voltage ± 1e-8 kV up to
-#: 1e6 kPa, ± 3e-7 at 1e7, ± 4e-6 at 1e8, as measured) and at 1e9 kPa its gradient flow cannot settle within 1e-8 of
-#: the pressure ("did not settle (stalled)", helper-98).
+#: soft dielectric elastomer robots have been run, and far above where any gas is the chamber's ideal gas. (What limits
+#: the solver is the normalised ``p̂atm``, :data:`MAX_ATMOSPHERIC_PRESSURE_HAT`: helper-98 measured the tricircle's
+#: equal-free-energy voltage losing digits above 1 GPa and its gradient flow stalling at 1e9 kPa, ``p̂atm`` ≈ 1e9;
+#: helper-102 removed both causes, the gas's free energy evaluated with cancellation and a flow tolerance below the
+#: gas pressure's rounding.)
 MAX_ATMOSPHERIC_PRESSURE = 1e9
+#: The highest normalised atmospheric pressure ``p̂atm = Patm A/(μH)``: the gas's stiffness grows with it (the chamber
+#: then holds the zones' total volume nearly fixed) and the gas pressure's rounding, ``~1e-16 p̂atm``, with it. A very
+#: soft, thin membrane reaches it at one atmosphere (``μ`` = 1 Pa, ``H`` = 1 µm, ``A`` = 0.1 m gives 1e10). Every
+#: command was checked to 1e11 on the built-in scenes and variations of the tricircle (zones 2, 3, 7; chamber 1 ml to
+#: 100 l; draft to high accuracy; patterned zones): the same normalised results as at 1e8 within their errors; at 1e12
+#: the jump's gradient flow of the tricircle's 7 zones, or of its zones on a 1 ml chamber, no longer lands
+#: (helper-102).
+MAX_ATMOSPHERIC_PRESSURE_HAT = 1e10
 
 #: Accepted unit suffixes per kind of quantity, with their factor to SI.
 UNITS = {
@@ -369,6 +378,17 @@ def read_document(doc: dict, source: str) -> dict:
             zones.where("pressure"),
         )
     chamber_fields, voltage_fields = _chamber(chamber, optional), _voltage(voltage, optional)
+    if chamber_fields is not None:
+        patm_hat = chamber_fields["atmospheric_pressure"] * radius / (shear_modulus * thickness)
+        if patm_hat > MAX_ATMOSPHERIC_PRESSURE_HAT:
+            raise SceneError(
+                f"the normalised atmospheric pressure p̂atm = Patm·A/(μH) = {patm_hat:.3g} is above "
+                f"{MAX_ATMOSPHERIC_PRESSURE_HAT:g}, where the gas is too stiff to solve for (a membrane of μ = "
+                f"{shear_modulus:g} Pa, H = {thickness * 1e6:g} µm and A = {radius * 1e3:g} mm under "
+                f"{chamber_fields['atmospheric_pressure'] / 1e3:g} kPa): a stiffer or thicker membrane, a smaller "
+                "zone, or a lower atmospheric pressure",
+                chamber.where("atmospheric_pressure"),
+            )
     pattern = _pattern(sections["electrodes"], sections["layers"])
     return dict(
         shear_modulus=shear_modulus,

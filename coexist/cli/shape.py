@@ -174,7 +174,7 @@ def parse_voltages(text: str) -> list[float]:
     n = math.floor((stop - start) / step + 1e-9)
     if n + 1 > MAX_VOLTAGES:
         raise InputError(f"--voltage-kV: {n + 1} voltages; at most {MAX_VOLTAGES}")
-    return [round(start + i * step, 12) for i in range(n + 1)]
+    return [float(f"{start + i * step:.12g}") for i in range(n + 1)]  # 12 digits, not 12 decimals of a kV
 
 
 def _patterned(sc, settings, kv, plot, as_json, points, overwrite):
