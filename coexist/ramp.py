@@ -249,13 +249,7 @@ def gradient_flow(curve, gas, counts, u0, t_max: float = 1e8, max_snaps: int = 8
             if target is None:
                 return counts, u, "volume_fold", snaps
             snaps.append((float(u[j]), float(target)))
-            # one zone of the group snaps; the rest of the group stays
-            if counts[j] > 1:
-                counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1 :]
-                u = np.concatenate([u[: j + 1], [target], u[j + 1 :]])
-                curves = curves[: j + 1] + [curves[j]] + curves[j + 1 :]
-            else:
-                u[j] = target
+            counts, u, curves = _snap_one(counts, u, curves, j, target)
             if len(snaps) > max_snaps:
                 return counts, u, "stalled", snaps
             continue
@@ -387,6 +381,19 @@ def _equal_volume_shape(curve, u_fold, settings=None):
     return float(min(cands, key=lambda x: abs(x - u_fold)))
 
 
+def _snap_one(counts, u, curves, j, target):
+    """One zone of group ``j`` snaps to ``target`` (a group of one moves; a larger group splits off that zone as a
+    new group right after it, the rest staying): returns the new ``(counts, u, curves)``."""
+    if counts[j] > 1:
+        counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1 :]
+        u = np.concatenate([u[: j + 1], [target], u[j + 1 :]])
+        curves = curves[: j + 1] + [curves[j]] + curves[j + 1 :]
+    else:
+        u = np.array(u, dtype=float)
+        u[j] = target
+    return counts, u, curves
+
+
 def _snap_at_folds(curves, counts, u, past, settings=None):
     """The start of a jump's flow where a pushed group of the lost state lies at or past its volume fold on its
     interpolated curve (``dV̂/du ≤ 0`` there; the exact state is before the fold, ``dV̂/du > 0``, as every stable
@@ -429,12 +436,7 @@ def _snap_at_folds(curves, counts, u, past, settings=None):
         if target is None:
             return None
         snaps.append((fold, float(target)))
-        if counts[j] > 1:
-            counts = counts[:j] + [counts[j] - 1, 1] + counts[j + 1 :]
-            u = np.concatenate([u[: j + 1], [target], u[j + 1 :]])
-            curves = curves[: j + 1] + [curves[j]] + curves[j + 1 :]
-        else:
-            u[j] = target
+        counts, u, curves = _snap_one(counts, u, curves, j, target)
     return counts, u, curves, snaps[::-1]
 
 
