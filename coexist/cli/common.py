@@ -454,6 +454,18 @@ def _exponent(value: float, digits: int) -> int:
     return int(f"{abs(value):.{max(digits, 1) - 1}e}".split("e")[1])
 
 
+def float_decimals(value: float, least: int = 1) -> int:
+    """The most decimals worth printing of ``value``: those of the 17 significant figures a float holds (at least
+    ``least``; 17 for zero).
+
+    Examples
+    --------
+    >>> float_decimals(3.9), float_decimals(2.1e-7), float_decimals(2.0e6, 3)
+    (16, 23, 10)
+    """
+    return max(least, 16 - _exponent(value, 17)) if value != 0 else 17
+
+
 def significant(value: float, digits: int = 6) -> str:
     """One physical number with ``digits`` significant figures at any scale, trailing zeros kept (they are digits).
 
@@ -568,7 +580,7 @@ def format_voltage(kv: float, err_kv: float) -> str:
     """
     if err_kv > 0 and math.isfinite(err_kv):
         # no more digits than a float holds (17 significant figures)
-        cap = max(3, 16 - _exponent(kv, 17)) if kv != 0 else 17
+        cap = float_decimals(kv, 3)
         digits = min(cap, max(3, math.ceil(-math.log10(err_kv))))
     else:
         digits = voltage_decimals([kv])
