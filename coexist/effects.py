@@ -290,6 +290,37 @@ class NeoHookean:
         return {"material": self.name}
 
 
+def equibiaxial_locking_stretch(jlim: float) -> float:
+    """The root ``λ > 1`` of ``2λ² + λ⁻⁴ − 3 = Jlim``: where a Gent membrane stretched equibiaxially locks.
+
+    Newton's method on the convex ``g(λ) = 2λ² + λ⁻⁴ − 3 − Jlim`` from ``√((Jlim + 3)/2)``, where ``g > 0``: the
+    iterates fall monotonically onto the root (quadratically; a few steps down to ``Jlim`` of 1e-12).
+
+    Parameters
+    ----------
+    jlim : float
+        ``Jlim > 0``.
+
+    Returns
+    -------
+    float
+        The locking stretch, to rounding.
+
+    Examples
+    --------
+    >>> round(equibiaxial_locking_stretch(0.05), 6), round(equibiaxial_locking_stretch(97.0), 6)
+    (1.06809, 7.071054)
+    """
+    lam = math.sqrt((jlim + 3.0) / 2.0)
+    for _ in range(100):
+        g = 2.0 * lam * lam + lam**-4 - 3.0 - jlim
+        step = g / (4.0 * lam - 4.0 * lam**-5)
+        lam -= step
+        if not step > 4e-16 * lam:
+            break
+    return lam
+
+
 @dataclass(frozen=True)
 class Gent:
     """Gent elasticity, ``Ws/μ = −(Jlim/2) ln(1 − (λ1² + λ2² + λ1⁻²λ2⁻² − 3)/Jlim)``.
@@ -346,6 +377,13 @@ class Gent:
         """``√((Jlim + 3)/2)``: the equibiaxial stretch at which the chains lock, ``2λ² + λ⁻⁴ − 3 = Jlim``
         without its ``λ⁻⁴`` (relative difference below ``1/(2λ⁶)``, 1.5e-6 at ``Jlim = 97``)."""
         return math.sqrt((self.jlim + 3) / 2)
+
+    @property
+    def exact_locking_stretch(self) -> float:
+        """The equibiaxial stretch at which the chains lock, the root ``λ > 1`` of ``2λ² + λ⁻⁴ − 3 = Jlim`` itself
+        (:attr:`locking_stretch` drops the ``λ⁻⁴``, an upper bound that is 16 % high at ``Jlim = 0.05``: 1.235 against
+        1.068). Newton's method from that bound, which it approaches from above (the function is convex)."""
+        return equibiaxial_locking_stretch(self.jlim)
 
     def describe(self) -> dict:
         """Plain-dict description.

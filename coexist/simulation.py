@@ -105,6 +105,22 @@ def stretch_range_end(elasticity, prestretch: float, settings: SolverSettings | 
                 f"λ0 = {end:.6g}, not above the prestretch {prestretch:g} (the material locks at {lock:.6g})",
                 "locking_margin",
             )
+        exact = getattr(elasticity, "exact_locking_stretch", None)
+        if exact is not None:
+            # `locking_stretch` drops the λ⁻⁴ of 2λ² + λ⁻⁴ − 3 = Jlim: at a small Jlim it lies far beyond where the
+            # chains lock (Jlim 0.05: 1.235 against 1.068), and the margin times it too: the zone curves were laid
+            # mostly on locked states, and a prestretch of 1.066 gave "no valid state anywhere in pole stretch
+            # 1.068..1.173" (exit 1). The margin is then also taken of the exact stretch's excess over 1 (the end
+            # stays the same where Jlim is large: 6.718 at Jlim 97)
+            end = min(end, exact - (1 - settings.locking_margin) * (exact - 1))
+            if end <= least:
+                raise SceneError(
+                    f"a prestretch of {prestretch:.6g} leaves no pole stretches to follow: a Gent membrane with "
+                    f"jlim = {elasticity.jlim:g} locks at {exact:.6g} (equibiaxially), the states are followed up to "
+                    f"{end:.6g}, and they start at 1.002 times the prestretch: the prestretch must be below "
+                    f"{end / (1 + 2e-3):.6g}",
+                    "prestretch",
+                )
         return end
     if settings.stretch_max_factor * prestretch <= least:
         raise SceneError(

@@ -83,7 +83,7 @@ LONG_RUN_SECONDS = 10.0
     "pole_stretch",
     default=None,
     help="Pole-stretch range 'start,stop' of every curve (default 1.01 λpre to max(4, 1.5 λpre); 1.01,4 without "
-    "prestretch).",
+    "prestretch; a Gent membrane's ends at its equibiaxial locking stretch, and starts closer to λpre near it).",
 )
 @click.option("--points", type=click.IntRange(3, 5000), default=200, show_default=True, help="States per curve.")
 @click.option("-o", "--plot", "plot", default=None, help="Write the figure here (.png, .svg or .pdf).")
@@ -158,6 +158,13 @@ def curves(
     wider = ""  # a scene's zones are followed further than the default range: say how far, should it be needed
     if pole_stretch is None:  # the library's default range, which follows the prestretch
         lo, hi = 1.01 * model.prestretch, max(4.0, 1.5 * model.prestretch)
+        lock = getattr(model.elasticity, "exact_locking_stretch", None)
+        if lock is not None and lo >= model.prestretch + 0.5 * (lock - model.prestretch):
+            # a prestretch near the Gent locking stretch (1.06 at Jlim 0.05, locking at 1.068): the default range
+            # started past it, every state locked, and the command refused its own default (exit 2)
+            lo = model.prestretch + 0.1 * (lock - model.prestretch)
+        if lock is not None and lock < hi:  # no state at the pole stretches beyond it (Jlim 2: 1.554, not 4)
+            hi = lock
         if sc is not None:
             from coexist.simulation import stretch_range_end
 
