@@ -51,3 +51,19 @@ class ModelRangeError(CoexistError):
 class NoStateInRange(ModelRangeError):
     """A curve has no valid state anywhere in the pole-stretch range asked for (its voltage or pressure lies
     outside the model's range there); ``reason`` tags the first state's failure."""
+
+
+def told_apart(a: float, b: float, least: int = 4) -> tuple[str, str]:
+    """``a`` and ``b`` for a message, with the fewest significant figures (at least ``least``, at most 17) at which
+    they read differently: a pressure just above a bound must not print as equal to it (``1.973`` and ``1.973``).
+
+    Examples
+    --------
+    >>> told_apart(1.97312, 1.97305), told_apart(2.5, 1.0)
+    (('1.9731', '1.973'), ('2.5', '1'))
+    """
+    for digits in range(least, 18):
+        sa, sb = f"{a:.{digits}g}", f"{b:.{digits}g}"
+        if sa != sb:
+            return sa, sb
+    return sa, sb

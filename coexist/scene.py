@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import SceneError
+from .errors import SceneError, told_apart
 from .scene_format import DEFAULTS, PATTERNS, did_you_mean, read_document
 
 if sys.version_info >= (3, 11):
@@ -388,10 +388,11 @@ class Scene:
                 else "largest pressure they hold within the model's range (no snap-through: the pressure rises to the "
                 "end of the range, as near Gent locking)"
             )
+            given, bound = told_apart(mbar, self.pressure(p_hat_max) / 100)
+            given_hat, bound_hat = told_apart(p_hat, p_hat_max)
             raise SceneError(
-                f"the zones cannot hold {mbar:.4g} mbar (p̂ = {p_hat:.4g}): it is at or above the "
-                f"{what} = {p_hat_max:.4g} ({self.pressure(p_hat_max) / 100:.4g} mbar); "
-                "close the valves at a lower pressure",
+                f"the zones cannot hold {given} mbar (p̂ = {given_hat}): it is at or above the "
+                f"{what} = {bound_hat} ({bound} mbar); close the valves at a lower pressure",
                 self.chamber.closing_pressure_field,
             )
 

@@ -21,7 +21,7 @@ from . import validation
 from .continuation import EquilibriumMap, Event, StableSegment, error_floor, relocate
 from .effects import Breakdown, GasChamber, PressureReservoir, PressureSource
 from .equilibria import Configuration, Equilibrium, zone_index_on_curve
-from .errors import ModelRangeError, SceneError, SolverError
+from .errors import ModelRangeError, SceneError, SolverError, told_apart
 from .model import MembraneModel
 from .numerics.roots import newton
 from .numerics.sets import unique_sorted
@@ -220,9 +220,10 @@ def closing_pressure(scene: Scene, snap: Snap) -> tuple[float, str]:
     if scene.controlled_pressure is not None:
         p_close = float(scene.p_hat(scene.controlled_pressure))
         if not p_close < snap.p_hat:
+            given, bound = told_apart(p_close, snap.p_hat)
             raise SceneError(
-                f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar (p̂ = {p_close:.4g}): it is at or "
-                f"above their snap-through pressure p̂max = {snap.p_hat:.4g}",
+                f"the zones cannot hold {scene.controlled_pressure / 100:.4g} mbar (p̂ = {given}): it is at or "
+                f"above their snap-through pressure p̂max = {bound}",
                 scene.controlled_pressure_field,
             )
         return p_close, scene.controlled_pressure_field

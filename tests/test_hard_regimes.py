@@ -109,3 +109,26 @@ def test_curves_default_range_near_the_locking_stretch():
     assert 1.06 < lo < hi == pytest.approx(lock, rel=1e-13)
     curve = data["curves"][0]
     assert len(curve["p_hat"]) >= 15 and all(math.isfinite(p) and p > 0 for p in curve["p_hat"])
+
+
+def test_a_pressure_just_above_the_snap_through_reads_above_it(tmp_path):
+    """A controlled pressure 1e-7 above p̂max is refused (exit 2) with the two pressures printed apart: at four figures
+    both had read ``1.973``."""
+    from coexist.scene import load_scene
+    from coexist.simulation import snap_through_pressure
+
+    p_max = snap_through_pressure(load_scene("tricircle")).p_hat  # the same membrane, unpatterned, no prestretch
+    mbar = p_max * (1 + 1e-7) * 45e3 * 0.5e-3 / 21.4165e-3 / 100  # p = p̂ μH/A
+    path = tmp_path / "pressure.toml"
+    path.write_text(
+        '[membrane]\nmaterial = "gent"\njlim = 97\nshear_modulus_kPa = 45\nrelative_permittivity = 4.7\n'
+        f"thickness_mm = 0.5\nzone_radius_mm = 21.4165\n[zones]\ncount = 3\npressure_mbar = {mbar!r}\n"
+        "[voltage]\nstop_kV = 1\n"
+    )
+    result = CliRunner().invoke(cli, ["ramp", str(path)])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    (line,) = [x for x in result.output.splitlines() if x.startswith("Error:")]
+    given = float(line.split("(p̂ = ")[1].split(")")[0])
+    bound = float(line.split("p̂max = ")[1].split()[0].rstrip(",;"))
+    assert given > bound
+    assert given == pytest.approx(p_max * (1 + 1e-7), rel=1e-7) and bound == pytest.approx(p_max, rel=1e-7)
