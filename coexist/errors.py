@@ -57,6 +57,18 @@ def told_apart(a: float, b: float, least: int = 4) -> tuple[str, str]:
     """``a`` and ``b`` for a message, with the fewest significant figures (at least ``least``, at most 17) at which
     they read differently: a pressure just above a bound must not print as equal to it (``1.973`` and ``1.973``).
 
+    Parameters
+    ----------
+    a, b : float
+        The two numbers.
+    least : int
+        The fewest significant figures.
+
+    Returns
+    -------
+    tuple of str
+        Both, formatted alike (equal only where the numbers are).
+
     Examples
     --------
     >>> told_apart(1.97312, 1.97305), told_apart(2.5, 1.0)
